@@ -1,0 +1,32 @@
+"""Helpers shared by CLI subcommands: the study argument, output directory."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..benchmark import benchmark_study_path
+from ..study import Study, load_study
+
+__all__ = ["add_study_argument", "study_from_args", "add_out_argument"]
+
+
+def add_study_argument(p: argparse.ArgumentParser, required: bool = True) -> None:
+    """Add the positional STUDY.toml argument (optional: the built-in benchmark)."""
+    if required:
+        p.add_argument("study", metavar="STUDY.toml", help="study file (TOML)")
+    else:
+        p.add_argument(
+            "study", metavar="STUDY.toml", nargs="?", default=None,
+            help="study file (TOML); default: the built-in benchmark",
+        )
+
+
+def study_from_args(args: argparse.Namespace) -> Study:
+    """Load and validate the study named on the command line (or the benchmark)."""
+    return load_study(args.study if args.study else benchmark_study_path())
+
+
+def add_out_argument(p: argparse.ArgumentParser) -> None:
+    """Add the required ``--out DIR`` option."""
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory (created if missing)")

@@ -1,0 +1,1 @@
+"""jointid.io: file formats (UFF58, CSV) and atomic output."""

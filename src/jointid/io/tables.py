@@ -1,0 +1,59 @@
+"""Plain CSV tables with a header row, written atomically."""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from .atomic import atomic_write_text
+
+__all__ = ["write_csv", "read_csv"]
+
+
+def _fmt(v) -> str:
+    if isinstance(v, (bool, np.bool_)):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))
+    return str(v)
+
+
+def write_csv(path: str | os.PathLike, columns: Mapping[str, Sequence]) -> Path:
+    """Write equal-length ``columns`` (name -> values) as CSV with a header, atomically.
+
+    Floats are written with full precision (``repr``), booleans as ``true``/``false``.
+    """
+    names = list(columns)
+    cols = [np.asarray(columns[k]) for k in names]
+    n = {len(c) for c in cols}
+    if len(n) > 1:
+        raise ValueError(f"CSV columns have different lengths: {dict(zip(names, map(len, cols)))}")
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(names)
+    for row in zip(*cols):
+        w.writerow([_fmt(v) for v in row])
+    return atomic_write_text(path, buf.getvalue())
+
+
+def read_csv(path: str | os.PathLike) -> dict[str, list[str]]:
+    """Read a CSV with a header into name -> list of strings (no conversion)."""
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        rows = list(csv.reader(fh))
+    if not rows:
+        return {}
+    header = [h.strip() for h in rows[0]]
+    out: dict[str, list[str]] = {h: [] for h in header}
+    for r in rows[1:]:
+        if not r:
+            continue
+        for h, v in zip(header, r):
+            out[h].append(v.strip())
+    return out

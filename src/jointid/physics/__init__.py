@@ -1,0 +1,1 @@
+"""Physics: beam elements, assembled structures, natural modes and FRF synthesis."""

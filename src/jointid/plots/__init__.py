@@ -1,0 +1,1 @@
+"""jointid.plots: matplotlib figures (they take and return Figure objects; no pyplot state)."""

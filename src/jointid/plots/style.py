@@ -1,0 +1,32 @@
+"""Shared figure helpers: a Figure without pyplot state, atomic PNG saving."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from matplotlib.figure import Figure
+
+from ..io.atomic import atomic_path
+
+__all__ = ["new_figure", "save_figure"]
+
+
+def new_figure(rows: int = 1, cols: int = 1, height_ratios=None, figsize=(8.0, 6.0), sharex: bool = True):
+    """A Figure with a grid of axes (no pyplot, safe in threads and headless runs).
+
+    Returns
+    -------
+    fig : Figure
+    axes : ndarray of Axes, shape (rows, cols) squeezed
+    """
+    fig = Figure(figsize=figsize, layout="constrained")
+    axes = fig.subplots(rows, cols, sharex=sharex, squeeze=False, gridspec_kw={"height_ratios": height_ratios} if height_ratios else None)
+    return fig, axes.squeeze() if axes.size > 1 else axes[0, 0]
+
+
+def save_figure(fig: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
+    """Save ``fig`` as PNG at ``path`` atomically; returns the path."""
+    with atomic_path(path, suffix=".png") as tmp:
+        fig.savefig(tmp, dpi=dpi, format="png")
+    return Path(path)

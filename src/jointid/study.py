@@ -1,0 +1,508 @@
+"""Study files: the TOML schema of a jointid study, validated before any computation.
+
+Every section and key of a study lives here (one module, one schema). Units
+are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
+
+.. code-block:: toml
+
+    [beam]                    # the free beam (the FE model Do)
+    length = 0.9144           # m
+    width = 0.0127            # m   (rectangle; or `diameter` for a circle)
+    height = 0.0127           # m   (bending direction)
+    elastic_modulus = 69e9    # Pa
+    density = 2700.0          # kg/m^3
+    loss_factor = 0.006       # structural, K (1 + j eta)
+    poisson_ratio = 0.33      # or shear_modulus (Pa)
+    shear_coefficient = 0.8333333333333334
+    nodes = 19                # equally spaced, numbered 1..nodes from x = 0
+    theory = "timoshenko"     # or "euler-bernoulli"
+
+    [joint]
+    node = 10                 # beam node where the joint connects the beam to ground
+    dofs = ["w", "theta"]
+
+    [joint.model]             # the true joint, for `simulate` / `experiment` only
+    type = "parametric"       # or "elastomer"
+    # parametric: K*(f) = K0 (1 + growth (f / reference_frequency)^exponent) (1 + j loss_factor)
+    k_w_w = 2.0e5             # N/m
+    k_w_theta = 0.0           # N/rad (= N*m/m)
+    k_theta_theta = 50.0      # N*m/rad
+    loss_factor = 0.1
+    growth = 0.0
+    reference_frequency = 100.0   # Hz
+    exponent = 1.0
+    # elastomer: material = "A" | "B", optional elastic_modulus, loss_factor,
+    #            density, length, diameter, poisson_ratio overrides
+
+    [measurement]
+    observed = [1, 3, 6, 9, 12, 15, 19]   # beam nodes, transverse w
+    excited = [3, 9, 15]                  # beam nodes, transverse force
+
+    [accelerometers]          # sensors on the test article (simulate / experiment)
+    mass = 0.005              # kg each
+    rotary_inertia = 0.0      # kg*m^2 each
+    nodes = [1, 3, 6]         # default: the observed nodes
+
+    [identification]
+    symmetric = false         # enforce Du = Du^T
+    regularization = "none"   # "none" | "gcv" | "lcurve" (Tikhonov, lambda per line)
+    model_accelerometers = false  # add the [accelerometers] to Do
+
+    [frequency]
+    start = 5.0               # Hz
+    stop = 1000.0
+    step = 1.0
+
+    [experiment]              # virtual roving-hammer test (`jointid experiment`)
+    sample_rate = 8192.0      # Hz
+    duration = 2.0            # s, record length per hit
+    averages = 5              # hits per excited node
+    force_noise = 0.01        # noise rms / signal rms
+    response_noise = 0.01
+    pulse_duration = 0.0005   # s, half-sine hammer pulse
+    pulse_amplitude = 100.0   # N
+    exponential_window = 0.0  # s, time constant tau (0: none)
+    seed = 0
+
+Only ``[beam]``, ``[joint]``, ``[measurement]`` and ``[frequency]`` are required.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from .dofs import DIRECTIONS, Dof
+from .errors import StudyError
+from .frequency import Frequency
+
+__all__ = [
+    "Study",
+    "BeamSpec",
+    "JointSpec",
+    "JointModelSpec",
+    "MeasurementSpec",
+    "AccelerometerSpec",
+    "IdentificationSpec",
+    "FrequencySpec",
+    "ExperimentSpec",
+    "load_study",
+    "parse_study",
+]
+
+
+# --------------------------------------------------------------------------- validation helpers
+@dataclass(frozen=True)
+class _Field:
+    kind: str  # "number", "int", "bool", "str", "int_list", "str_list"
+    required: bool = False
+    default: Any = None
+    unit: str = ""
+    check: Callable[[Any], str | None] | None = None  # returns a complaint or None
+
+
+def _positive(v) -> str | None:
+    return None if v > 0 else "a positive number"
+
+
+def _nonneg(v) -> str | None:
+    return None if v >= 0 else "a number >= 0"
+
+
+def _fraction(v) -> str | None:
+    return None if 0 <= v < 1 else "a number in [0, 1)"
+
+
+def _choices(*options: str) -> Callable[[Any], str | None]:
+    def check(v):
+        return None if v in options else "one of " + ", ".join(repr(o) for o in options)
+
+    return check
+
+
+def _typed(section: str, key: str, f: _Field, value: Any) -> Any:
+    where = f"[{section}].{key}"
+    unit = f" ({f.unit})" if f.unit else ""
+    if f.kind == "number":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise StudyError(f"{where}: expected a number{unit}, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise StudyError(f"{where}: expected a finite number{unit}, got {value!r}")
+    elif f.kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise StudyError(f"{where}: expected an integer{unit}, got {value!r}")
+    elif f.kind == "bool":
+        if not isinstance(value, bool):
+            raise StudyError(f"{where}: expected true or false, got {value!r}")
+    elif f.kind == "str":
+        if not isinstance(value, str):
+            raise StudyError(f"{where}: expected a string, got {value!r}")
+    elif f.kind in ("int_list", "str_list"):
+        item = int if f.kind == "int_list" else str
+        if not isinstance(value, list) or not all(isinstance(x, item) and not isinstance(x, bool) for x in value):
+            what = "integers" if item is int else "strings"
+            raise StudyError(f"{where}: expected a list of {what}, got {value!r}")
+        if len(set(value)) != len(value):
+            raise StudyError(f"{where}: repeated entries in {value!r}; list each once")
+        value = tuple(value)
+    if f.check is not None:
+        complaint = f.check(value)
+        if complaint:
+            raise StudyError(f"{where}: expected {complaint}{unit}, got {value!r}")
+    return value
+
+
+def _section(data: Mapping, section: str, fields: Mapping[str, _Field], sub: tuple[str, ...] = ()) -> dict:
+    if not isinstance(data, Mapping):
+        raise StudyError(f"[{section}] must be a table, got {data!r}")
+    unknown = [k for k in data if k not in fields and k not in sub]
+    if unknown:
+        raise StudyError(
+            f"[{section}]: unknown key {unknown[0]!r}; expected one of: " + ", ".join(list(fields) + list(sub))
+        )
+    out = {}
+    for key, f in fields.items():
+        if key in data:
+            out[key] = _typed(section, key, f, data[key])
+        elif f.required:
+            raise StudyError(f"[{section}]: missing key {key!r}" + (f" ({f.unit})" if f.unit else ""))
+        else:
+            out[key] = f.default
+    return out
+
+
+def _nodes_in_range(section: str, key: str, nodes, n_nodes: int) -> None:
+    for x in nodes if isinstance(nodes, tuple) else (nodes,):
+        if not 1 <= x <= n_nodes:
+            raise StudyError(f"[{section}].{key}: node {x} is out of range; the beam has nodes 1..{n_nodes}")
+
+
+# --------------------------------------------------------------------------- sections
+@dataclass(frozen=True)
+class BeamSpec:
+    """The free beam: geometry (m), material (Pa, kg/m^3), loss factor, mesh."""
+
+    length: float
+    elastic_modulus: float
+    density: float
+    nodes: int
+    width: float | None = None
+    height: float | None = None
+    diameter: float | None = None
+    loss_factor: float = 0.0
+    poisson_ratio: float | None = 0.33
+    shear_modulus: float | None = None
+    shear_coefficient: float = 5.0 / 6.0
+    theory: str = "timoshenko"
+
+    def section(self):
+        """The cross-section (:class:`~jointid.physics.elements.Section`)."""
+        from .physics.elements import Section
+
+        if self.diameter is not None:
+            return Section.circle(self.diameter)
+        return Section.rectangle(self.width, self.height)
+
+    def material(self):
+        """The beam material (:class:`~jointid.physics.elements.Material`)."""
+        from .physics.elements import Material
+
+        return Material(self.elastic_modulus, self.density, self.loss_factor, self.poisson_ratio, self.shear_modulus)
+
+    def structure(self):
+        """The free-free beam (:class:`~jointid.physics.structure.Structure`), nodes 1..N from x = 0."""
+        from .physics.structure import beam_structure
+
+        return beam_structure(
+            self.length,
+            self.section(),
+            self.material(),
+            self.nodes,
+            self.shear_coefficient,
+            euler_bernoulli=self.theory == "euler-bernoulli",
+        )
+
+
+@dataclass(frozen=True)
+class JointModelSpec:
+    """The true joint for virtual experiments: ``type`` and its parameters (SI units)."""
+
+    type: str
+    parameters: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class JointSpec:
+    """Where the joint connects the beam to ground, on which DOFs."""
+
+    node: int
+    dofs: tuple[str, ...] = DIRECTIONS
+    model: JointModelSpec | None = None
+
+    @property
+    def joint_dofs(self) -> tuple[Dof, ...]:
+        """The joint coordinates n as labelled DOFs."""
+        return tuple(Dof(self.node, d) for d in self.dofs)
+
+
+@dataclass(frozen=True)
+class MeasurementSpec:
+    """Observed (response, w) and excited (force, w) beam nodes."""
+
+    observed: tuple[int, ...]
+    excited: tuple[int, ...]
+
+    @property
+    def observed_dofs(self) -> tuple[Dof, ...]:
+        """Observed coordinates m (transverse w)."""
+        return tuple(Dof(n, "w") for n in self.observed)
+
+    @property
+    def excited_dofs(self) -> tuple[Dof, ...]:
+        """Excited coordinates e (transverse force)."""
+        return tuple(Dof(n, "w") for n in self.excited)
+
+
+@dataclass(frozen=True)
+class AccelerometerSpec:
+    """Accelerometers on the test article: mass (kg), rotary inertia (kg*m^2) each, nodes."""
+
+    mass: float = 0.005
+    rotary_inertia: float = 0.0
+    nodes: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class IdentificationSpec:
+    """Options of the inverse identification (all off by default: the plain method)."""
+
+    symmetric: bool = False
+    regularization: str = "none"
+    model_accelerometers: bool = False
+
+
+@dataclass(frozen=True)
+class FrequencySpec:
+    """Frequency grid, Hz."""
+
+    start: float
+    stop: float
+    step: float
+
+    def frequency(self) -> Frequency:
+        """The grid as a :class:`~jointid.frequency.Frequency`."""
+        return Frequency.from_range(self.start, self.stop, self.step)
+
+
+@dataclass(frozen=True)
+class ExperimentSpec:
+    """Virtual roving-hammer experiment settings (Hz, s, N, relative noise rms)."""
+
+    sample_rate: float = 8192.0
+    duration: float = 2.0
+    averages: int = 5
+    force_noise: float = 0.01
+    response_noise: float = 0.01
+    pulse_duration: float = 0.0005
+    pulse_amplitude: float = 100.0
+    exponential_window: float = 0.0
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class Study:
+    """A validated study: beam, joint, measurement, frequency grid and optional sections."""
+
+    beam: BeamSpec
+    joint: JointSpec
+    measurement: MeasurementSpec
+    frequency: FrequencySpec
+    accelerometers: AccelerometerSpec | None = None
+    identification: IdentificationSpec = IdentificationSpec()
+    experiment: ExperimentSpec = ExperimentSpec()
+    source: str = "<study>"
+
+    @property
+    def grid(self) -> Frequency:
+        """The study's frequency grid."""
+        return self.frequency.frequency()
+
+
+_BEAM = {
+    "length": _Field("number", True, unit="m", check=_positive),
+    "width": _Field("number", unit="m", check=_positive),
+    "height": _Field("number", unit="m", check=_positive),
+    "diameter": _Field("number", unit="m", check=_positive),
+    "elastic_modulus": _Field("number", True, unit="Pa", check=_positive),
+    "density": _Field("number", True, unit="kg/m^3", check=_positive),
+    "loss_factor": _Field("number", False, 0.0, check=_nonneg),
+    "poisson_ratio": _Field("number", False, None, check=lambda v: None if -1 < v < 0.5 else "a number in (-1, 0.5)"),
+    "shear_modulus": _Field("number", unit="Pa", check=_positive),
+    "shear_coefficient": _Field("number", False, 5.0 / 6.0, check=_positive),
+    "nodes": _Field("int", True, check=lambda v: None if v >= 2 else "an integer >= 2"),
+    "theory": _Field("str", False, "timoshenko", check=_choices("timoshenko", "euler-bernoulli")),
+}
+_JOINT = {
+    "node": _Field("int", True),
+    "dofs": _Field("str_list", False, list(DIRECTIONS)),
+}
+_PARAMETRIC = {
+    "type": _Field("str", True),
+    "k_w_w": _Field("number", True, unit="N/m", check=_positive),
+    "k_w_theta": _Field("number", False, 0.0, unit="N/rad"),
+    "k_theta_theta": _Field("number", True, unit="N*m/rad", check=_positive),
+    "loss_factor": _Field("number", False, 0.1, check=_nonneg),
+    "growth": _Field("number", False, 0.0, check=_nonneg),
+    "reference_frequency": _Field("number", False, 100.0, unit="Hz", check=_positive),
+    "exponent": _Field("number", False, 1.0, check=_positive),
+}
+_ELASTOMER = {
+    "type": _Field("str", True),
+    "material": _Field("str", False, "A", check=_choices("A", "B")),
+    "elastic_modulus": _Field("number", unit="Pa", check=_positive),
+    "loss_factor": _Field("number", check=_nonneg),
+    "density": _Field("number", unit="kg/m^3", check=_positive),
+    "length": _Field("number", unit="m", check=_positive),
+    "diameter": _Field("number", unit="m", check=_positive),
+    "poisson_ratio": _Field("number", check=lambda v: None if -1 < v < 0.5 else "a number in (-1, 0.5)"),
+}
+_MEASUREMENT = {
+    "observed": _Field("int_list", True),
+    "excited": _Field("int_list", True),
+}
+_ACCELEROMETERS = {
+    "mass": _Field("number", False, 0.005, unit="kg", check=_nonneg),
+    "rotary_inertia": _Field("number", False, 0.0, unit="kg*m^2", check=_nonneg),
+    "nodes": _Field("int_list", False, None),
+}
+_IDENTIFICATION = {
+    "symmetric": _Field("bool", False, False),
+    "regularization": _Field("str", False, "none", check=_choices("none", "gcv", "lcurve")),
+    "model_accelerometers": _Field("bool", False, False),
+}
+_FREQUENCY = {
+    "start": _Field("number", True, unit="Hz", check=_nonneg),
+    "stop": _Field("number", True, unit="Hz", check=_positive),
+    "step": _Field("number", True, unit="Hz", check=_positive),
+}
+_EXPERIMENT = {
+    "sample_rate": _Field("number", False, 8192.0, unit="Hz", check=_positive),
+    "duration": _Field("number", False, 2.0, unit="s", check=_positive),
+    "averages": _Field("int", False, 5, check=lambda v: None if v >= 1 else "an integer >= 1"),
+    "force_noise": _Field("number", False, 0.01, check=_nonneg),
+    "response_noise": _Field("number", False, 0.01, check=_nonneg),
+    "pulse_duration": _Field("number", False, 0.0005, unit="s", check=_positive),
+    "pulse_amplitude": _Field("number", False, 100.0, unit="N", check=_positive),
+    "exponential_window": _Field("number", False, 0.0, unit="s", check=_nonneg),
+    "seed": _Field("int", False, 0),
+}
+_TOP = ("beam", "joint", "measurement", "frequency", "accelerometers", "identification", "experiment")
+
+
+def parse_study(data: Mapping[str, Any], source: str = "<study>") -> Study:
+    """Validate a study given as nested mappings (parsed TOML) and return a :class:`Study`.
+
+    Raises
+    ------
+    StudyError
+        Naming the section and key that is wrong and what was expected.
+    """
+    try:
+        return _parse(data, source)
+    except StudyError as exc:
+        raise StudyError(f"{source}: {exc}") from None
+
+
+def _parse(data: Mapping[str, Any], source: str) -> Study:
+    unknown = [k for k in data if k not in _TOP]
+    if unknown:
+        raise StudyError(f"unknown section [{unknown[0]}]; expected sections: " + ", ".join(f"[{s}]" for s in _TOP))
+    for sec in ("beam", "joint", "measurement", "frequency"):
+        if sec not in data:
+            raise StudyError(f"missing section [{sec}]")
+
+    b = _section(data["beam"], "beam", _BEAM)
+    if b["diameter"] is None and (b["width"] is None or b["height"] is None):
+        raise StudyError("[beam]: give width and height (m) for a rectangle, or diameter (m) for a circle")
+    if b["diameter"] is not None and (b["width"] is not None or b["height"] is not None):
+        raise StudyError("[beam]: give either width and height or diameter, not both")
+    if b["poisson_ratio"] is None and b["shear_modulus"] is None:
+        raise StudyError("[beam]: missing key 'poisson_ratio' (or 'shear_modulus', Pa)")
+    beam = BeamSpec(**b)
+    nn = beam.nodes
+
+    jdata = data["joint"]
+    j = _section(jdata, "joint", _JOINT, sub=("model",))
+    _nodes_in_range("joint", "node", j["node"], nn)
+    dofs = tuple(j["dofs"])
+    for d in dofs:
+        if d not in DIRECTIONS:
+            raise StudyError(f"[joint].dofs: {d!r} is not a joint DOF; expected 'w' and/or 'theta'")
+    if not dofs:
+        raise StudyError("[joint].dofs: expected at least one of 'w', 'theta'")
+    dofs = tuple(d for d in DIRECTIONS if d in dofs)
+    model = None
+    if "model" in jdata:
+        mdata = jdata["model"]
+        if not isinstance(mdata, Mapping):
+            raise StudyError("[joint.model] must be a table")
+        mtype = mdata.get("type")
+        if mtype == "parametric":
+            params = _section(mdata, "joint.model", _PARAMETRIC)
+        elif mtype == "elastomer":
+            params = _section(mdata, "joint.model", _ELASTOMER)
+        else:
+            raise StudyError(f"[joint.model].type: expected 'parametric' or 'elastomer', got {mtype!r}")
+        params.pop("type")
+        model = JointModelSpec(mtype, {k: v for k, v in params.items() if v is not None})
+    joint = JointSpec(j["node"], dofs, model)
+
+    m = _section(data["measurement"], "measurement", _MEASUREMENT)
+    for key in ("observed", "excited"):
+        if not m[key]:
+            raise StudyError(f"[measurement].{key}: expected at least one node")
+        _nodes_in_range("measurement", key, m[key], nn)
+    measurement = MeasurementSpec(m["observed"], m["excited"])
+
+    fr = _section(data["frequency"], "frequency", _FREQUENCY)
+    if fr["start"] >= fr["stop"]:
+        raise StudyError(f"[frequency]: start ({fr['start']:g} Hz) must be below stop ({fr['stop']:g} Hz)")
+    frequency = FrequencySpec(**fr)
+
+    acc = None
+    if "accelerometers" in data:
+        a = _section(data["accelerometers"], "accelerometers", _ACCELEROMETERS)
+        if a["nodes"] is None:
+            a["nodes"] = measurement.observed
+        _nodes_in_range("accelerometers", "nodes", a["nodes"], nn)
+        acc = AccelerometerSpec(**a)
+    ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
+    if ident.model_accelerometers and acc is None:
+        raise StudyError("[identification].model_accelerometers = true needs an [accelerometers] section")
+    exp = ExperimentSpec(**_section(data.get("experiment", {}), "experiment", _EXPERIMENT))
+    return Study(beam, joint, measurement, frequency, acc, ident, exp, source)
+
+
+def load_study(path: str | os.PathLike) -> Study:
+    """Read and validate a TOML study file.
+
+    Raises
+    ------
+    StudyError
+        If the file is missing, is not valid TOML, or breaks the schema.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise StudyError(f"{p}: cannot read the study file ({exc.strerror or exc})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyError(f"{p}: not valid TOML ({exc})") from None
+    return parse_study(data, str(p))
