@@ -1,0 +1,417 @@
+"""Inverse identification of a joint's dynamic stiffness (Hong & Lee, 1991).
+
+The constrained structure (free beam + joint to ground) obeys
+
+    (Do + Du) H* = I
+
+with ``Do`` the FE dynamic stiffness of the free beam, ``Du`` the joint's
+(non-zero only on the joint coordinates n) and ``H*`` the constrained
+receptance. Taking the columns of the excited coordinates e:
+
+Estimation (rows nbar, not touching the joint; generalized left inverse)::
+
+    Do[nbar, mbar] H*[mbar, e] = I[nbar, e] - Do[nbar, m] H*[m, e]
+
+gives the unobserved FRFs ``H*[mbar, e]`` (rotations included) from the
+observed ones ``H*[m, e]``. Needs ``|m| >= |n|`` and ``Do[nbar, mbar]`` of full
+column rank (the observed points must tell the joint forces apart).
+
+Identification (rows n; generalized right inverse)::
+
+    Du H*[n, e] = I[n, e] - Do[n, :] H*[:, e]
+
+Needs ``|e| >= |n|`` and ``H*[n, e]`` of rank ``|n|``.
+
+Numerics
+--------
+Both steps are solved through one batched SVD per step over all frequency
+lines (LAPACK ``gesdd``), never through normal equations. Rotational
+coordinates are scaled by a length ``l`` (default: the mean element length):
+moment rows are divided by ``l`` and rotation unknowns multiplied by it, so
+every equation and unknown has force/translation units. This weights the least
+squares sensibly and makes the condition numbers ``sigma_max / sigma_min``
+meaningful:
+
+* ``cond_A`` of ``Do[nbar, mbar]`` spikes where a combination of joint forces
+  gives no response at the observed points (too few or badly placed points);
+* ``cond_B`` of ``H*[n, e]`` peaks at the constrained structure's resonances
+  (one mode dominates; the columns become parallel);
+* ``cond_H`` of the measured ``H*[m, e]``.
+
+``identifiability[:, i] = |Du_ii| / |1 / Ho_ii|`` compares the joint's stiffness
+with the free beam's driving-point dynamic stiffness at ``n_i`` (``Ho = Do^-1``);
+far from 1 in either direction means the term is poorly identifiable with noisy
+data (the rotational term of a soft joint is typically ~1e-3).
+
+Options (all off by default, so the plain method stays available):
+accelerometer masses on ``Do`` (build the free structure with
+:meth:`~jointid.physics.structure.Structure.with_masses`, or pass
+``accelerometers``), symmetric identification (``Du = Du^T`` enforced by least
+squares on the independent entries), Tikhonov regularization of the
+identification step with ``lambda`` chosen per line by GCV or by the corner of
+the L-curve (biased: it shrinks ``Du`` where ``H*[n, e]`` is ill-conditioned).
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from ..dofs import Dof, parse_dofs
+from ..errors import IdentificationError
+from ..frequency import Frequency
+from ..frf import FRF
+from ..physics.structure import Structure
+
+__all__ = [
+    "Reliability",
+    "InverseOptions",
+    "InverseResult",
+    "identify_joint",
+    "check_layout",
+]
+
+_CHUNK_LINES = 1000
+
+
+@dataclass(frozen=True)
+class Reliability:
+    """Thresholds of the per-line ``reliable`` flag.
+
+    A line is reliable when ``cond_A <= max_cond_A``, ``cond_B <= max_cond_B``
+    and the translational identifiability ratio (rotational if no translation is
+    identified) lies in ``[min_ratio, max_ratio]``. The defaults were set on the
+    benchmark with 1% noise: beyond them the translational stiffness error
+    exceeds ~10% (see ``benchmarks/identify.py`` and the conditioning study).
+    """
+
+    max_cond_A: float = 1e3
+    max_cond_B: float = 1e2
+    min_ratio: float = 0.02
+    max_ratio: float = 50.0
+
+
+@dataclass(frozen=True)
+class InverseOptions:
+    """Options of :func:`identify_joint` (all off by default: the plain method).
+
+    Parameters
+    ----------
+    symmetric : bool
+        Enforce ``Du = Du^T``.
+    regularization : {"none", "gcv", "lcurve"}
+        Tikhonov regularization of the identification step, lambda per line by
+        generalized cross-validation or by the L-curve corner.
+    rotation_scale_m : float, optional
+        Length l used to scale rotations (default: mean element length).
+    reliability : Reliability
+        Thresholds of the ``reliable`` flag.
+    """
+
+    symmetric: bool = False
+    regularization: str = "none"
+    rotation_scale_m: float | None = None
+    reliability: Reliability = field(default_factory=Reliability)
+
+    def __post_init__(self) -> None:
+        if self.regularization not in ("none", "gcv", "lcurve"):
+            raise IdentificationError(
+                f"regularization must be 'none', 'gcv' or 'lcurve', got {self.regularization!r}"
+            )
+
+
+@dataclass(frozen=True, eq=False)
+class InverseResult:
+    """Identified joint stiffness, estimated FRFs and per-line diagnostics.
+
+    Attributes
+    ----------
+    frequency : Frequency
+        F lines, Hz.
+    joint_dofs : tuple of Dof
+        Joint coordinates n.
+    stiffness : ndarray, shape (F, |n|, |n|), complex
+        Identified ``Du``: N/m (w,w), N/rad (w,theta), N*m/m (theta,w), N*m/rad (theta,theta).
+    estimated : FRF
+        Receptance ``H*[:, e]`` of the constrained structure on every free-beam DOF
+        (measured rows as measured, the rest estimated).
+    cond_A, cond_B, cond_H : ndarray, shape (F,)
+        Condition numbers (scaled coordinates) of ``Do[nbar, mbar]``, ``H*[n, e]``, ``H*[m, e]``.
+    identifiability : ndarray, shape (F, |n|)
+        ``|Du_ii| |Ho_ii|``.
+    reliable : ndarray of bool, shape (F,)
+    regularization_lambda : ndarray, shape (F,)
+        Tikhonov lambda per line (scaled units; 0 without regularization).
+    options : InverseOptions
+    """
+
+    frequency: Frequency
+    joint_dofs: tuple[Dof, ...]
+    stiffness: np.ndarray
+    estimated: FRF
+    cond_A: np.ndarray
+    cond_B: np.ndarray
+    cond_H: np.ndarray
+    identifiability: np.ndarray
+    reliable: np.ndarray
+    regularization_lambda: np.ndarray
+    options: InverseOptions
+
+    def term(self, i: str, j: str) -> np.ndarray:
+        """Stiffness term ``K_ij`` (directions ``"w"``/``"theta"``) vs frequency, shape (F,)."""
+        dirs = [d.direction for d in self.joint_dofs]
+        try:
+            return self.stiffness[:, dirs.index(i), dirs.index(j)]
+        except ValueError:
+            raise IdentificationError(f"joint term K_{i}_{j} was not identified (joint DOFs: {dirs})") from None
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Table columns: ``frequency_hz``, ``K_{i}_{j}_real/imag`` per ordered pair, ``cond_*``, ``reliable``."""
+        return stiffness_columns(self.frequency, self.joint_dofs, self.stiffness) | {
+            "cond_A": self.cond_A,
+            "cond_B": self.cond_B,
+            "cond_H": self.cond_H,
+            "reliable": self.reliable,
+        }
+
+    def plot(self, truth: np.ndarray | None = None):
+        """Magnitude (log), loss factor and condition numbers vs frequency; returns a Figure."""
+        from ..plots.inverse import plot_identification
+
+        return plot_identification(self, truth=truth)
+
+
+def stiffness_columns(frequency: Frequency, joint_dofs: Sequence[Dof], stiffness: np.ndarray) -> dict[str, np.ndarray]:
+    """``frequency_hz`` then ``K_{i}_{j}_real``, ``K_{i}_{j}_imag`` for every ordered pair of joint DOFs."""
+    cols: dict[str, np.ndarray] = {"frequency_hz": frequency.hz}
+    for a, da in enumerate(joint_dofs):
+        for b, db in enumerate(joint_dofs):
+            cols[f"K_{da.direction}_{db.direction}_real"] = stiffness[:, a, b].real
+            cols[f"K_{da.direction}_{db.direction}_imag"] = stiffness[:, a, b].imag
+    return cols
+
+
+def check_layout(n_joint: int, observed: Sequence, excited: Sequence) -> None:
+    """Raise :class:`IdentificationError` unless ``|m| >= |n|`` and ``|e| >= |n|``."""
+    if len(observed) < n_joint:
+        raise IdentificationError(
+            f"{len(observed)} observed coordinate(s) for {n_joint} joint DOFs: the estimation step needs "
+            f"at least as many observed coordinates as joint DOFs (|m| >= |n|); observe more points"
+        )
+    if len(excited) < n_joint:
+        raise IdentificationError(
+            f"{len(excited)} excited coordinate(s) for {n_joint} joint DOFs: the identification step needs "
+            f"at least as many excited coordinates as joint DOFs (|e| >= |n|); excite more points"
+        )
+
+
+def _svd_solve_left(A: np.ndarray, rhs: np.ndarray):
+    """Least-squares solution of ``A X = rhs`` per line by SVD; returns (X, cond)."""
+    U, s, Vh = np.linalg.svd(A, full_matrices=False)
+    tol = s[:, :1] * max(A.shape[-2:]) * np.finfo(float).eps
+    sinv = np.where(s > tol, 1.0 / np.where(s > tol, s, 1.0), 0.0)
+    X = np.conj(np.swapaxes(Vh, -1, -2)) @ (sinv[..., None] * (np.conj(np.swapaxes(U, -1, -2)) @ rhs))
+    return X, s[:, 0] / s[:, -1]
+
+
+def _cond(A: np.ndarray) -> np.ndarray:
+    s = np.linalg.svd(A, compute_uv=False)
+    with np.errstate(divide="ignore"):
+        return s[:, 0] / s[:, -1]
+
+
+def _tikhonov_lambda(s: np.ndarray, beta: np.ndarray, out_norm2: np.ndarray, m_eq: int, method: str) -> np.ndarray:
+    """Lambda per line for ``min ||A x - c||^2 + lambda^2 ||x||^2`` from the SVD of A.
+
+    Parameters
+    ----------
+    s : (F, k) singular values of A; beta : (F, k) |U^H c|^2 summed over right-hand sides;
+    out_norm2 : (F,) squared norm of c outside range(A); m_eq : number of equations.
+    """
+    grid = s[:, :1] * np.logspace(-4, 0, 41)[None, :]  # (F, G)
+    lam2 = grid[:, :, None] ** 2
+    s2 = s[:, None, :] ** 2
+    f = s2 / (s2 + lam2)  # filter factors (F, G, k)
+    res = np.sum(((1 - f) ** 2) * beta[:, None, :], axis=-1) + out_norm2[:, None]
+    if method == "gcv":
+        dof = m_eq - np.sum(f, axis=-1)
+        score = res / np.maximum(dof, 1e-12) ** 2
+        return grid[np.arange(s.shape[0]), np.argmin(score, axis=1)]
+    # L-curve: corner of maximum curvature of (log ||r||, log ||x||)
+    xn = np.sum((f**2) * beta[:, None, :] / s2, axis=-1)
+    x = 0.5 * np.log(np.maximum(res, 1e-300))
+    y = 0.5 * np.log(np.maximum(xn, 1e-300))
+    t = np.log(grid)
+    dx, dy = np.gradient(x, axis=1) / np.gradient(t, axis=1), np.gradient(y, axis=1) / np.gradient(t, axis=1)
+    ddx, ddy = np.gradient(dx, axis=1) / np.gradient(t, axis=1), np.gradient(dy, axis=1) / np.gradient(t, axis=1)
+    kappa = (dx * ddy - ddx * dy) / np.maximum((dx**2 + dy**2) ** 1.5, 1e-300)
+    kappa[:, [0, -1]] = -np.inf
+    return grid[np.arange(s.shape[0]), np.argmax(kappa, axis=1)]
+
+
+def identify_joint(
+    free: Structure,
+    measured: FRF,
+    joint_dofs: Sequence,
+    options: InverseOptions | None = None,
+) -> InverseResult:
+    """Identify the joint's dynamic stiffness from constrained-structure FRFs (Hong & Lee).
+
+    Parameters
+    ----------
+    free : Structure
+        FE model of the free (unconstrained) beam, ``Do``; include accelerometer
+        masses here (``free.with_masses(nodes, m, J)``) if the test had them.
+    measured : FRF
+        Measured FRFs of the constrained structure, any kind (converted exactly
+        to receptance), responses m (observed, translations) x references e
+        (excited, forces). Frequencies > 0 Hz.
+    joint_dofs : sequence of Dof or labels
+        Joint coordinates n, e.g. ``["10w", "10theta"]``.
+    options : InverseOptions, optional
+
+    Returns
+    -------
+    InverseResult
+
+    Raises
+    ------
+    IdentificationError
+        If ``|m| < |n|`` or ``|e| < |n|``, or a DOF is not in the free model.
+    """
+    options = options or InverseOptions()
+    n_dofs = parse_dofs(joint_dofs)
+    m_dofs, e_dofs = measured.responses, measured.references
+    check_layout(len(n_dofs), m_dofs, e_dofs)
+    dofs = free.dofs
+    pos = {d: i for i, d in enumerate(dofs)}
+    for what, group in (("joint", n_dofs), ("observed", m_dofs), ("excited", e_dofs)):
+        missing = [str(d) for d in group if d not in pos]
+        if missing:
+            raise IdentificationError(f"{what} DOF(s) {missing} are not DOFs of the free model (nodes {free.nodes[0]}..{free.nodes[-1]})")
+    if free.joints:
+        raise IdentificationError("the free model must not contain frequency-dependent joints: Do is the free beam alone")
+    H_meas = measured.to("receptance").data
+    freq = measured.frequency
+
+    N = len(dofs)
+    n_idx = np.array([pos[d] for d in n_dofs])
+    m_idx = np.array([pos[d] for d in m_dofs])
+    e_idx = np.array([pos[d] for d in e_dofs])
+    nbar = np.array([i for i in range(N) if i not in set(n_idx)])
+    mbar = np.array([i for i in range(N) if i not in set(m_idx)])
+
+    if options.rotation_scale_m is not None:
+        ell = float(options.rotation_scale_m)
+    else:
+        xs = np.array([free.coordinates[k] for k in free.nodes])
+        ell = float(np.mean(np.diff(xs))) if xs.size > 1 else 1.0
+    # scaled coordinates: rotation unknowns theta' = ell * theta, moment rows / ell
+    sc = np.array([1.0 if d.direction == "w" else 1.0 / ell for d in dofs])  # D_s = S D S with S = diag(sc)
+
+    F = freq.size
+    Du = np.empty((F, len(n_dofs), len(n_dofs)), complex)
+    H_all = np.empty((F, N, len(e_dofs)), complex)
+    condA = np.empty(F)
+    condB = np.empty(F)
+    lam_out = np.zeros(F)
+    ratio = np.empty((F, len(n_dofs)))
+    I_ne = np.zeros((N, len(e_dofs)))
+    I_ne[e_idx, np.arange(len(e_dofs))] = 1.0
+    condH = _cond(H_meas)
+
+    def run_chunk(a: int) -> None:
+        sl = slice(a, a + _CHUNK_LINES)
+        Do = free.dynamic_stiffness(freq.hz[sl])
+        Ds = Do * (sc[:, None] * sc[None, :])[None]
+        Hm = H_meas[sl]
+        # ---- estimation: Ds[nbar, mbar] Ys[mbar] = I[nbar, e] * sc - Ds[nbar, m] Ys[m], with Y = S^-1 H
+        Hs_m = Hm / sc[m_idx][None, :, None]
+        A = Ds[:, nbar][:, :, mbar]
+        rhs = (I_ne[nbar] * sc[nbar, None])[None] - Ds[:, nbar][:, :, m_idx] @ Hs_m
+        Ys_mbar, condA[sl] = _svd_solve_left(A, rhs)
+        Hs = np.empty((Do.shape[0], N, len(e_dofs)), complex)
+        Hs[:, m_idx] = Hs_m
+        Hs[:, mbar] = Ys_mbar
+        H_all[sl] = Hs * sc[None, :, None]
+        # ---- identification: Dus Bs = Cs (scaled), Du = S^-1 Dus S^-1
+        Bs = Hs[:, n_idx]
+        Cs = (I_ne[n_idx] * sc[n_idx, None])[None] - Ds[:, n_idx] @ Hs
+        Dus, condB[sl], lam_out[sl] = _identify(Bs, Cs, options)
+        Du[sl] = Dus / (sc[n_idx][:, None] * sc[n_idx][None, :])[None]
+        # ---- identifiability: |Du_ii| |Ho_ii|, Ho = Do^-1 columns n
+        E = np.zeros((N, len(n_dofs)))
+        E[n_idx, np.arange(len(n_dofs))] = 1.0
+        Ho = np.linalg.solve(Do, np.broadcast_to(E, (Do.shape[0], N, len(n_dofs))))
+        ho_nn = Ho[:, n_idx, np.arange(len(n_dofs))]
+        ratio[sl] = np.abs(np.diagonal(Du[sl], axis1=1, axis2=2)) * np.abs(ho_nn)
+
+    # chunks bound memory (Do is F x N x N) and run on the available cores: each is a batched
+    # LAPACK call that releases the GIL, and chunks write disjoint slices of the outputs
+    starts = range(0, F, _CHUNK_LINES)
+    workers = min(len(starts), os.cpu_count() or 1, 4)
+    if workers > 1:
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(run_chunk, starts))
+    else:
+        for a in starts:
+            run_chunk(a)
+
+    rel = options.reliability
+    k = next((i for i, d in enumerate(n_dofs) if d.direction == "w"), 0)
+    reliable = (
+        (condA <= rel.max_cond_A)
+        & (condB <= rel.max_cond_B)
+        & (ratio[:, k] >= rel.min_ratio)
+        & (ratio[:, k] <= rel.max_ratio)
+    )
+    estimated = FRF(freq, H_all, dofs, e_dofs, "receptance")
+    return InverseResult(freq, n_dofs, Du, estimated, condA, condB, condH, ratio, reliable, lam_out, options)
+
+
+def _identify(B: np.ndarray, C: np.ndarray, options: InverseOptions):
+    """Solve ``Du B = C`` per line (right inverse); returns (Du, cond_B, lambda)."""
+    F, n, e = B.shape
+    # Du B = C  <=>  B^T Du^T = C^T : a least-squares problem with n unknowns per row of Du
+    At = np.swapaxes(B, -1, -2)  # (F, e, n)
+    Ct = np.swapaxes(C, -1, -2)  # (F, e, n): columns are right-hand sides
+    U, s, Vh = np.linalg.svd(At, full_matrices=False)  # U (F,e,k), s (F,k), Vh (F,k,n)
+    cond = s[:, 0] / s[:, -1]
+    Uh = np.conj(np.swapaxes(U, -1, -2))
+    proj = Uh @ Ct  # (F, k, n)
+    lam = np.zeros(F)
+    if options.regularization != "none":
+        beta = np.sum(np.abs(proj) ** 2, axis=-1)  # (F, k)
+        out2 = np.sum(np.abs(Ct) ** 2, axis=(-2, -1)) - np.sum(beta, axis=-1)
+        lam = _tikhonov_lambda(s, beta, np.maximum(out2, 0.0), e, options.regularization)
+    filt = s / (s**2 + lam[:, None] ** 2)
+    DuT = np.conj(np.swapaxes(Vh, -1, -2)) @ (filt[..., None] * proj)
+    Du = np.swapaxes(DuT, -1, -2)
+    if options.symmetric and n > 1:
+        Du = _symmetric(B, C, lam)
+    return Du, cond, lam
+
+
+def _symmetric(B: np.ndarray, C: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """Least-squares ``Du = Du^T`` with ``Du B = C``: unknowns are the upper triangle of Du."""
+    F, n, e = B.shape
+    pairs = [(i, j) for i in range(n) for j in range(i, n)]
+    # vec(Du B)[i, c] = sum_k Du[i, k] B[k, c]; Du[i, k] = x[p(i, k)]
+    G = np.zeros((F, n * e, len(pairs)), complex)
+    for p, (i, j) in enumerate(pairs):
+        G[:, i * e : (i + 1) * e, p] += B[:, j, :]
+        if i != j:
+            G[:, j * e : (j + 1) * e, p] += B[:, i, :]
+    rhs = C.reshape(F, n * e, 1)
+    U, s, Vh = np.linalg.svd(G, full_matrices=False)
+    filt = s / (s**2 + lam[:, None] ** 2)
+    x = (np.conj(np.swapaxes(Vh, -1, -2)) @ (filt[..., None] * (np.conj(np.swapaxes(U, -1, -2)) @ rhs)))[..., 0]
+    Du = np.empty((F, n, n), complex)
+    for p, (i, j) in enumerate(pairs):
+        Du[:, i, j] = x[:, p]
+        Du[:, j, i] = x[:, p]
+    return Du

@@ -1,0 +1,125 @@
+"""From a validated :class:`~jointid.study.Study` to models, virtual tests and identifications.
+
+These functions are the API behind ``jointid simulate`` and ``jointid identify``;
+they only translate study settings into calls of :mod:`jointid.physics` and
+:mod:`jointid.methods`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import DataError, IdentificationError
+from .frequency import Frequency
+from .frf import FRF
+from .methods.inverse import InverseOptions, InverseResult, check_layout, identify_joint
+from .physics.joints import joint_from_spec
+from .physics.structure import ComplexStiffness, Structure
+from .physics.synthesis import synthesize_frf
+from .study import Study
+
+__all__ = ["free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "identify"]
+
+
+def free_model(study: Study, with_accelerometers: bool | None = None) -> Structure:
+    """The free beam ``Do`` of the study, with the ``[accelerometers]`` added when asked.
+
+    Parameters
+    ----------
+    with_accelerometers : bool, optional
+        Default: ``[identification].model_accelerometers``.
+    """
+    beam = study.beam.structure()
+    if with_accelerometers is None:
+        with_accelerometers = study.identification.model_accelerometers
+    acc = study.accelerometers
+    if with_accelerometers and acc is not None:
+        beam = beam.with_masses(acc.nodes, acc.mass, acc.rotary_inertia)
+    return beam
+
+
+def true_joint(study: Study) -> ComplexStiffness:
+    """The study's true joint (``[joint.model]``) as a complex stiffness on the joint DOFs."""
+    return joint_from_spec(study.joint)
+
+
+def constrained_model(study: Study) -> Structure:
+    """The test article: beam with its accelerometers (if any) on the true joint to ground."""
+    return free_model(study, with_accelerometers=True).with_joint(true_joint(study))
+
+
+@dataclass(frozen=True, eq=False)
+class VirtualTest:
+    """Exact FRFs of the constrained structure and the true joint stiffness.
+
+    Attributes
+    ----------
+    frf : FRF
+        Accelerance ``(m/s^2)/N``, observed x excited, shape (F, |m|, |e|).
+    truth : ndarray, shape (F, |n|, |n|), complex
+        True joint stiffness on ``joint_dofs``.
+    joint_dofs : tuple of Dof
+    """
+
+    frf: FRF
+    truth: np.ndarray
+    joint_dofs: tuple
+
+    @property
+    def frequency(self) -> Frequency:
+        """Frequency axis, Hz."""
+        return self.frf.frequency
+
+
+def simulate(study: Study, frequency: Frequency | None = None) -> VirtualTest:
+    """Synthesize the constrained beam's accelerances at the study's coordinates (a virtual test).
+
+    Parameters
+    ----------
+    study : Study
+        Needs ``[joint.model]``; ``[accelerometers]`` (if present) load the test article.
+    frequency : Frequency, optional
+        Default: the study's ``[frequency]`` grid.
+    """
+    frequency = frequency or study.grid
+    joint = true_joint(study)
+    article = free_model(study, with_accelerometers=True).with_joint(joint)
+    frf = synthesize_frf(
+        article, frequency, study.measurement.observed_dofs, study.measurement.excited_dofs, kind="accelerance"
+    )
+    return VirtualTest(frf, joint(frequency.hz), joint.dofs)
+
+
+def inverse_options(study: Study) -> InverseOptions:
+    """The :class:`InverseOptions` of the study's ``[identification]`` section."""
+    return InverseOptions(symmetric=study.identification.symmetric, regularization=study.identification.regularization)
+
+
+def identify(study: Study, measured: FRF, options: InverseOptions | None = None) -> InverseResult:
+    """Identify the study's joint from measured FRFs, over the study's ``start..stop`` band.
+
+    The lines of ``measured`` inside ``[frequency] start..stop`` are used on the
+    data's own grid (``step`` is ignored). Responses/references are reordered to
+    the study's observed/excited coordinates; extra ones in the file are ignored.
+
+    Raises
+    ------
+    DataError
+        If the file lacks one of the study's coordinates or has no line in the band.
+    IdentificationError
+        If the layout has too few coordinates.
+    """
+    m = study.measurement
+    check_layout(len(study.joint.dofs), m.observed, m.excited)
+    for what, have, want in (("response", measured.responses, m.observed_dofs), ("reference", measured.references, m.excited_dofs)):
+        missing = [str(d) for d in want if d not in have]
+        if missing:
+            raise DataError(
+                f"the FRF file has no {what} at {', '.join(missing)} (it has {', '.join(map(str, have))}); "
+                f"measure it or remove it from [measurement] in {study.source}"
+            )
+    # a 0 Hz line carries no information (and the free beam is singular there): skip it
+    data = measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
+    return identify_joint(free_model(study), data, study.joint.joint_dofs, options or inverse_options(study))

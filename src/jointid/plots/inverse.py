@@ -1,0 +1,65 @@
+"""Figures of an inverse identification: |K_ij| (log), loss factor, condition numbers."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .style import new_figure
+
+__all__ = ["plot_identification", "TERM_UNITS"]
+
+#: Units of the joint stiffness terms, keyed by (row direction, column direction).
+TERM_UNITS = {("w", "w"): "N/m", ("w", "theta"): "N/rad", ("theta", "w"): "N*m/m", ("theta", "theta"): "N*m/rad"}
+
+
+def plot_identification(result, truth: np.ndarray | None = None):
+    """Plot an :class:`~jointid.methods.inverse.InverseResult`.
+
+    One column per independent joint term (upper triangle): magnitude on a log
+    axis, loss factor ``Im/Re`` on a linear axis; beneath, the condition numbers
+    (log axis). Unreliable lines are shaded.
+
+    Parameters
+    ----------
+    result : InverseResult
+    truth : ndarray, shape (F, n, n), optional
+        True joint stiffness, drawn dashed.
+
+    Returns
+    -------
+    Figure
+    """
+    f = result.frequency.hz
+    dofs = result.joint_dofs
+    terms = [(i, j) for i in range(len(dofs)) for j in range(i, len(dofs))]
+    fig, axes = new_figure(3, len(terms), figsize=(4.2 * len(terms) + 1, 8.0), height_ratios=[2, 1.3, 1.3])
+    axes = np.asarray(axes).reshape(3, len(terms))
+    bad = ~np.asarray(result.reliable, bool)
+    for c, (i, j) in enumerate(terms):
+        di, dj = dofs[i].direction, dofs[j].direction
+        k = result.stiffness[:, i, j]
+        ax_m, ax_l, ax_c = axes[:, c]
+        ax_m.semilogy(f, np.abs(k), lw=1.0, label="identified")
+        ax_l.plot(f, k.imag / k.real, lw=1.0, label="identified")
+        if truth is not None:
+            t = truth[:, i, j]
+            ax_m.semilogy(f, np.abs(t), "k--", lw=1.0, label="true")
+            ax_l.plot(f, t.imag / t.real, "k--", lw=1.0, label="true")
+        ax_m.set_title(f"K_{di}_{dj}")
+        ax_m.set_ylabel(f"|K_{di}_{dj}| [{TERM_UNITS[(di, dj)]}]")
+        ax_l.set_ylabel("loss factor [-]")
+        lo, hi = np.nanpercentile((k.imag / k.real), [5, 95]) if np.isfinite(k).all() else (0, 1)
+        ax_l.set_ylim(min(lo, 0) - 0.05, max(hi, 0.2) + 0.05)
+        for name in ("cond_A", "cond_B", "cond_H"):
+            ax_c.semilogy(f, getattr(result, name), lw=0.9, label=name)
+        ax_c.set_ylabel("condition number [-]")
+        ax_c.set_xlabel("frequency [Hz]")
+        for ax in (ax_m, ax_l, ax_c):
+            ax.grid(True, which="both", alpha=0.3)
+            if bad.any():
+                ax.fill_between(f, 0, 1, where=bad, transform=ax.get_xaxis_transform(), color="0.85", lw=0, step="mid")
+        if c == 0:
+            ax_m.legend(fontsize="small")
+            ax_c.legend(fontsize="small", ncol=3)
+    fig.suptitle("inverse identification (shaded: lines flagged unreliable)")
+    return fig

@@ -1,0 +1,1 @@
+"""jointid.report: self-contained HTML reports."""

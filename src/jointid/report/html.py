@@ -1,0 +1,79 @@
+"""A self-contained HTML report: sections with paragraphs, tables and embedded PNG figures.
+
+The page has no external resources (figures are base64 data URIs, CSS inline),
+so it opens offline and can be mailed as one file.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from dataclasses import dataclass, field
+from typing import Sequence
+
+__all__ = ["Table", "Section", "render_report"]
+
+
+@dataclass(frozen=True)
+class Table:
+    """A table: a caption, a header and rows of already formatted cells."""
+
+    caption: str
+    header: Sequence[str]
+    rows: Sequence[Sequence[str]]
+
+
+@dataclass(frozen=True)
+class Section:
+    """A report section: title, paragraphs, tables and figures (name, PNG bytes, caption)."""
+
+    title: str
+    anchor: str
+    paragraphs: Sequence[str] = ()
+    tables: Sequence[Table] = ()
+    figures: Sequence[tuple[str, bytes, str]] = field(default_factory=tuple)
+
+
+_CSS = """
+body { font-family: -apple-system, 'Segoe UI', Helvetica, Arial, sans-serif; max-width: 1100px;
+       margin: 2em auto; padding: 0 1em; color: #222; line-height: 1.45; }
+h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
+h2 { border-bottom: 1px solid #bbb; margin-top: 2em; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 0.9em; }
+caption { text-align: left; font-weight: bold; padding-bottom: .3em; }
+th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: right; }
+th { background: #f0f0f0; } td:first-child, th:first-child { text-align: left; }
+figure { margin: 1em 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
+figcaption { font-size: .9em; color: #555; }
+.meta { color: #666; font-size: .9em; }
+nav ul { columns: 2; }
+"""
+
+
+def _table_html(t: Table) -> str:
+    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in t.header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in t.rows)
+    return f"<table><caption>{html.escape(t.caption)}</caption><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def render_report(title: str, meta: str, sections: Sequence[Section]) -> str:
+    """The HTML page (a string) for ``sections``; figures are embedded as base64 PNG."""
+    nav = "".join(f'<li><a href="#{s.anchor}">{html.escape(s.title)}</a></li>' for s in sections)
+    parts = [
+        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
+        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
+        f"<h1>{html.escape(title)}</h1><p class='meta'>{html.escape(meta)}</p><nav><ul>{nav}</ul></nav>",
+    ]
+    for s in sections:
+        parts.append(f"<section id='{s.anchor}'><h2>{html.escape(s.title)}</h2>")
+        parts.extend(f"<p>{html.escape(p)}</p>" for p in s.paragraphs)
+        parts.extend(_table_html(t) for t in s.tables)
+        for name, png, caption in s.figures:
+            data = base64.b64encode(png).decode("ascii")
+            parts.append(
+                f"<figure><img alt='{html.escape(name)}' src='data:image/png;base64,{data}'>"
+                f"<figcaption>{html.escape(caption)} (figures/{html.escape(name)}.png)</figcaption></figure>"
+            )
+        parts.append("</section>")
+    parts.append("</body></html>")
+    return "\n".join(parts)
