@@ -123,3 +123,73 @@ def identify(study: Study, measured: FRF, options: InverseOptions | None = None)
     # a 0 Hz line carries no information (and the free beam is singular there): skip it
     data = measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
     return identify_joint(free_model(study), data, study.joint.joint_dofs, options or inverse_options(study))
+
+
+@dataclass(frozen=True, eq=False)
+class ExperimentResult:
+    """A virtual roving-hammer test: estimated FRFs, coherence, the true joint.
+
+    Attributes
+    ----------
+    impact : ImpactFRF
+        H1/H2/coherence over the study's band, with rejected hits and window notes.
+    frf : FRF
+        H1 accelerance, (m/s^2)/N, observed x excited.
+    truth : ndarray, shape (F, |n|, |n|), complex
+        True joint stiffness on the FRF's lines.
+    """
+
+    impact: object
+    frf: FRF
+    truth: np.ndarray
+
+    @property
+    def coherence(self) -> np.ndarray:
+        """Coherence, shape (F, |m|, |e|)."""
+        return self.impact.coherence
+
+
+def experiment(study: Study, seed: int | None = None) -> ExperimentResult:
+    """Run the study's virtual roving-hammer test and estimate its FRFs (H1).
+
+    The test article (beam, ``[accelerometers]``, true joint) is hit at each excited
+    node ``[experiment].averages`` times with a half-sine pulse; the exact sampled
+    responses (see :mod:`jointid.methods.virtual_hammer`) get noise, and
+    :func:`jointid.methods.impact.estimate_frfs` turns them into H1 with a force
+    window (and the exponential window of ``[experiment].exponential_window``,
+    corrected) on the study's ``start..stop`` band.
+
+    Parameters
+    ----------
+    study : Study
+        Needs ``[joint.model]``.
+    seed : int, optional
+        Overrides ``[experiment].seed``.
+    """
+    from .methods.impact import ImpactOptions, ImpactRecord, estimate_frfs
+    from .methods.virtual_hammer import HammerSettings, simulate_hits
+
+    x = study.experiment
+    settings = HammerSettings(
+        sample_rate=x.sample_rate, duration=x.duration, averages=x.averages, force_noise=x.force_noise,
+        response_noise=x.response_noise, pulse_duration=x.pulse_duration, pulse_amplitude=x.pulse_amplitude,
+    )
+    if study.frequency.stop >= x.sample_rate / 2:
+        raise DataError(
+            f"[experiment].sample_rate = {x.sample_rate:g} Hz cannot resolve [frequency].stop = {study.frequency.stop:g} Hz; "
+            "use a sample rate above twice the highest frequency"
+        )
+    rng = np.random.default_rng(x.seed if seed is None else seed)
+    article = constrained_model(study)
+    hits = simulate_hits(article, study.measurement.observed_dofs, study.measurement.excited_dofs, settings, rng)
+    records = [ImpactRecord(h.force, h.responses, h.sample_rate, h.response_dofs, h.reference) for h in hits]
+    options = ImpactOptions(
+        force_window_s=2.0 * x.pulse_duration,
+        force_pretrigger_s=0.5 * x.pulse_duration,
+        force_taper_s=0.5 * x.pulse_duration,
+        exp_tau_s=x.exponential_window or None,
+        band_hz=(max(study.frequency.start, 1.0 / x.duration), study.frequency.stop),
+    )
+    impact = estimate_frfs(records, options)
+    frf = impact.to_frf("h1")
+    return ExperimentResult(impact, frf, true_joint(study)(frf.frequency.hz))

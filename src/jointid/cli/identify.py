@@ -68,16 +68,21 @@ def summary(result, study, source: Path) -> dict:
     }
 
 
+def write_identification(out: Path, result, study, source: Path, plots: bool = True, truth=None) -> None:
+    """Write ``joint_stiffness.csv``, ``summary.json`` and (``plots``) ``joint_stiffness.png`` into ``out``."""
+    write_csv(out / "joint_stiffness.csv", result.columns())
+    atomic_write_text(out / "summary.json", json.dumps(summary(result, study, source), indent=2) + "\n")
+    if plots:
+        save_figure(result.plot(truth=truth), out / "joint_stiffness.png")
+
+
 def run(args: argparse.Namespace) -> int:
     from ..io.frf_files import read_frf
 
     study = study_from_args(args)
     measured = read_frf(args.frf, n_nodes=study.beam.nodes)
     result = identify(study, measured)
-    write_csv(args.out / "joint_stiffness.csv", result.columns())
-    atomic_write_text(args.out / "summary.json", json.dumps(summary(result, study, args.frf), indent=2) + "\n")
-    if not args.no_plots:
-        save_figure(result.plot(), args.out / "joint_stiffness.png")
+    write_identification(args.out, result, study, args.frf, plots=not args.no_plots)
     f = result.frequency.hz
     print(
         f"identified {len(result.joint_dofs)}x{len(result.joint_dofs)} joint stiffness on {f.size} lines "

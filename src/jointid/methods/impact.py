@@ -56,9 +56,9 @@ Processing (:func:`estimate_frf`, :func:`estimate_frfs`)
    ``force_taper_s`` on both sides, 0 elsewhere. It removes the force
    channel's noise outside the pulse (which would bias H1 low). It must
    contain the whole pulse.
-3. **Exponential window** (optional, ``exp_tau_s``): ``w(t) = exp(-(t - t_start)/tau)``
-   for ``t >= t_start`` and 1 before, applied to the response *and* to the
-   force. Because the response before the impact is zero,
+3. **Exponential window** (optional, ``exp_tau_s``): ``w(t) = exp(-(t - t0)/tau)``
+   for ``t >= t0 = t_start - force_pretrigger_s`` and 1 before, applied to the
+   response *and* to the force. Because the response before the impact is zero,
    ``w y = (w h) * (w f)`` exactly, so the estimate is the FRF of ``h(t) e^{-t/tau}``:
 
        H_windowed(j w) = H(j w + 1/tau)                              (Laplace variable)
@@ -146,6 +146,7 @@ _DOF_TO_UFF_DIR = {v: k for k, v in _UFF_DIR_TO_DOF.items()}
 _UFF_KIND = {12: "accelerance", 11: "mobility", 8: "receptance"}
 _UFF_SPEC = {v: k for k, v in _UFF_KIND.items()}
 _UFF_FORCE = 13
+_UFF_UNITS = {13: (0, 1, "N"), 12: (1, 0, "m/s^2"), 11: (1, 0, "m/s"), 8: (1, 0, "m")}
 
 
 # --------------------------------------------------------------------------- layout
@@ -305,7 +306,10 @@ class ImpactOptions:
     force_window_s : float or None
         Length of the flat part of the force window, s; None: no force window.
     force_pretrigger_s : float
-        Start of the flat part before the start of the main pulse, s.
+        Start of the force window's flat part, and of the exponential
+        window's decay, before the start of the main pulse, s (the main pulse
+        starts at its first sample above ``double_hit_fraction`` of the peak;
+        a small pretrigger keeps the pulse's rising edge inside both windows).
     force_taper_s : float
         Half-cosine taper on each side of the flat part, s.
     exp_tau_s : float or None
@@ -600,7 +604,7 @@ def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: in
     if o.force_window_s is not None:
         F = F * force_window(record.n_samples, fs, t_start - o.force_pretrigger_s, o.force_window_s, o.force_taper_s)
     if o.exp_tau_s is not None:
-        w = exponential_window(record.n_samples, fs, t_start, o.exp_tau_s)
+        w = exponential_window(record.n_samples, fs, t_start - o.force_pretrigger_s, o.exp_tau_s)
         F = F * w
         Y = Y * w[:, None, :]
     X = scipy.fft.rfft(F, n=n_fft, axis=-1)  # (H, K)
@@ -612,7 +616,15 @@ def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: in
 
 
 def estimate_frf(record: ImpactRecord, options: ImpactOptions | None = None) -> ImpactFRF:
-    """H1, H2 and coherence for one excited node; see :func:`estimate_frfs`."""
+    """H1, H2 and coherence for one excited node (arrays shaped (F, r, 1)).
+
+    Parameters
+    ----------
+    record : ImpactRecord
+        Hits at one excited node.
+    options : ImpactOptions, optional
+        See :func:`estimate_frfs`.
+    """
     return estimate_frfs([record], options)
 
 
@@ -739,13 +751,9 @@ def _detect_mode_bands(hz: np.ndarray, H: np.ndarray) -> list[tuple[float, float
     peaks, _ = scipy.signal.find_peaks(db, prominence=10.0)
     bands = []
     for i, p in enumerate(peaks):
-        half = mif[p] / 2.0
-        lo = p
-        while lo > 0 and mif[lo] > half:
-            lo -= 1
-        hi = p
-        while hi < mif.size - 1 and mif[hi] > half:
-            hi += 1
+        under = np.flatnonzero(mif <= mif[p] / 2.0)
+        lo = under[under < p].max(initial=0)
+        hi = under[under > p].min(initial=mif.size - 1)
         hw = max((hz[hi] - hz[lo]) / 2.0, hz[1] - hz[0])
         a, b = hz[p] - 3.0 * hw, hz[p] + 3.0 * hw
         if i > 0:
@@ -759,8 +767,23 @@ def _detect_mode_bands(hz: np.ndarray, H: np.ndarray) -> list[tuple[float, float
 def _fit_pole(s: np.ndarray, H: np.ndarray, n_iter: int = 8):
     """Common-denominator SDOF rational fit ``N_m(s)/(s^2 + a1 s + a0)`` (s scaled).
 
-    Sanathanan-Koerner iterations; numerators (degree 2) eliminated by projection.
-    Returns (a0, a1, b (3, M) complex-free real coefficients).
+    Sanathanan-Koerner iterations (weights ``1/|D_previous|``); the numerators
+    (degree 2, one per FRF) are eliminated by orthogonal projection, so each
+    iteration is one real least-squares problem in ``(a0, a1)``.
+
+    Parameters
+    ----------
+    s : ndarray, shape (K,)
+        Laplace variable ``j w / w_c`` of the band's lines (scaled by the band centre).
+    H : ndarray, shape (K, M)
+        FRFs in the band (scaled to unit RMS per column).
+
+    Returns
+    -------
+    a0, a1 : float
+        Denominator ``s^2 + a1 s + a0`` (scaled variable).
+    b : ndarray, shape (3, M)
+        Real numerator coefficients ``b0 + b1 s + b2 s^2`` per FRF.
     """
     K, M = H.shape
     w = np.ones(K)
@@ -953,7 +976,15 @@ def roving_sensor_correction(
 
 
 def write_impact_npz(path: str | Path, record: ImpactRecord) -> Path:
-    """Write one record in the documented ``.npz`` layout."""
+    """Write one record (one excited node) in the documented ``.npz`` layout.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (``.npz``).
+    record : ImpactRecord
+        Hits at one excited node.
+    """
     path = Path(path)
     np.savez(
         path,
@@ -1023,7 +1054,15 @@ def _rate_from_time(t: np.ndarray, where: str) -> float:
 
 
 def write_impact_csv(path: str | Path, records: Sequence[ImpactRecord]) -> Path:
-    """Write records (one per excited node, same response DOFs) in the documented long CSV layout."""
+    """Write records in the documented long CSV layout (full float precision, atomically).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file.
+    records : sequence of ImpactRecord
+        One per excited node, all with the same response DOFs.
+    """
     from ..io.tables import write_csv
 
     records = [records] if isinstance(records, ImpactRecord) else list(records)
@@ -1208,7 +1247,15 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
 
 
 def write_impact_uff(path: str | Path, records: Sequence[ImpactRecord]) -> Path:
-    """Write records as UFF58 time records (function type 1) in the layout :func:`read_impact_uff` reads."""
+    """Write records as ASCII UFF58 time records (function type 1), the layout :func:`read_impact_uff` reads.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (replaced if it exists).
+    records : sequence of ImpactRecord
+        One per excited node; the hit index is written as ``load_case_id``.
+    """
     import pyuff
 
     records = [records] if isinstance(records, ImpactRecord) else list(records)
@@ -1224,18 +1271,48 @@ def write_impact_uff(path: str | Path, records: Sequence[ImpactRecord]) -> Path:
                 ("response", d, _UFF_SPEC[rec.kind], rec.responses[h, c]) for c, d in enumerate(rec.response_dofs)
             ]
             for what, d, spec, y in chans:
+                len_exp, force_exp, unit = _UFF_UNITS[spec]
                 sets.append(
                     pyuff.prepare_58(
                         binary=0,
                         id1=f"{what} {d} hit {h}",
+                        id2="jointid impact record",
+                        id3="NONE",
+                        id4="NONE",
+                        id5="NONE",
                         func_type=1,
+                        ver_num=0,
                         load_case_id=h,
+                        rsp_ent_name="beam",
                         rsp_node=d.node,
                         rsp_dir=_DOF_TO_UFF_DIR[d.direction],
+                        ref_ent_name="beam",
                         ref_node=rn,
                         ref_dir=rd,
-                        ordinate_spec_data_type=spec,
                         abscissa_spec_data_type=17,
+                        abscissa_len_unit_exp=0,
+                        abscissa_force_unit_exp=0,
+                        abscissa_temp_unit_exp=0,
+                        abscissa_axis_units_lab="s",
+                        ordinate_spec_data_type=spec,
+                        ordinate_len_unit_exp=len_exp,
+                        ordinate_force_unit_exp=force_exp,
+                        ordinate_temp_unit_exp=0,
+                        ordinate_axis_units_lab=unit,
+                        orddenom_spec_data_type=0,
+                        orddenom_len_unit_exp=0,
+                        orddenom_force_unit_exp=0,
+                        orddenom_temp_unit_exp=0,
+                        orddenom_axis_units_lab="NONE",
+                        z_axis_spec_data_type=0,
+                        z_axis_len_unit_exp=0,
+                        z_axis_force_unit_exp=0,
+                        z_axis_temp_unit_exp=0,
+                        z_axis_axis_units_lab="NONE",
+                        z_axis_value=0.0,
+                        abscissa_spacing=1,
+                        abscissa_min=float(t[0]),
+                        abscissa_inc=float(t[1] - t[0]),
                         data=np.asarray(y, dtype=float),
                         x=t,
                     )

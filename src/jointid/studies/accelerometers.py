@@ -16,7 +16,7 @@ from ..physics.synthesis import synthesize_frf
 from ..plots.frf import plot_frf
 from ..plots.studies import plot_terms
 from ..report.html import Table
-from .common import Progress, StudyOutput, band_errors, fmt, material_joint, pct, terms_of
+from .common import Progress, StudyOutput, band_errors, fmt, material_joint, pct, study_beam, terms_of
 
 __all__ = ["run"]
 
@@ -28,7 +28,7 @@ def run(config, progress: Progress | None = None, layout: str = "model_3") -> St
     f = config.grid
     lay = config.layouts[layout]
     ma, ja = config.accelerometer_mass, config.accelerometer_rotary_inertia
-    beam = config.beam.structure()
+    beam = study_beam(config)
     drive = lay.excited[0]
     one = beam.with_masses([drive], ma, ja)
     seven = beam.with_masses(lay.observed, ma, ja)

@@ -80,13 +80,41 @@ def relative_error(identified: np.ndarray, truth: np.ndarray) -> np.ndarray:
     return np.abs(identified - truth) / np.abs(truth)
 
 
-def material_joint(config, material: str) -> ComplexStiffness:
-    """The FE elastomer-cylinder joint of ``config.materials[material]`` at the joint node (w, theta)."""
-    from ..methods.joint_model import elastomer_joint_from_parameters
+def elastomer_joint(config, material: str):
+    """The :class:`~jointid.methods.joint_model.ElastomerJoint` of ``config.materials[material]`` without end caps.
+
+    The caps are rigid steel masses; "every mass on one side": in the studies the
+    beam-side cap belongs to the beam (see :func:`study_beam`), not to the joint.
+    """
+    from ..methods.joint_model import ElastomerJoint
 
     m = config.materials[material]
-    params = {"elastic_modulus": m.elastic_modulus, "loss_factor": m.loss_factor, "density": m.density}
-    return elastomer_joint_from_parameters(config.joint_node, ("w", "theta"), params)
+    return ElastomerJoint(m.elastic_modulus, m.loss_factor, m.density, cap=None)
+
+
+def material_joint(config, material: str) -> ComplexStiffness:
+    """The FE elastomer-cylinder joint of ``config.materials[material]`` at the joint node (w, theta), caps excluded."""
+    return elastomer_joint(config, material).complex_stiffness(config.joint_node, ("w", "theta"))
+
+
+def study_beam(config, scale: Mapping[str, float] | None = None):
+    """The free beam of the studies with the joint's beam-side steel cap as a rigid mass at the joint node.
+
+    Parameters
+    ----------
+    scale : mapping, optional
+        Beam parameter -> factor (``{"elastic_modulus": 1.01}``) for model-error variants.
+    """
+    from dataclasses import replace
+
+    from ..methods.joint_model import EndCap
+
+    spec = config.beam
+    if scale:
+        spec = replace(spec, **{k: getattr(spec, k) * v for k, v in scale.items()})
+    cap = EndCap()
+    inertia = cap.rotary_inertia_kg_m2 + cap.mass_kg * cap.offset_m**2
+    return spec.structure().with_mass(config.joint_node, cap.mass_kg, inertia)
 
 
 def add_noise(frf: FRF, level: float, rng: np.random.Generator) -> FRF:

@@ -13,7 +13,7 @@ from ..methods.inverse import identify_joint
 from ..physics.synthesis import synthesize_frf
 from ..plots.studies import plot_conditions, plot_terms
 from ..report.html import Table
-from .common import Progress, StudyOutput, add_noise, band_errors, fmt, layout_table, material_joint, pct
+from .common import Progress, StudyOutput, add_noise, band_errors, fmt, layout_table, material_joint, pct, study_beam
 
 __all__ = ["run"]
 
@@ -24,7 +24,7 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
     layouts = list(config.layouts.values())
     progress.total(2 * len(layouts))
     f = config.grid
-    beam = config.beam.structure()
+    beam = study_beam(config)
     joint = material_joint(config, "A")
     article = beam.with_joint(joint)
     truth = joint(f.hz)[:, 0, 0]

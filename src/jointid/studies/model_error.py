@@ -8,15 +8,13 @@ of each joint term over 100-1000 Hz per variant.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from ..methods.inverse import identify_joint
 from ..physics.synthesis import synthesize_frf
 from ..plots.studies import plot_terms
 from ..report.html import Table
-from .common import SUMMARY_BAND_HZ, Progress, StudyOutput, band_errors, material_joint, percentiles, relative_error, terms_of
+from .common import SUMMARY_BAND_HZ, Progress, StudyOutput, band_errors, material_joint, percentiles, relative_error, study_beam, terms_of
 
 __all__ = ["run", "VARIANTS"]
 
@@ -35,10 +33,9 @@ def run(config, progress: Progress | None = None, layout: str = "model_3") -> St
     progress.total(sum(len(v) for v in VARIANTS.values()))
     f = config.grid
     lay = config.layouts[layout]
-    beam_spec = config.beam
     joint = material_joint(config, "A")
     truth = terms_of(joint(f.hz))
-    frf = synthesize_frf(beam_spec.structure().with_joint(joint), f, [f"{n}w" for n in lay.observed], [f"{n}w" for n in lay.excited], kind="accelerance")
+    frf = synthesize_frf(study_beam(config).with_joint(joint), f, [f"{n}w" for n in lay.observed], [f"{n}w" for n in lay.excited], kind="accelerance")
     band = f.mask(*SUMMARY_BAND_HZ)
     rows, summary, figures, data = [], [], [], {}
     worst = {}
@@ -46,7 +43,7 @@ def run(config, progress: Progress | None = None, layout: str = "model_3") -> St
         curves = {"true": truth}
         cols = {"frequency_hz": f.hz}
         for s in scales:
-            model = replace(beam_spec, **{param: getattr(beam_spec, param) * s}).structure()
+            model = study_beam(config, {param: s})
             r = identify_joint(model, frf, config.joint_dofs)
             progress.update()
             label = f"{_LABEL[param]} x {s:.3g}"

@@ -65,6 +65,11 @@ def parse_only(text: str | None) -> tuple[str, ...]:
     return tuple(n for n in STUDY_NAMES if n in names)
 
 
+def load_study_module(name: str):
+    """The module of study ``name`` (it has ``run(config, progress) -> StudyOutput``)."""
+    return importlib.import_module(f"jointid.studies.{STUDY_MODULES[name]}")
+
+
 def _bar(name: str, quiet: bool):
     if quiet:
         return None
@@ -85,7 +90,7 @@ def run_reproduce(config: ReproduceConfig, out: str | os.PathLike, only: Sequenc
     names = tuple(only) if only else STUDY_NAMES
     outputs, seconds = [], {}
     for name in names:
-        module = importlib.import_module(f"jointid.studies.{STUDY_MODULES[name]}")
+        module = load_study_module(name)
         bar = _bar(name, quiet)
 
         def on_total(n, bar=bar):

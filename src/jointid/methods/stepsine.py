@@ -1,0 +1,567 @@
+"""Step-sine processing of a direct (elastomer test system) test: time histories to K21(f).
+
+The test system imposes a sinusoidal displacement ``x(t)`` on one side of the
+joint(s), one test frequency at a time, and the load cell on the blocked side
+measures the transmitted force ``F(t)``. One *block* of time data is recorded
+per test frequency.
+
+CSV long format
+---------------
+One file, one row per sample, a header row with (by default) the columns
+
+=================  ====  ==============================================
+``frequency_hz``   Hz    test frequency of the block the sample belongs to
+``time_s``         s     sample time (strictly increasing within a block)
+``displacement_m`` m     imposed displacement x(t)
+``force_n``        N     transmitted force F(t) (all joints in parallel)
+=================  ====  ==============================================
+
+Other columns are ignored. Rows with the same ``frequency_hz`` form one block
+(blocks are returned in ascending frequency; the rows of a block keep their
+file order and must have increasing time). Other column names and units are
+mapped with the ``columns`` and ``scale`` options of :func:`read_stepsine_csv`,
+keyed by the logical names ``frequency``, ``time``, ``displacement``,
+``force``: e.g. ``columns={"displacement": "disp_mm", "force": "load_kN"}``,
+``scale={"displacement": 1e-3, "force": 1e3}`` reads millimetres and
+kilonewtons (SI value = file value x scale). An empty cell reads as NaN (and
+is then rejected, naming the block).
+
+Processing (:func:`process_stepsine`), per block
+------------------------------------------------
+1. **Checks** (:class:`StepSineBlock`): finite values, strictly increasing
+   time, at least 2 whole cycles recorded, at least 4 samples per cycle, a
+   displacement that is not identically constant. Violations raise
+   :class:`~jointid.errors.DataError` naming the block's frequency.
+2. **Settling transient**: each whole cycle (counted from the first sample) is
+   fitted with DC + the fundamental, giving per-cycle displacement and force
+   amplitudes and the per-cycle complex ratio F/X. The steady reference is
+   the median over the last half of the cycles (which must not drift itself:
+   its two halves may differ by at most ``max(settle_tolerance, 4 sigma_mean)``,
+   else the block did not settle and is rejected); a cycle in the first half
+   is unsettled when any of the three deviates from the reference by more
+   than ``max(settle_tolerance, 4 sigma)`` (relative; sigma: the standard
+   error of a one-cycle estimate from the cycles' own fit residuals, so
+   noise does not make every cycle unsettled).
+   Everything up to and including the last unsettled cycle is dropped; at
+   least ``min_cycles`` whole cycles must remain. Records under 4 whole
+   cycles are fitted as they are.
+3. **Fit** over the remaining whole cycles: least squares of DC + harmonics
+   ``1..harmonics`` (cos, sin) at the test frequency, both channels (harmonics
+   at or above the Nyquist frequency are left out). Fitting the harmonics
+   keeps a distorted force (3rd harmonic) from biasing the fundamental.
+4. **Results**: ``K21 = F1 / X1`` (fundamental phasors, ``Re{P e^{j w t}}``),
+   divided by ``parallel_joints`` (2 in double shear); the displacement
+   amplitude |X1| over the commanded amplitude (``commanded_amplitude_m``;
+   default: the median achieved amplitude), lines off by more than
+   ``tolerance`` flagged ``amplitude_ok = False``; the force's total harmonic
+   distortion ``sqrt(sum_{h>=2} |F_h|^2) / |F_1|``; the rms residual of each
+   channel's fit relative to the rms of its fundamental.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ..errors import DataError
+from ..frequency import Frequency
+
+__all__ = [
+    "StepSineBlock",
+    "StepSineResult",
+    "process_block",
+    "process_stepsine",
+    "read_stepsine_csv",
+    "write_stepsine_csv",
+    "DEFAULT_COLUMNS",
+]
+
+#: Logical quantity -> default CSV column name.
+DEFAULT_COLUMNS: Mapping[str, str] = {
+    "frequency": "frequency_hz",
+    "time": "time_s",
+    "displacement": "displacement_m",
+    "force": "force_n",
+}
+
+
+def _fhz(f: float) -> str:
+    return f"{f:g} Hz"
+
+
+@dataclass(frozen=True, eq=False)
+class StepSineBlock:
+    """Time histories recorded at one test frequency.
+
+    Parameters
+    ----------
+    frequency_hz : float
+        Test frequency, Hz.
+    time_s : ndarray, shape (n,)
+        Sample times, s, strictly increasing.
+    displacement_m : ndarray, shape (n,)
+        Imposed displacement, m.
+    force_n : ndarray, shape (n,)
+        Transmitted force, N (all joints in parallel).
+
+    Raises
+    ------
+    DataError
+        Naming the block's frequency: NaN/inf, unsorted time, fewer than 2
+        whole cycles or 4 samples per cycle, constant displacement.
+    """
+
+    frequency_hz: float
+    time_s: np.ndarray
+    displacement_m: np.ndarray
+    force_n: np.ndarray
+
+    def __post_init__(self) -> None:
+        f = float(self.frequency_hz)
+        if not (math.isfinite(f) and f > 0):
+            raise DataError(f"step-sine block: test frequency must be a positive number in Hz, got {self.frequency_hz!r}")
+        object.__setattr__(self, "frequency_hz", f)
+        arrays = {}
+        for name in ("time_s", "displacement_m", "force_n"):
+            a = np.array(getattr(self, name), dtype=float).reshape(-1)
+            a.setflags(write=False)
+            arrays[name] = a
+            object.__setattr__(self, name, a)
+        n = {a.size for a in arrays.values()}
+        if len(n) != 1:
+            raise DataError(
+                f"block at {_fhz(f)}: time, displacement and force have different lengths "
+                f"({', '.join(f'{k} {v.size}' for k, v in arrays.items())})"
+            )
+        for name, a in arrays.items():
+            bad = ~np.isfinite(a)
+            if bad.any():
+                raise DataError(
+                    f"block at {_fhz(f)}: {name} has {int(bad.sum())} NaN/missing/infinite value(s) "
+                    f"(first at sample {int(np.argmax(bad))}); remove or repair those samples"
+                )
+        t = arrays["time_s"]
+        if t.size < 2:
+            raise DataError(f"block at {_fhz(f)}: only {t.size} sample(s); record at least 2 whole cycles")
+        dt = np.diff(t)
+        if np.any(dt <= 0):
+            i = int(np.argmax(dt <= 0))
+            raise DataError(
+                f"block at {_fhz(f)}: time is not strictly increasing (sample {i + 1}: {t[i + 1]!r} s after {t[i]!r} s); "
+                "sort the samples by time and remove duplicates"
+            )
+        spc = 1.0 / (f * float(np.median(dt)))
+        if spc < 4:
+            raise DataError(
+                f"block at {_fhz(f)}: {spc:.2g} samples per cycle; the sample rate must be at least 4x the test frequency"
+            )
+        cycles = self.recorded_cycles
+        if cycles < 2:
+            raise DataError(
+                f"block at {_fhz(f)}: only {cycles:.3g} cycles recorded; record at least 2 whole cycles "
+                "(plus the settling transient)"
+            )
+        if np.ptp(arrays["displacement_m"]) == 0:
+            raise DataError(f"block at {_fhz(f)}: the displacement is zero (constant); check the displacement channel")
+
+    @property
+    def sample_interval_s(self) -> float:
+        """Median sample interval, s."""
+        return float(np.median(np.diff(self.time_s)))
+
+    @property
+    def recorded_cycles(self) -> float:
+        """Number of cycles covered by the samples (each sample covering one interval), possibly non-integer."""
+        return (float(self.time_s[-1] - self.time_s[0]) + self.sample_interval_s) * self.frequency_hz
+
+
+@dataclass(frozen=True, eq=False)
+class StepSineResult:
+    """Complex stiffness per test frequency from a step-sine test (per joint).
+
+    Parameters
+    ----------
+    frequency_hz : ndarray, shape (F,)
+        Test frequencies, Hz (ascending).
+    stiffness : ndarray, shape (F,), complex
+        K21 = F1 / X1 divided by ``parallel_joints``, N/m.
+    displacement_amplitude_m : ndarray, shape (F,)
+        Achieved fundamental displacement amplitude |X1| (peak), m.
+    force_amplitude_n : ndarray, shape (F,)
+        Fundamental force amplitude |F1| (peak, all joints), N.
+    commanded_amplitude_m : ndarray, shape (F,)
+        Commanded displacement amplitude (peak), m.
+    amplitude_ratio : ndarray, shape (F,)
+        Achieved / commanded displacement amplitude.
+    amplitude_ok : ndarray of bool, shape (F,)
+        ``|amplitude_ratio - 1| <= tolerance``.
+    force_thd : ndarray, shape (F,)
+        Total harmonic distortion of the force (harmonics 2..H over the fundamental).
+    force_residual, displacement_residual : ndarray, shape (F,)
+        rms fit residual over the rms of the fitted fundamental.
+    settled_time_s : ndarray, shape (F,)
+        Time from the block's first sample to the start of the analysed cycles, s.
+    cycles_used : ndarray of int, shape (F,)
+        Whole cycles in the fit.
+    parallel_joints : int
+        Number of joints loaded in parallel (the force was divided by it).
+    tolerance : float
+        Amplitude tolerance used for ``amplitude_ok``.
+    """
+
+    frequency_hz: np.ndarray
+    stiffness: np.ndarray
+    displacement_amplitude_m: np.ndarray
+    force_amplitude_n: np.ndarray
+    commanded_amplitude_m: np.ndarray
+    amplitude_ratio: np.ndarray
+    amplitude_ok: np.ndarray
+    force_thd: np.ndarray
+    force_residual: np.ndarray
+    displacement_residual: np.ndarray
+    settled_time_s: np.ndarray
+    cycles_used: np.ndarray
+    parallel_joints: int = 2
+    tolerance: float = 0.05
+
+    @property
+    def frequency(self) -> Frequency:
+        """The test frequencies as a :class:`~jointid.frequency.Frequency`."""
+        return Frequency(self.frequency_hz)
+
+    @property
+    def magnitude(self) -> np.ndarray:
+        """|K21| per joint, N/m, shape (F,)."""
+        return np.abs(self.stiffness)
+
+    @property
+    def loss_factor(self) -> np.ndarray:
+        """Loss factor eta = Im K / Re K, shape (F,)."""
+        return self.stiffness.imag / self.stiffness.real
+
+    def columns(self) -> dict:
+        """Columns of ``direct_stiffness.csv`` (per joint): name -> array (F,)."""
+        return {
+            "frequency_hz": self.frequency_hz,
+            "stiffness_real": self.stiffness.real,
+            "stiffness_imag": self.stiffness.imag,
+            "magnitude": self.magnitude,
+            "loss_factor": self.loss_factor,
+            "amplitude_ratio": self.amplitude_ratio,
+            "amplitude_ok": self.amplitude_ok,
+        }
+
+
+# ---------------------------------------------------------------- processing
+def _cycle_phasors(t: np.ndarray, y: np.ndarray, f: float, ncyc: int) -> tuple[np.ndarray, np.ndarray]:
+    """Fundamental phasor of each whole cycle (DC + cos + sin fit per cycle) and its relative standard error.
+
+    Returns
+    -------
+    P : ndarray, shape (channels, ncyc), complex
+    rel_se : ndarray, shape (channels, ncyc)
+        Standard error of |P| over |P|, from the cycle's own fit residual
+        (independent of any drift between cycles).
+    """
+    k = np.floor(t * f + 1e-9).astype(int)
+    keep = k < ncyc
+    k, tt, yy = k[keep], t[keep], y[:, keep]
+    starts = np.searchsorted(k, np.arange(ncyc))
+    counts = np.diff(np.append(starts, k.size)).astype(float)
+    ph = 2.0 * np.pi * f * tt
+    c, s = np.cos(ph), np.sin(ph)
+    basis = [np.ones_like(c), c, s]
+    G = np.empty((ncyc, 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            G[:, a, b] = G[:, b, a] = np.add.reduceat(basis[a] * basis[b], starts)
+    rhs = np.stack([np.add.reduceat(yy * bs[None, :], starts, axis=1) for bs in basis], axis=-1)  # (channels, ncyc, 3)
+    coef = np.linalg.solve(G[None], rhs[..., None])[..., 0]
+    rss = np.add.reduceat(yy**2, starts, axis=1) - np.sum(coef * rhs, axis=-1)
+    P = coef[..., 1] - 1j * coef[..., 2]
+    se = np.sqrt(np.maximum(rss, 0.0) / np.maximum(counts - 3.0, 1.0)) * np.sqrt(2.0 / counts)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(np.abs(P) > 0, se / np.abs(P), np.inf)
+    return P, rel
+
+
+def _settled_start(P: np.ndarray, rel_se: np.ndarray, settle_tolerance: float, frequency_hz: float) -> int:
+    """Index of the first settled cycle from per-cycle phasors P (2, ncyc) of (x, F) and their relative errors.
+
+    Raises DataError if the last half of the record itself still drifts (the
+    transient lasts longer than half the record).
+    """
+    ncyc = P.shape[1]
+    if ncyc < 4:
+        return 0
+    tail = slice(ncyc // 2, None)
+    ntail = ncyc - ncyc // 2
+    h = ntail // 2
+    se_x, se_f = (float(np.median(r[tail])) for r in rel_se)
+    checks = (
+        ("displacement amplitude", np.abs(P[0]), se_x),
+        ("force amplitude", np.abs(P[1]), se_f),
+        ("force/displacement ratio", P[1] / P[0], math.hypot(se_x, se_f)),
+    )
+    start = 0
+    for label, q, sigma in checks:
+        qt = q[tail]
+        ref = complex(np.median(qt.real), np.median(qt.imag)) if np.iscomplexobj(q) else float(np.median(qt))
+        if ref == 0:
+            continue
+        # the reference window must not drift: compare its two halves
+        drift = abs(np.mean(qt[:h]) - np.mean(qt[h:])) / abs(ref)
+        if drift > max(settle_tolerance, 4.0 * sigma * math.sqrt(1.0 / h + 1.0 / (ntail - h))):
+            raise DataError(
+                f"block at {_fhz(frequency_hz)}: not settled: the {label} still changes by {drift:.1%} over the last "
+                f"{ntail} of {ncyc} cycles; record more cycles after the transient"
+            )
+        dev = np.abs(q[: ncyc // 2] / ref - 1.0)
+        bad = np.nonzero(dev > max(settle_tolerance, 4.0 * sigma))[0]
+        if bad.size:
+            start = max(start, int(bad[-1]) + 1)
+    return start
+
+
+def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: float = 0.02, min_cycles: int = 2) -> dict:
+    """Fundamental phasors and quality measures of one block (see the module docstring).
+
+    Parameters
+    ----------
+    block : StepSineBlock
+        Time histories at one test frequency.
+    harmonics : int
+        Highest harmonic fitted (>= 1); those at or above Nyquist are dropped.
+    settle_tolerance : float
+        Relative deviation from the steady state below which a cycle is settled.
+    min_cycles : int
+        Whole settled cycles required.
+
+    Returns
+    -------
+    dict
+        ``X`` (complex, m), ``F`` (complex, N), ``thd``, ``force_residual``,
+        ``displacement_residual``, ``settled_time_s``, ``cycles_used``.
+    """
+    f = block.frequency_hz
+    t = block.time_s - block.time_s[0]
+    y = np.stack([block.displacement_m, block.force_n])
+    dt = block.sample_interval_s
+    ncyc = int(math.floor((t[-1] + dt) * f + 1e-6))
+    P, rel_se = _cycle_phasors(t, y, f, ncyc)
+    k0 = _settled_start(P, rel_se, settle_tolerance, f)
+    if ncyc - k0 < min_cycles:
+        raise DataError(
+            f"block at {_fhz(f)}: only {ncyc - k0} whole cycle(s) left after dropping {k0} settling cycle(s); "
+            f"record at least {min_cycles} settled cycles"
+        )
+    t0, t1 = k0 / f, ncyc / f
+    m = (t >= t0 - 1e-9 / f) & (t < t1 - 1e-9 / f)
+    tt, yy = t[m], y[:, m]
+    spc = 1.0 / (f * dt)
+    H = max(1, min(int(harmonics), int(math.ceil(spc / 2.0)) - 1))
+    h = np.arange(1, H + 1)
+    ph = 2.0 * np.pi * f * tt[:, None] * h[None, :]
+    A = np.concatenate([np.ones((tt.size, 1)), np.cos(ph), np.sin(ph)], axis=1)
+    coef, *_ = np.linalg.lstsq(A, yy.T, rcond=None)
+    ph_all = coef[1 : H + 1] - 1j * coef[H + 1 :]  # (H, 2)
+    resid = yy.T - A @ coef
+    X, F = ph_all[0, 0], ph_all[0, 1]
+    if abs(X) <= 1e-12 * max(np.max(np.abs(block.displacement_m)), 1e-300):
+        raise DataError(f"block at {_fhz(f)}: no displacement at the test frequency; check the displacement channel")
+    rms1 = np.abs(ph_all[0]) / math.sqrt(2.0)
+    rres = np.sqrt(np.mean(resid**2, axis=0)) / np.where(rms1 > 0, rms1, np.inf)
+    thd = float(np.sqrt(np.sum(np.abs(ph_all[1:, 1]) ** 2)) / abs(F)) if F != 0 else float("nan")
+    return {
+        "X": complex(X),
+        "F": complex(F),
+        "thd": thd,
+        "displacement_residual": float(rres[0]),
+        "force_residual": float(rres[1]),
+        "settled_time_s": float(t0),
+        "cycles_used": int(ncyc - k0),
+    }
+
+
+def process_stepsine(
+    blocks: Sequence[StepSineBlock],
+    parallel_joints: int = 2,
+    commanded_amplitude_m: float | Sequence[float] | None = None,
+    tolerance: float = 0.05,
+    harmonics: int = 5,
+    settle_tolerance: float = 0.02,
+    min_cycles: int = 2,
+) -> StepSineResult:
+    """Complex stiffness per joint from step-sine blocks (see the module docstring).
+
+    Parameters
+    ----------
+    blocks : sequence of StepSineBlock
+        One block per test frequency (any order; distinct frequencies).
+    parallel_joints : int
+        Joints loaded in parallel (2 in double shear); the stiffness is divided by it.
+    commanded_amplitude_m : float or sequence of float, optional
+        Commanded displacement amplitude (peak), m, one value or one per block
+        (in the order given); default: the median achieved amplitude.
+    tolerance : float
+        Relative amplitude deviation above which a line is flagged.
+    harmonics, settle_tolerance, min_cycles
+        See :func:`process_block`.
+
+    Returns
+    -------
+    StepSineResult
+        Lines in ascending frequency.
+    """
+    if not blocks:
+        raise DataError("no step-sine blocks to process; the file holds no data rows")
+    if not (isinstance(parallel_joints, (int, np.integer)) and parallel_joints >= 1):
+        raise DataError(f"parallel_joints must be an integer >= 1, got {parallel_joints!r}")
+    if not (math.isfinite(tolerance) and tolerance > 0):
+        raise DataError(f"amplitude tolerance must be a positive number, got {tolerance!r}")
+    freq = np.array([b.frequency_hz for b in blocks])
+    uniq, counts = np.unique(freq, return_counts=True)
+    if np.any(counts > 1):
+        raise DataError(f"block at {_fhz(uniq[np.argmax(counts > 1)])}: given {counts.max()} times; merge or drop the duplicates")
+    rows = [process_block(b, harmonics, settle_tolerance, min_cycles) for b in blocks]
+    X = np.array([r["X"] for r in rows])
+    F = np.array([r["F"] for r in rows])
+    amp = np.abs(X)
+    if commanded_amplitude_m is None:
+        cmd = np.full(freq.shape, float(np.median(amp)))
+    else:
+        cmd = np.broadcast_to(np.asarray(commanded_amplitude_m, dtype=float), freq.shape).copy()
+        if not np.all(np.isfinite(cmd) & (cmd > 0)):
+            raise DataError(f"commanded amplitude must be positive (m, peak), got {commanded_amplitude_m!r}")
+    order = np.argsort(freq)
+    ratio = amp / cmd
+
+    def col(key, dtype=float):
+        return np.array([r[key] for r in rows], dtype=dtype)[order]
+
+    return StepSineResult(
+        frequency_hz=freq[order],
+        stiffness=(F / X / parallel_joints)[order],
+        displacement_amplitude_m=amp[order],
+        force_amplitude_n=np.abs(F)[order],
+        commanded_amplitude_m=cmd[order],
+        amplitude_ratio=ratio[order],
+        amplitude_ok=(np.abs(ratio - 1.0) <= tolerance)[order],
+        force_thd=col("thd"),
+        force_residual=col("force_residual"),
+        displacement_residual=col("displacement_residual"),
+        settled_time_s=col("settled_time_s"),
+        cycles_used=col("cycles_used", int),
+        parallel_joints=int(parallel_joints),
+        tolerance=float(tolerance),
+    )
+
+
+# ---------------------------------------------------------------- CSV
+def _mapping(columns: Mapping[str, str] | None, scale: Mapping[str, float] | None):
+    cols = dict(DEFAULT_COLUMNS)
+    for k, v in (columns or {}).items():
+        if k not in DEFAULT_COLUMNS:
+            raise DataError(f"columns: unknown quantity {k!r}; expected one of {', '.join(DEFAULT_COLUMNS)}")
+        cols[k] = str(v)
+    sc = {k: 1.0 for k in DEFAULT_COLUMNS}
+    for k, v in (scale or {}).items():
+        if k not in DEFAULT_COLUMNS:
+            raise DataError(f"scale: unknown quantity {k!r}; expected one of {', '.join(DEFAULT_COLUMNS)}")
+        try:
+            sc[k] = float(v)
+        except (TypeError, ValueError):
+            raise DataError(f"scale[{k!r}] must be a number, got {v!r}") from None
+        if not (math.isfinite(sc[k]) and sc[k] != 0):
+            raise DataError(f"scale[{k!r}] must be finite and non-zero, got {v!r}")
+    return cols, sc
+
+
+def _to_float(values: list[str], name: str, path) -> np.ndarray:
+    vals = ["nan" if v == "" else v for v in values]
+    try:
+        return np.array(vals, dtype=float)
+    except ValueError:
+        for i, v in enumerate(vals):
+            try:
+                float(v)
+            except ValueError:
+                raise DataError(f"{path}: column {name!r}, data line {i + 1}: {v!r} is not a number") from None
+        raise
+
+
+def read_stepsine_csv(
+    path: str | os.PathLike,
+    columns: Mapping[str, str] | None = None,
+    scale: Mapping[str, float] | None = None,
+) -> tuple[StepSineBlock, ...]:
+    """Read step-sine time histories in the CSV long format (see the module docstring).
+
+    Parameters
+    ----------
+    path : path-like
+        CSV file.
+    columns : mapping, optional
+        Logical quantity (``frequency``, ``time``, ``displacement``, ``force``) ->
+        column name in the file.
+    scale : mapping, optional
+        Logical quantity -> factor converting the file's values to SI (Hz, s, m, N).
+
+    Returns
+    -------
+    tuple of StepSineBlock
+        In ascending test frequency.
+
+    Raises
+    ------
+    DataError
+        Missing column (naming it and the columns present), a value that is not
+        a number, or a bad block (naming its frequency).
+    """
+    cols, sc = _mapping(columns, scale)
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        rows = list(csv.reader(fh))
+    if not rows:
+        raise DataError(f"{path}: empty file; expected a header row with {', '.join(DEFAULT_COLUMNS.values())}")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in cols.values() if c not in header]
+    if missing:
+        raise DataError(
+            f"{path}: missing column {missing[0]!r} (columns present: {', '.join(header)}); "
+            "rename it or map it with columns={...} / --column QUANTITY=NAME"
+        )
+    body = [r for r in rows[1:] if r and any(c.strip() for c in r)]
+    if not body:
+        raise DataError(f"{path}: no data rows after the header")
+    data = {}
+    for key, name in cols.items():
+        j = header.index(name)
+        data[key] = _to_float([r[j].strip() if j < len(r) else "" for r in body], name, path) * sc[key]
+    fcol = data["frequency"]
+    if np.any(~np.isfinite(fcol)):
+        i = int(np.argmax(~np.isfinite(fcol)))
+        raise DataError(f"{path}: data line {i + 1}: missing or non-finite {cols['frequency']!r}; every row needs its block's test frequency")
+    blocks = []
+    for f in np.unique(fcol):
+        m = fcol == f
+        blocks.append(StepSineBlock(float(f), data["time"][m], data["displacement"][m], data["force"][m]))
+    return tuple(blocks)
+
+
+def write_stepsine_csv(path: str | os.PathLike, blocks: Sequence[StepSineBlock]) -> Path:
+    """Write blocks in the default CSV long format (SI units), atomically; returns the path."""
+    from ..io.atomic import atomic_write_text
+
+    buf = io.StringIO()
+    buf.write(",".join(DEFAULT_COLUMNS.values()) + "\n")
+    for b in blocks:
+        arr = np.column_stack([np.full(b.time_s.size, b.frequency_hz), b.time_s, b.displacement_m, b.force_n])
+        np.savetxt(buf, arr, delimiter=",", fmt="%.10g")
+    return atomic_write_text(path, buf.getvalue())

@@ -1,0 +1,133 @@
+"""``jointid direct``: outputs, per-joint values, flags; bad input writes nothing and exits non-zero."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import jointid.cli.main as cli_main
+from jointid.methods.joint_model import MATERIALS, ElastomerJoint
+from jointid.methods.stepsine import write_stepsine_csv
+from jointid.methods.stepsine_synth import synthesize_stepsine
+
+F = np.arange(25.0, 601.0, 25.0)
+AMP = 2.5e-5
+
+
+@pytest.fixture
+def main(monkeypatch):
+    """The real ``jointid`` entry point, with ``direct`` registered if the lead has not yet done so."""
+    if "direct" not in cli_main.COMMANDS:
+        monkeypatch.setattr(cli_main, "COMMANDS", tuple(cli_main.COMMANDS) + ("direct",))
+    return cli_main.main
+
+
+def _data(path, material="B", ratio=None, seed=0):
+    joint = ElastomerJoint.from_material(material)
+    ratio = np.where(F >= 550, 0.9, 1.0) if ratio is None else ratio
+    blocks = synthesize_stepsine(F, joint.blocked_transfer_stiffness, AMP, amplitude_ratio=ratio, seed=seed,
+                                 displacement_noise=0.01, force_noise=0.01)
+    write_stepsine_csv(path, blocks)
+    return joint
+
+
+def _read(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_direct_writes_stiffness_fit_and_plot(tmp_path, main, capsys):
+    joint = _data(tmp_path / "data.csv")
+    out = tmp_path / "out"
+    assert main(["direct", str(tmp_path / "data.csv"), "--out", str(out), "--amplitude", str(AMP)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["direct_fit.json", "direct_stiffness.csv", "direct_stiffness.png"]
+    rows = _read(out / "direct_stiffness.csv")
+    assert list(rows[0]) == ["frequency_hz", "stiffness_real", "stiffness_imag", "magnitude", "loss_factor", "amplitude_ratio", "amplitude_ok"]
+    f = np.array([float(r["frequency_hz"]) for r in rows])
+    k = np.array([float(r["stiffness_real"]) + 1j * float(r["stiffness_imag"]) for r in rows])
+    truth = joint.blocked_transfer_stiffness(f)  # per joint: the CLI divided by 2
+    assert np.max(np.abs(np.abs(k) / np.abs(truth) - 1)) < 0.005
+    assert [r["amplitude_ok"] for r in rows] == ["false" if x >= 550 else "true" for x in f]
+    fit = json.loads((out / "direct_fit.json").read_text())
+    m = MATERIALS["B"]
+    assert abs(fit["fit"]["elastic_modulus_pa"] / m.E - 1) < 0.01
+    assert abs(fit["fit"]["loss_factor"] / m.eta - 1) < 0.01
+    assert abs(fit["fit"]["density_kg_m3"] / m.rho - 1) < 0.01
+    assert fit["flagged_lines_hz"] == [550.0, 575.0, 600.0]
+    assert fit["static"]["elastic_modulus_pa"] == pytest.approx(2 * fit["static"]["shear_modulus_pa"] * 1.49)
+    assert (out / "direct_stiffness.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "E = " in capsys.readouterr().out
+
+
+def test_single_joint_median_amplitude_and_mapping(tmp_path, main):
+    joint = _data(tmp_path / "data.csv", material="A", ratio=np.ones_like(F))
+    rows = _read(tmp_path / "data.csv")
+    with open(tmp_path / "mm.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["f", "t", "x_mm", "F_N"])
+        for r in rows:
+            w.writerow([r["frequency_hz"], r["time_s"], float(r["displacement_m"]) * 1e3, r["force_n"]])
+    out = tmp_path / "o"
+    argv = ["direct", str(tmp_path / "mm.csv"), "--out", str(out), "--parallel-joints", "1", "--no-plots",
+            "--column", "frequency=f", "--column", "time=t", "--column", "displacement=x_mm", "--column", "force=F_N",
+            "--scale", "displacement=1e-3"]
+    assert main(argv) == 0
+    assert not (out / "direct_stiffness.png").exists()
+    rows = _read(out / "direct_stiffness.csv")
+    k = np.array([float(r["magnitude"]) for r in rows])
+    assert np.max(np.abs(k / (2 * np.abs(joint.blocked_transfer_stiffness(F))) - 1)) < 0.005
+    fit = json.loads((out / "direct_fit.json").read_text())
+    assert fit["commanded_amplitude_source"] == "median achieved amplitude"
+    assert all(r["amplitude_ok"] == "true" for r in rows)
+
+
+def _block_rows(f, cycles=5.3, spc=40):
+    n = int(cycles * spc)
+    t = np.arange(n) / (spc * f)
+    return [[f, a, 1e-5 * np.cos(2 * np.pi * f * a), 2.0 * np.cos(2 * np.pi * f * a + 0.1)] for a in t]
+
+
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        ("missing_column", "missing column 'force_n'"),
+        ("short", "block at 100 Hz: only 1.5 cycles"),
+        ("zero", "block at 100 Hz: the displacement is zero"),
+        ("nan", "block at 100 Hz: displacement_m has 1 NaN"),
+        ("unsorted", "block at 100 Hz: time is not strictly increasing"),
+    ],
+)
+def test_bad_input_one_line_nonzero_exit_no_output(tmp_path, main, capsys, case, message):
+    good = _block_rows(50.0) + _block_rows(75.0)
+    bad = _block_rows(100.0)
+    header = ["frequency_hz", "time_s", "displacement_m", "force_n"]
+    if case == "missing_column":
+        header = header[:3]
+        bad = [r[:3] for r in bad]
+        good = [r[:3] for r in good]
+    elif case == "short":
+        bad = bad[:60]
+    elif case == "zero":
+        bad = [[r[0], r[1], 0.0, r[3]] for r in bad]
+    elif case == "nan":
+        bad[7][2] = "nan"
+    elif case == "unsorted":
+        bad[7], bad[8] = bad[8], bad[7]
+    path = tmp_path / "bad.csv"
+    path.write_text(",".join(header) + "\n" + "\n".join(",".join(str(v) for v in r) for r in good + bad) + "\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    code = main(["direct", str(path), "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code != 0
+    assert len(err) == 1 and message in err[0]
+    assert list(out.iterdir()) == []  # no output, no temporary file
+
+
+def test_too_few_lines_at_amplitude(tmp_path, main, capsys):
+    _data(tmp_path / "data.csv", ratio=np.ones_like(F))
+    out = tmp_path / "out"
+    assert main(["direct", str(tmp_path / "data.csv"), "--out", str(out), "--amplitude", "1e-4"]) != 0
+    assert "reached the commanded amplitude" in capsys.readouterr().err
+    assert not out.exists()

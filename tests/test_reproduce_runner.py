@@ -1,0 +1,74 @@
+"""The reproduce runner: outputs whole or not at all, failures name the study, config validation."""
+
+import types
+
+import pytest
+
+from jointid.cli.main import main
+from jointid.errors import StudyError
+from jointid.studies import runner
+from jointid.studies.common import StudyOutput
+from jointid.studies.config import load_config
+from jointid.report.html import Table
+
+
+def _fake_module(fail: bool):
+    def run(config, progress):
+        progress.total(2)
+        progress.update()
+        if fail:
+            raise ValueError("the joint model diverged at 950 Hz")
+        progress.update()
+        return StudyOutput("conditioning", "Fake", ("text",), (Table("t", ["a"], [["1"]]),), {"fake": {"x": [1.0, 2.0]}}, (), (("case", 0.01, 0.002),), ("A finding.",))
+
+    return types.SimpleNamespace(run=run)
+
+
+def test_failing_study_leaves_previous_output_untouched(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.html").write_text("previous")
+    monkeypatch.setattr(runner, "load_study_module", lambda name: _fake_module(fail=True))
+    with pytest.raises(runner.StudyFailed, match="study 'conditioning' failed: ValueError: the joint model diverged at 950 Hz; no report was written"):
+        runner.run_reproduce(load_config(), out, ["conditioning"], quiet=True)
+    assert (out / "report.html").read_text() == "previous"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary directory left
+
+
+def test_successful_run_replaces_output_whole(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "stale.csv").write_text("old")
+    monkeypatch.setattr(runner, "load_study_module", lambda name: _fake_module(fail=False))
+    res = runner.run_reproduce(load_config(), out, ["conditioning"], quiet=True)
+    html = res.report.read_text()
+    assert "A finding." in html and "<table>" in html
+    assert (out / "data" / "fake.csv").read_text().splitlines() == ["x", "1.0", "2.0"]
+    assert not (out / "stale.csv").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_cli_failure_is_one_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(runner, "load_study_module", lambda name: _fake_module(fail=True))
+    assert main(["reproduce", "--out", str(tmp_path / "o"), "--only", "conditioning", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "study 'conditioning' failed" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_only_and_config_validation(tmp_path):
+    assert runner.parse_only("model-error,conditioning") == ("conditioning", "model-error")
+    with pytest.raises(StudyError, match="--only: unknown study 'modal'"):
+        runner.parse_only("modal")
+    bad = tmp_path / "c.toml"
+    bad.write_text("[noise]\nexperimnt = 0.02\n")
+    with pytest.raises(StudyError, match=r"\[noise\]: unknown key 'experimnt'"):
+        load_config(bad)
+    bad.write_text("[layouts.model_1]\nobserved = [5, 40]\n")
+    with pytest.raises(StudyError, match=r"\[layouts.model_1\].observed: expected a non-empty list of beam nodes 1..19"):
+        load_config(bad)
+    good = tmp_path / "g.toml"
+    good.write_text("seed = 3\n[frequency]\nstep = 5.0\n[materials.A]\nloss_factor = 0.2\n[layouts.model_2]\nobserved = [2, 8, 12, 18]\n")
+    c = load_config(good)
+    assert c.seed == 3 and c.grid.size == 200 and c.materials["A"].loss_factor == 0.2 and c.materials["A"].density == 1200.0
+    assert c.layouts["model_2"].observed == (2, 8, 12, 18) and c.layouts["model_2"].excited == (3, 7, 13, 17)
