@@ -17,7 +17,7 @@ $(BIN)/.installed: pyproject.toml
 setup: $(BIN)/.installed
 
 run: setup
-	$(BIN)/jointid modes --out $(OUT)
+	$(BIN)/jointid reproduce --out $(OUT)
 
 test: setup
 	$(BIN)/python -m pytest -q

@@ -179,6 +179,11 @@ def experiment(study: Study, seed: int | None = None) -> ExperimentResult:
             f"[experiment].sample_rate = {x.sample_rate:g} Hz cannot resolve [frequency].stop = {study.frequency.stop:g} Hz; "
             "use a sample rate above twice the highest frequency"
         )
+    if x.pulse_duration * x.sample_rate < 4:
+        raise DataError(
+            f"[experiment]: the {1e3 * x.pulse_duration:g} ms hammer pulse spans {x.pulse_duration * x.sample_rate:.1f} samples at "
+            f"{x.sample_rate:g} Hz; a force window needs at least 4: raise sample_rate or pulse_duration"
+        )
     rng = np.random.default_rng(x.seed if seed is None else seed)
     article = constrained_model(study)
     hits = simulate_hits(article, study.measurement.observed_dofs, study.measurement.excited_dofs, settings, rng)

@@ -31,8 +31,10 @@ are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     growth = 0.0
     reference_frequency = 100.0   # Hz
     exponent = 1.0
-    # elastomer: material = "A" | "B", optional elastic_modulus, loss_factor,
-    #            density, length, diameter, poisson_ratio overrides
+    # elastomer: material = "A" | "B", optional elastic_modulus (Pa), loss_factor,
+    #            density (kg/m^3), length (m), diameter (m), poisson_ratio, elements;
+    #            cap = true (the beam-side steel cap belongs to the joint model; false:
+    #            model it on the beam instead), cap_diameter, cap_thickness (m), cap_density
 
     [measurement]
     observed = [1, 3, 6, 9, 12, 15, 19]   # beam nodes, transverse w
@@ -370,6 +372,11 @@ _ELASTOMER = {
     "length": _Field("number", unit="m", check=_positive),
     "diameter": _Field("number", unit="m", check=_positive),
     "poisson_ratio": _Field("number", check=lambda v: None if -1 < v < 0.5 else "a number in (-1, 0.5)"),
+    "elements": _Field("int", check=lambda v: None if v >= 2 else "an integer >= 2"),
+    "cap": _Field("bool"),
+    "cap_diameter": _Field("number", unit="m", check=_positive),
+    "cap_thickness": _Field("number", unit="m", check=_positive),
+    "cap_density": _Field("number", unit="kg/m^3", check=_positive),
 }
 _MEASUREMENT = {
     "observed": _Field("int_list", True),

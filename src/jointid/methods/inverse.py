@@ -84,15 +84,20 @@ class Reliability:
 
     A line is reliable when ``cond_A <= max_cond_A``, ``cond_B <= max_cond_B``
     and the translational identifiability ratio (rotational if no translation is
-    identified) lies in ``[min_ratio, max_ratio]``. The defaults were set on the
-    benchmark with 1% noise: beyond them the translational stiffness error
-    exceeds ~10% (see ``benchmarks/identify.py`` and the conditioning study).
+    identified) lies in ``[min_ratio, max_ratio]``.
+
+    Calibration (benchmark beam, joint at mid-span, Materials A and B, layouts
+    Models 1-3, 1% complex noise on every FRF value, 1-1000 Hz): lines flagged
+    reliable had a median translational-stiffness error of 1.5-7%, the others
+    14-30%. The identifiability ratio is what separates them; the condition-number
+    limits only catch the worst spikes (a layout whose cond_A exceeds 1e5, or a
+    resonance where cond_B exceeds 100).
     """
 
-    max_cond_A: float = 1e3
+    max_cond_A: float = 1e5
     max_cond_B: float = 1e2
-    min_ratio: float = 0.02
-    max_ratio: float = 50.0
+    min_ratio: float = 0.1
+    max_ratio: float = 10.0
 
 
 @dataclass(frozen=True)

@@ -45,9 +45,12 @@ def plot_terms(
         ax_m.set_ylabel(f"|K_{di}_{dj}| [{TERM_UNITS[(di, dj)]}]")
         ax_l.set_ylabel("loss factor [-]")
         ax_l.set_xlabel("frequency [Hz]")
-        eta = [np.nanmedian(v[term].imag / v[term].real) for v in curves.values()]
-        lo, hi = float(np.nanmin(eta)), float(np.nanmax(eta))
-        ax_l.set_ylim(min(0.0, lo - 0.1), hi + 0.15)
+        # limits from the reference curve (truth, else the first): noisy estimates must not hide it
+        ref = curves.get(truth_label) or next(iter(curves.values()))
+        eta_ref = ref[term].imag / ref[term].real
+        lo, hi = np.nanpercentile(eta_ref, [2, 98])
+        pad = max(0.05, 0.25 * (hi - lo))
+        ax_l.set_ylim(lo - pad, hi + pad)
         for ax in (ax_m, ax_l):
             ax.grid(True, which="both", alpha=0.3)
     axes[0, 0].legend(fontsize="small")

@@ -136,7 +136,7 @@ def _internal_mode_figure(config):
     joint = elastomer_joint(config, "B")
     modes = joint.modes(boundary="blocked", count=1)
     f_mode = float(modes.frequency_hz[0])
-    fig = plot_deformed_shapes(joint, (150.0, f_mode), title="Material B joint in the blocked test: deflection along the elastomer")
+    fig = plot_deformed_shapes(joint, (150.0, round(f_mode)), title="Material B joint in the blocked test: deflection along the elastomer")
     text = (
         f"Material B's joint has its first blocked internal mode at {f_mode:.0f} Hz (c_s / 2L = {joint.shear_wave_frequency_hz():.0f} Hz): "
         "at 150 Hz the elastomer deflects almost linearly between the caps (quasi-static shear), at the mode it bulges in a half "

@@ -1,0 +1,69 @@
+"""Read (and write) FRF files by extension: UFF dataset 58 or the jointid CSV layout."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..errors import DataError
+from ..frf import FRF
+from .frf_csv import read_frf_csv, write_frf_csv
+from .uff import read_uff_frf, write_uff_frf
+
+__all__ = ["read_frf", "write_frf", "UFF_EXTENSIONS", "CSV_EXTENSIONS"]
+
+UFF_EXTENSIONS: tuple[str, ...] = (".uff", ".unv", ".58")
+CSV_EXTENSIONS: tuple[str, ...] = (".csv",)
+
+
+def _format(path: Path) -> str:
+    ext = path.suffix.lower()
+    if ext in UFF_EXTENSIONS:
+        return "uff"
+    if ext in CSV_EXTENSIONS:
+        return "csv"
+    raise DataError(
+        f"cannot tell the format of FRF file {path} from its extension {ext or '(none)'!r}; "
+        f"supported: {', '.join(UFF_EXTENSIONS)} (UFF dataset 58, ASCII or binary) and "
+        f"{', '.join(CSV_EXTENSIONS)} (jointid FRF CSV)"
+    )
+
+
+def read_frf(path: str | os.PathLike, n_nodes: int | None = None, kind: str | None = None) -> FRF:
+    """Read an FRF file: ``.uff``/``.unv``/``.58`` → :func:`~jointid.io.uff.read_uff_frf`,
+    ``.csv`` → :func:`~jointid.io.frf_csv.read_frf_csv`.
+
+    Parameters
+    ----------
+    path : path-like
+    n_nodes : int, optional
+        Number of beam nodes; DOFs outside ``1..n_nodes`` are an error.
+    kind : str, optional
+        Convert exactly to this kind (default: the file's own kind).
+
+    Raises
+    ------
+    DataError
+        Unsupported extension (the message lists the supported ones), or
+        invalid content (see the readers).
+    """
+    path = Path(path)
+    if _format(path) == "uff":
+        return read_uff_frf(path, n_nodes=n_nodes, kind=kind)  # type: ignore[return-value]
+    return read_frf_csv(path, n_nodes=n_nodes, kind=kind)
+
+
+def write_frf(path: str | os.PathLike, frf: FRF, kind: str | None = None, **uff_options) -> Path:
+    """Write an FRF file by extension (atomically).
+
+    UFF files are written as ``kind`` (default accelerance, like a test);
+    ``uff_options`` go to :func:`~jointid.io.uff.write_uff_frf` (``binary``,
+    ``coherence``, ``description``). CSV files are written in ``kind``
+    (default: the FRF's own kind).
+    """
+    path = Path(path)
+    if _format(path) == "uff":
+        return write_uff_frf(path, frf, kind=kind or "accelerance", **uff_options)
+    if uff_options:
+        raise DataError(f"options {sorted(uff_options)} apply to UFF files only, not to {path}")
+    return write_frf_csv(path, frf.to(kind) if kind else frf)

@@ -1,0 +1,244 @@
+"""UFF dataset 58 FRF files: round trips, kind from ordinate characteristics, -Z flips, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pyuff = pytest.importorskip("pyuff")
+
+from jointid.errors import DataError  # noqa: E402
+from jointid.frequency import Frequency  # noqa: E402
+from jointid.frf import FRF  # noqa: E402
+from jointid.io.frf_files import read_frf, write_frf  # noqa: E402
+from jointid.io.uff import read_uff_frf, write_uff_frf  # noqa: E402
+
+RESP = ("3w", "7w", "1w")
+REFS = ("9w", "2w")
+
+
+def _frf(kind: str = "receptance", f: Frequency | None = None, seed: int = 0) -> FRF:
+    f = f or Frequency.from_range(5.0, 60.0, 0.5)
+    rng = np.random.default_rng(seed)
+    data = (rng.normal(size=(f.size, 3, 2)) + 1j * rng.normal(size=(f.size, 3, 2))) * 1e-4
+    return FRF(f, data, RESP, REFS, kind)
+
+
+def _rec(data, x, rsp_node=1, ref_node=2, rsp_dir=3, ref_dir=3, num=8, den=13, func_type=4, binary=0, spacing=1):
+    return pyuff.prepare_58(
+        binary=binary,
+        func_type=func_type,
+        rsp_node=rsp_node,
+        rsp_dir=rsp_dir,
+        ref_node=ref_node,
+        ref_dir=ref_dir,
+        data=np.asarray(data),
+        x=np.asarray(x, dtype=float),
+        abscissa_spacing=spacing,
+        abscissa_spec_data_type=18,
+        ordinate_spec_data_type=num,
+        orddenom_spec_data_type=den,
+    )
+
+
+def _write(path, sets):
+    pyuff.UFF(str(path)).write_sets(list(sets), mode="add")
+    return path
+
+
+X = np.arange(1.0, 21.0)  # 1..20 Hz, exactly representable in the 13.5e header
+H = (1.0 + 0.3j) / (100.0 - (2 * np.pi * X) ** 2 * 0.01 + 2j)  # a receptance-like curve
+
+
+def _rel(a, b):
+    return np.max(np.abs(np.asarray(a) - np.asarray(b))) / np.max(np.abs(b))
+
+
+# ---------------------------------------------------------------- round trips
+@pytest.mark.parametrize("kind", ["accelerance", "mobility", "receptance"])
+def test_ascii_round_trip(tmp_path, kind):
+    frf = _frf()
+    p = write_uff_frf(tmp_path / "a.uff", frf, kind=kind)
+    back = read_uff_frf(p, n_nodes=10)
+    assert back.kind == kind
+    assert [str(d) for d in back.responses] == list(RESP)
+    assert [str(d) for d in back.references] == list(REFS)
+    assert back.frequency == frf.frequency
+    assert _rel(back.to("receptance").data, frf.data) < 1e-10  # %20.11e: 12 significant digits
+    assert _rel(read_uff_frf(p, kind="receptance").data, frf.data) < 1e-10
+
+
+def test_binary_round_trip_is_exact_and_carries_coherence(tmp_path):
+    frf = _frf("accelerance")
+    coh = np.random.default_rng(1).uniform(size=frf.shape)
+    p = write_uff_frf(tmp_path / "b.uff", frf, coherence=coh, binary=True)
+    assert b"58b" in p.read_bytes()
+    back, c = read_uff_frf(p, coherence=True)
+    np.testing.assert_array_equal(back.data, frf.data)
+    np.testing.assert_array_equal(back.frequency.hz, frf.frequency.hz)
+    np.testing.assert_array_equal(c, coh)
+    assert read_uff_frf(p).kind == "accelerance"  # coherence records are skipped by default
+
+
+def test_ascii_coherence_round_trip_and_absent_coherence(tmp_path):
+    frf = _frf()
+    coh = np.random.default_rng(2).uniform(size=frf.shape)
+    back, c = read_uff_frf(write_uff_frf(tmp_path / "c.uff", frf, coherence=coh), coherence=True)
+    assert np.max(np.abs(c - coh)) < 1e-11
+    _, none = read_uff_frf(write_uff_frf(tmp_path / "d.uff", frf), coherence=True)
+    assert none is None
+
+
+def test_binary_file_written_directly_by_pyuff(tmp_path):
+    """A binary 58 file from pyuff itself (not our writer), with a -Z reference."""
+    p = _write(tmp_path / "raw.uff", [_rec(H, X, rsp_node=4, ref_node=5, ref_dir=-3, num=12, binary=1)])
+    frf = read_uff_frf(p)
+    assert frf.kind == "accelerance" and frf.shape == (X.size, 1, 1)
+    np.testing.assert_array_equal(frf("4w", "5w"), -H)
+
+
+def test_uneven_grid_binary_exact_ascii_refused(tmp_path):
+    f = Frequency(np.linspace(5.0, 1000.0, 4097))  # step 0.2428...: not 6-digit representable
+    frf = _frf(f=f)
+    with pytest.raises(DataError, match="binary=True"):
+        write_uff_frf(tmp_path / "a.uff", frf)
+    assert not (tmp_path / "a.uff").exists()
+    back = read_uff_frf(write_uff_frf(tmp_path / "b.uff", frf, binary=True))
+    np.testing.assert_array_equal(back.frequency.hz, f.hz)
+    np.testing.assert_allclose(back.to("receptance").data, frf.data, rtol=1e-12, atol=0)
+
+
+def test_write_replaces_existing_file_atomically(tmp_path):
+    p = tmp_path / "x.uff"
+    write_uff_frf(p, _frf(seed=1), binary=True)
+    write_uff_frf(p, _frf(seed=2), binary=True)  # pyuff's binary 'overwrite' would truncate; we add to a fresh file
+    np.testing.assert_array_equal(read_uff_frf(p, kind="receptance").data, _frf(seed=2).to("accelerance").to("receptance").data)
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["x.uff"]
+
+
+def test_writer_refuses_what_it_cannot_write(tmp_path):
+    f = Frequency.from_range(5.0, 10.0, 1.0)
+    rot = FRF(f, np.ones((f.size, 1, 1)), ["3theta"], ["9w"], "receptance")
+    with pytest.raises(DataError, match="3theta"):
+        write_uff_frf(tmp_path / "r.uff", rot)
+    d = np.ones((f.size, 1, 1), complex)
+    d[2, 0, 0] = np.nan
+    with pytest.raises(DataError, match="not finite"):  # pyuff would silently write 0
+        write_uff_frf(tmp_path / "n.uff", FRF(f, d, ["3w"], ["9w"], "accelerance"))
+    with pytest.raises(DataError, match="coherence"):
+        write_uff_frf(tmp_path / "c.uff", FRF(f, np.ones((f.size, 1, 1)), ["3w"], ["9w"]), coherence=np.ones((2, 1, 1)))
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------- kind and direction decoding
+@pytest.mark.parametrize("code, power", [(8, 0), (11, 1), (12, 2)])
+def test_kind_from_ordinate_numerator(tmp_path, code, power):
+    jw = 2j * np.pi * X
+    p = _write(tmp_path / "k.uff", [_rec(H * jw**power, X, num=code)])
+    frf = read_uff_frf(p)
+    assert frf.kind == {8: "receptance", 11: "mobility", 12: "accelerance"}[code]
+    assert _rel(frf.to("receptance")("1w", "2w"), H) < 1e-10
+
+
+def test_mixed_kinds_are_converted_to_the_first(tmp_path):
+    jw = 2j * np.pi * X
+    p = _write(
+        tmp_path / "m.uff",
+        [_rec(H * jw**2, X, ref_node=2, num=12), _rec(H * jw, X, ref_node=3, num=11), _rec(H, X, ref_node=4, num=8)],
+    )
+    frf = read_uff_frf(p).to("receptance")
+    for ref in ("2w", "3w", "4w"):
+        assert _rel(frf("1w", ref), H) < 1e-10
+
+
+@pytest.mark.parametrize("rsp_dir, ref_dir, sign", [(3, 3, 1), (-3, 3, -1), (3, -3, -1), (-3, -3, 1)])
+def test_minus_z_records_are_sign_flipped(tmp_path, rsp_dir, ref_dir, sign):
+    p = _write(tmp_path / "z.uff", [_rec(H, X, rsp_dir=rsp_dir, ref_dir=ref_dir)])
+    assert _rel(read_uff_frf(p)("1w", "2w"), sign * H) < 1e-10
+
+
+def test_time_records_units_and_other_datasets_are_skipped(tmp_path):
+    units = pyuff.prepare_164(units_code=1, units_description="SI", temp_mode=1, length=1.0, force=1.0, temp=1.0, temp_offset=273.15)
+    time = _rec(np.sin(X), X * 1e-3, func_type=1, rsp_dir=1, num=12, den=0)
+    time["abscissa_spec_data_type"] = 17
+    p = _write(tmp_path / "t.uff", [units, time, _rec(H, X)])
+    frf = read_uff_frf(p)
+    assert frf.shape == (X.size, 1, 1)
+
+
+# ------------------------------------------------------------------ bad input
+def test_missing_pair_names_the_pair(tmp_path):
+    p = _write(tmp_path / "m.uff", [_rec(H, X, 1, 2), _rec(H, X, 1, 3), _rec(H, X, 4, 2)])
+    with pytest.raises(DataError, match=r"pair \(response 4w, reference 3w\) is missing"):
+        read_uff_frf(p)
+
+
+@pytest.mark.parametrize("second_dir", [3, -3])
+def test_duplicated_pair_names_the_record(tmp_path, second_dir):
+    p = _write(tmp_path / "d.uff", [_rec(H, X), _rec(H, X, 1, 3), _rec(H, X, rsp_dir=second_dir)])
+    with pytest.raises(DataError, match=r"record 3 .*duplicates .*\(1w, 2w\).*record 1"):
+        read_uff_frf(p)
+
+
+@pytest.mark.parametrize("x2", [X + 0.5, X * 2.0, X[:-1]], ids=["min", "increment", "points"])
+def test_different_frequency_axes_name_the_record(tmp_path, x2):
+    p = _write(tmp_path / "f.uff", [_rec(H, X, 1, 2), _rec(H[: x2.size], x2, 1, 3)])
+    with pytest.raises(DataError, match=r"record 2 .*different frequency axis"):
+        read_uff_frf(p)
+
+
+def test_nan_value_names_the_record(tmp_path):
+    data = H.copy()
+    data[3] = 0.25
+    p = _write(tmp_path / "n.uff", [_rec(H, X, 1, 2), _rec(data, X, 1, 3)])
+    text = p.read_text()
+    token = "%20.11e" % 0.25
+    assert text.count(token) == 1
+    p.write_text(text.replace(token, "%20s" % "nan"))
+    with pytest.raises(DataError, match=r"record 2 .*non-finite value at line 4"):
+        read_uff_frf(p)
+
+
+def test_node_outside_the_beam_names_the_record(tmp_path):
+    p = _write(tmp_path / "o.uff", [_rec(H, X, 1, 2), _rec(H, X, 1, 12)])
+    assert read_uff_frf(p).shape == (X.size, 1, 2)  # fine without n_nodes
+    with pytest.raises(DataError, match=r"record 2 .*reference node 12 is outside the beam \(nodes 1..11\)"):
+        read_uff_frf(p, n_nodes=11)
+
+
+@pytest.mark.parametrize("rsp_dir, ref_dir", [(1, 3), (3, 2), (5, 3), (3, -6), (0, 3)])
+def test_non_z_directions_name_the_record(tmp_path, rsp_dir, ref_dir):
+    p = _write(tmp_path / "x.uff", [_rec(H, X, 1, 2), _rec(H, X, 3, 2, rsp_dir=rsp_dir, ref_dir=ref_dir)])
+    with pytest.raises(DataError, match=r"record 2 .*direction .* not supported"):
+        read_uff_frf(p)
+
+
+@pytest.mark.parametrize("num, den", [(0, 13), (1, 13), (12, 0), (12, 9), (13, 8)])
+def test_unknown_characteristics_name_the_record(tmp_path, num, den):
+    p = _write(tmp_path / "u.uff", [_rec(H, X, 1, 2), _rec(H, X, 1, 3, num=num, den=den)])
+    with pytest.raises(DataError, match=r"record 2 .*cannot tell the FRF kind"):
+        read_uff_frf(p)
+
+
+def test_non_si_units_and_no_frf_and_missing_file(tmp_path):
+    units = pyuff.prepare_164(units_code=2, units_description="BG", temp_mode=1, length=3.28, force=0.2248, temp=1.8, temp_offset=459.67)
+    p = _write(tmp_path / "bg.uff", [units, _rec(H, X)])
+    with pytest.raises(DataError, match=r"record 1 .*units code 2"):
+        read_uff_frf(p)
+    q = _write(tmp_path / "t.uff", [_rec(H.real, X, func_type=1)])
+    with pytest.raises(DataError, match="no FRF record"):
+        read_uff_frf(q)
+    with pytest.raises(DataError, match="does not exist"):
+        read_uff_frf(tmp_path / "nope.uff")
+
+
+# ------------------------------------------------------------------- dispatch
+def test_read_frf_dispatches_on_extension(tmp_path):
+    frf = _frf()
+    for name in ("a.uff", "a.unv", "a.58", "A.UFF"):
+        back = read_frf(write_frf(tmp_path / name, frf), n_nodes=9)
+        assert back.kind == "accelerance" and _rel(back.to("receptance").data, frf.data) < 1e-10
+    back = read_frf(write_frf(tmp_path / "a.csv", frf))
+    np.testing.assert_array_equal(back.data, frf.data)
+    with pytest.raises(DataError, match=r"\.uff, \.unv, \.58 .* \.csv"):
+        read_frf(tmp_path / "a.txt")
