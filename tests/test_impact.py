@@ -17,6 +17,7 @@ import scipy.signal
 
 from jointid.dofs import Dof
 from jointid.errors import DataError
+from jointid.io.impact_files import read_impact_csv, read_impact_npz, read_impact_uff, write_impact_csv, write_impact_npz, write_impact_uff
 from jointid.methods.impact import (
     ImpactOptions,
     ImpactRecord,
@@ -24,13 +25,7 @@ from jointid.methods.impact import (
     correct_exponential_window,
     estimate_frf,
     estimate_frfs,
-    read_impact_csv,
-    read_impact_npz,
-    read_impact_uff,
     roving_sensor_correction,
-    write_impact_csv,
-    write_impact_npz,
-    write_impact_uff,
 )
 
 FS = 4096.0

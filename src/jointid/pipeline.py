@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import DataError, IdentificationError
+from .errors import DataError
 from .frequency import Frequency
 from .frf import FRF
 from .methods.inverse import InverseOptions, InverseResult, check_layout, identify_joint
@@ -170,10 +170,8 @@ def experiment(study: Study, seed: int | None = None) -> ExperimentResult:
     from .methods.virtual_hammer import HammerSettings, simulate_hits
 
     x = study.experiment
-    settings = HammerSettings(
-        sample_rate=x.sample_rate, duration=x.duration, averages=x.averages, force_noise=x.force_noise,
-        response_noise=x.response_noise, pulse_duration=x.pulse_duration, pulse_amplitude=x.pulse_amplitude,
-    )
+    shared = ("sample_rate", "duration", "averages", "force_noise", "response_noise", "pulse_duration", "pulse_amplitude")
+    settings = HammerSettings(**{k: getattr(x, k) for k in shared})
     if study.frequency.stop >= x.sample_rate / 2:
         raise DataError(
             f"[experiment].sample_rate = {x.sample_rate:g} Hz cannot resolve [frequency].stop = {study.frequency.stop:g} Hz; "

@@ -418,42 +418,32 @@ def write_uff_frf(
             units_code=1, units_description="SI", temp_mode=1, length=1.0, force=1.0, temp=1.0, temp_offset=273.15
         )
     ]
-    func_id = 0
-    for j, r in enumerate(out.responses):
-        for k, c in enumerate(out.references):
-            func_id += 1
-            d = pyuff.prepare_58(
-                func_type=FUNC_FRF,
-                rsp_node=int(r.node),
-                rsp_dir=_Z,
-                ref_node=int(c.node),
-                ref_dir=_Z,
-                ordinate_spec_data_type=UFF_KIND_CODES[kind],
-                ordinate_axis_units_lab=num_unit,
-                orddenom_spec_data_type=_FORCE,
-                orddenom_axis_units_lab="N",
-                data=np.array(out.data[:, j, k], dtype=complex),
-                **common,
-            )
-            d.update(func_id=func_id, abscissa_axis_lab="Frequency", ordinate_axis_lab=num_label, orddenom_axis_lab="Force")
-            sets.append(d)
+    # one record per (response, reference): the FRFs, then their coherence
+    records = [(FUNC_FRF, UFF_KIND_CODES[kind], num_unit, _FORCE, "N", out.data.astype(complex), num_label, "Force")]
     if coh is not None:
+        records.append((FUNC_COHERENCE, 1, "-", 0, None, coh, "Coherence", None))
+    func_id = 0
+    for func_type, ord_type, ord_unit, den_type, den_unit, values, ord_label, den_label in records:
         for j, r in enumerate(out.responses):
             for k, c in enumerate(out.references):
                 func_id += 1
+                extra = {} if den_unit is None else {"orddenom_axis_units_lab": den_unit}
                 d = pyuff.prepare_58(
-                    func_type=FUNC_COHERENCE,
+                    func_type=func_type,
                     rsp_node=int(r.node),
                     rsp_dir=_Z,
                     ref_node=int(c.node),
                     ref_dir=_Z,
-                    ordinate_spec_data_type=1,
-                    ordinate_axis_units_lab="-",
-                    orddenom_spec_data_type=0,
-                    data=np.array(coh[:, j, k], dtype=float),
+                    ordinate_spec_data_type=ord_type,
+                    ordinate_axis_units_lab=ord_unit,
+                    orddenom_spec_data_type=den_type,
+                    data=np.array(values[:, j, k]),
+                    **extra,
                     **common,
                 )
-                d.update(func_id=func_id, abscissa_axis_lab="Frequency", ordinate_axis_lab="Coherence")
+                d.update(func_id=func_id, abscissa_axis_lab="Frequency", ordinate_axis_lab=ord_label)
+                if den_label is not None:
+                    d["orddenom_axis_lab"] = den_label
                 sets.append(d)
     path = Path(path)
     with atomic_path(path) as tmp:

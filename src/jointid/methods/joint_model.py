@@ -74,7 +74,8 @@ from scipy.linalg import eigh
 
 from ..dofs import Dof
 from ..errors import ModelError
-from ..physics.elements import Material, Section, timoshenko_element
+from ..physics.elements import Material, Section, require_positive, timoshenko_element
+from ..physics.structure import ComplexStiffness
 
 __all__ = [
     "ElastomerMaterial",
@@ -91,16 +92,6 @@ DEFAULT_LENGTH_M = 0.0254
 DEFAULT_DIAMETER_M = 0.0254
 #: Default Poisson ratio of the elastomer (nearly incompressible rubber).
 DEFAULT_POISSON = 0.49
-
-
-def _positive(name: str, value, unit: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ModelError(f"{name} must be a number in {unit}, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ModelError(f"{name} must be a positive finite number in {unit}, got {value!r}")
-    return v
 
 
 def circle_shear_coefficient(poisson_ratio: float) -> float:
@@ -131,8 +122,8 @@ class ElastomerMaterial:
     nu: float = DEFAULT_POISSON
 
     def __post_init__(self) -> None:
-        _positive("elastomer elastic modulus E", self.E, "Pa")
-        _positive("elastomer density rho", self.rho, "kg/m^3")
+        require_positive("elastomer elastic modulus E", self.E, "Pa")
+        require_positive("elastomer density rho", self.rho, "kg/m^3")
         if not (math.isfinite(self.eta) and self.eta >= 0):
             raise ModelError(f"elastomer loss factor eta must be >= 0, got {self.eta!r}")
         if not (-1.0 < self.nu < 0.5):
@@ -174,9 +165,9 @@ class EndCap:
     density_kg_m3: float = 7850.0
 
     def __post_init__(self) -> None:
-        _positive("end cap diameter", self.diameter_m, "m")
-        _positive("end cap thickness", self.thickness_m, "m")
-        _positive("end cap density", self.density_kg_m3, "kg/m^3")
+        require_positive("end cap diameter", self.diameter_m, "m")
+        require_positive("end cap thickness", self.thickness_m, "m")
+        require_positive("end cap density", self.density_kg_m3, "kg/m^3")
 
     @property
     def mass_kg(self) -> float:
@@ -275,10 +266,10 @@ class ElastomerJoint:
     _M: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        E = _positive("elastomer elastic modulus", self.elastic_modulus, "Pa")
-        rho = _positive("elastomer density", self.density, "kg/m^3")
-        L = _positive("elastomer length", self.length_m, "m")
-        _positive("elastomer diameter", self.diameter_m, "m")
+        E = require_positive("elastomer elastic modulus", self.elastic_modulus, "Pa")
+        rho = require_positive("elastomer density", self.density, "kg/m^3")
+        L = require_positive("elastomer length", self.length_m, "m")
+        require_positive("elastomer diameter", self.diameter_m, "m")
         if not (math.isfinite(self.loss_factor) and self.loss_factor >= 0):
             raise ModelError(f"elastomer loss factor must be >= 0, got {self.loss_factor!r}")
         if not (-1.0 < self.poisson_ratio < 0.5):
@@ -288,7 +279,7 @@ class ElastomerJoint:
         if self.modulus is not None and not callable(self.modulus):
             raise ModelError("joint model: modulus must be a callable E*(f_hz) -> complex Pa, or None")
         kappa = self.kappa
-        _positive("shear coefficient", kappa, "(dimensionless)")
+        require_positive("shear coefficient", kappa, "(dimensionless)")
         ne = int(self.elements)
         mat = Material(E, rho, 0.0, poisson_ratio=self.poisson_ratio)
         Ke, Me = timoshenko_element(L / ne, self.section, mat, kappa)
@@ -484,7 +475,6 @@ class ElastomerJoint:
 
     def complex_stiffness(self, node: int, dofs: Sequence[str] = ("w", "theta"), name: str = "elastomer joint"):
         """This joint at beam ``node`` as a :class:`~jointid.physics.structure.ComplexStiffness` (grounded, 2x2 or a subset)."""
-        from ..physics.structure import ComplexStiffness
 
         keep = [("w", "theta").index(d) for d in dofs]
 
@@ -564,7 +554,7 @@ class ElastomerJoint:
         return math.sqrt(self.kappa * G / self.density) / (2.0 * self.length_m)
 
 
-def elastomer_joint_from_parameters(node: int, dofs: Sequence[str], parameters: Mapping) -> "ComplexStiffness":  # noqa: F821
+def elastomer_joint_from_parameters(node: int, dofs: Sequence[str], parameters: Mapping) -> ComplexStiffness:
     """The grounded elastomer joint of a study's ``[joint.model]`` (type ``"elastomer"``) as a ComplexStiffness.
 
     Parameters

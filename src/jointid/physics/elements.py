@@ -17,10 +17,11 @@ import numpy as np
 
 from ..errors import ModelError
 
-__all__ = ["Section", "Material", "timoshenko_element"]
+__all__ = ["Section", "Material", "timoshenko_element", "require_positive"]
 
 
-def _positive(name: str, value: float, unit: str) -> float:
+def require_positive(name: str, value: float, unit: str) -> float:
+    """``value`` as a float; :class:`ModelError` naming ``name`` and ``unit`` unless positive and finite."""
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -49,20 +50,20 @@ class Section:
     shape: str = "custom"
 
     def __post_init__(self) -> None:
-        _positive("section area", self.area, "m^2")
-        _positive("section second moment of area", self.second_moment, "m^4")
+        require_positive("section area", self.area, "m^2")
+        require_positive("section second moment of area", self.second_moment, "m^4")
 
     @classmethod
     def rectangle(cls, width: float, height: float) -> "Section":
         """Rectangle ``width`` x ``height`` (m); bending in the height direction (I = b h^3 / 12)."""
-        b = _positive("section width", width, "m")
-        h = _positive("section height", height, "m")
+        b = require_positive("section width", width, "m")
+        h = require_positive("section height", height, "m")
         return cls(b * h, b * h**3 / 12.0, f"rectangle {b * 1e3:g} x {h * 1e3:g} mm")
 
     @classmethod
     def circle(cls, diameter: float) -> "Section":
         """Solid circle of ``diameter`` (m): A = pi d^2 / 4, I = pi d^4 / 64."""
-        d = _positive("section diameter", diameter, "m")
+        d = require_positive("section diameter", diameter, "m")
         return cls(math.pi * d**2 / 4.0, math.pi * d**4 / 64.0, f"circle d = {d * 1e3:g} mm")
 
 
@@ -91,8 +92,8 @@ class Material:
     shear_modulus: float | None = None
 
     def __post_init__(self) -> None:
-        _positive("elastic modulus", self.elastic_modulus, "Pa")
-        _positive("density", self.density, "kg/m^3")
+        require_positive("elastic modulus", self.elastic_modulus, "Pa")
+        require_positive("density", self.density, "kg/m^3")
         if not (math.isfinite(self.loss_factor) and self.loss_factor >= 0):
             raise ModelError(f"loss factor must be >= 0, got {self.loss_factor!r}")
         if self.shear_modulus is None:
@@ -101,7 +102,7 @@ class Material:
             if not (-1.0 < self.poisson_ratio < 0.5):
                 raise ModelError(f"Poisson ratio must lie in (-1, 0.5), got {self.poisson_ratio!r}")
         else:
-            _positive("shear modulus", self.shear_modulus, "Pa")
+            require_positive("shear modulus", self.shear_modulus, "Pa")
 
     @property
     def G(self) -> float:
@@ -140,13 +141,13 @@ def timoshenko_element(
     M : ndarray, shape (4, 4)
         Consistent mass, kg, kg*m, kg*m^2.
     """
-    L = _positive("element length", length, "m")
+    L = require_positive("element length", length, "m")
     E, rho = material.elastic_modulus, material.density
     A, I = section.area, section.second_moment
     if euler_bernoulli:
         phi = 0.0
     else:
-        kappa = _positive("shear coefficient", shear_coefficient, "(dimensionless)")
+        kappa = require_positive("shear coefficient", shear_coefficient, "(dimensionless)")
         phi = 12.0 * E * I / (kappa * material.G * A * L**2)
 
     k = E * I / ((1.0 + phi) * L**3)

@@ -13,7 +13,6 @@ import numpy as np
 from ..methods.inverse import identify_joint
 from ..physics.modes import natural_modes
 from ..physics.synthesis import synthesize_frf
-from ..plots.frf import plot_frf
 from ..plots.studies import plot_terms
 from ..report.html import Table
 from .common import Progress, StudyOutput, band_errors, fmt, material_joint, pct, study_beam, terms_of

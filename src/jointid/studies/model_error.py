@@ -8,8 +8,6 @@ of each joint term over 100-1000 Hz per variant.
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..methods.inverse import identify_joint
 from ..physics.synthesis import synthesize_frf
 from ..plots.studies import plot_terms
