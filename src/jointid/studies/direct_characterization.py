@@ -20,7 +20,7 @@ from ..plots.studies import plot_terms
 from ..report.html import Table
 from .common import Progress, StudyOutput, band_errors, elastomer_joint, fmt, pct, terms_of
 
-__all__ = ["run", "fitted_joint"]
+__all__ = ["run", "characterize", "fitted_joint"]
 
 
 def run(config, progress: Progress | None = None) -> StudyOutput:
@@ -31,15 +31,8 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
     f_test = np.arange(config.direct_start, config.direct_stop + 1e-9, config.direct_step)
     f = config.grid
     rows, figures, data, summary, findings = [], [], {}, [], []
-    for i, name in enumerate(materials):
-        true = elastomer_joint(config, name)
-        blocks = synthesize_stepsine(
-            f_test, true.blocked_transfer_stiffness, amplitude_m=config.direct_amplitude_pp / 2,
-            parallel_joints=config.parallel_joints, seed=config.seed + i,
-        )
-        result = process_stepsine(blocks, parallel_joints=config.parallel_joints, commanded_amplitude_m=config.direct_amplitude_pp / 2)
-        static = static_estimate(result.frequency_hz, result.stiffness)
-        fit = fit_material(result.frequency_hz, result.stiffness, joint=true.with_material(static.elastic_modulus_pa, 0.1, 1000.0))
+    for name in materials:
+        true, result, static, fit = characterize(config, name)
         progress.update()
         m = config.materials[name]
         rows.append([
@@ -53,7 +46,7 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
                         f"Material {name}: step-sine K21 per joint (markers) and the fitted FE joint model (line)"))
         data[f"direct_material_{name.lower()}"] = result.columns()
         # the fitted joint model as the inverse experiment's joint, over the inverse band
-        K_fit = fit.joint.with_material(fit.elastic_modulus_pa, fit.loss_factor, fit.density_kg_m3).driving_point_matrix(f.hz, include_cap=False)
+        K_fit = fit.joint.driving_point_matrix(f.hz, include_cap=False)
         K_true = true.driving_point_matrix(f.hz, include_cap=False)
         K21_fit = fit.joint.blocked_transfer_stiffness(f.hz)
         data[f"direct_model_material_{name.lower()}"] = {
@@ -97,14 +90,31 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
     )
 
 
-def fitted_joint(config, material: str):
-    """The FE joint (caps excluded) with ``material`` fitted to its synthetic step-sine test (the direct method's result)."""
+def characterize(config, material: str):
+    """The direct method on ``material``'s synthetic step-sine test.
+
+    Returns
+    -------
+    true : ElastomerJoint
+        The joint the test was synthesized from (caps excluded).
+    result : StepSineResult
+        K21 per joint and the test's flags.
+    static : StaticEstimate
+        G = kL/A and E = 2G(1 + nu) from the lowest lines.
+    fit : MaterialFit
+        E, eta, rho fitted to K21; ``fit.joint`` is the FE joint with them.
+    """
     true = elastomer_joint(config, material)
     f_test = np.arange(config.direct_start, config.direct_stop + 1e-9, config.direct_step)
-    i = list(config.materials).index(material)
-    blocks = synthesize_stepsine(f_test, true.blocked_transfer_stiffness, amplitude_m=config.direct_amplitude_pp / 2,
-                                 parallel_joints=config.parallel_joints, seed=config.seed + i)
-    result = process_stepsine(blocks, parallel_joints=config.parallel_joints, commanded_amplitude_m=config.direct_amplitude_pp / 2)
+    amplitude = config.direct_amplitude_pp / 2
+    blocks = synthesize_stepsine(f_test, true.blocked_transfer_stiffness, amplitude_m=amplitude,
+                                 parallel_joints=config.parallel_joints, seed=config.seed + list(config.materials).index(material))
+    result = process_stepsine(blocks, parallel_joints=config.parallel_joints, commanded_amplitude_m=amplitude)
     static = static_estimate(result.frequency_hz, result.stiffness)
     fit = fit_material(result.frequency_hz, result.stiffness, joint=true.with_material(static.elastic_modulus_pa, 0.1, 1000.0))
-    return fit.joint.with_material(fit.elastic_modulus_pa, fit.loss_factor, fit.density_kg_m3)
+    return true, result, static, fit
+
+
+def fitted_joint(config, material: str):
+    """The FE joint (caps excluded) with ``material`` fitted to its synthetic step-sine test (the direct method's result)."""
+    return characterize(config, material)[3].joint

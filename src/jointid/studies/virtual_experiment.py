@@ -53,8 +53,10 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
     materials = [m for m in ("A", "B") if m in config.materials]
     progress.total(2 * len(materials) + 1)
     rows, summary, figures, data, findings = [], [], [], {}, []
+    hits = None
     for mat in materials:
         study = experiment_study(config, mat)
+        hits = study.experiment.averages
         ex = experiment(study, seed=config.seed)
         with tempfile.TemporaryDirectory() as tmp:  # the same path as real data: UFF58 out and back in
             path = write_uff_frf(Path(tmp) / "frf.uff", ex.frf, kind="accelerance", coherence=ex.coherence)
@@ -105,7 +107,7 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
         name="experiment",
         title="Virtual roving-hammer experiment",
         paragraphs=(
-            f"Each excited node is hit {config_hits(config)} times with a half-sine pulse; force and response noise are "
+            f"Each excited node is hit {hits} times with a half-sine pulse; force and response noise are "
             f"{100 * config.experiment_noise:g}% (force: of the peak; response: of the record rms). H1 with a force window and a "
             "corrected exponential window gives the accelerances, written to UFF58 with their coherence and read back before "
             "the identification, which models the accelerometers.",
@@ -117,13 +119,6 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
         summary=tuple(summary),
         findings=tuple(findings),
     )
-
-
-def config_hits(config) -> int:
-    """Hits per excited node of the virtual experiment."""
-    from ..study import ExperimentSpec
-
-    return ExperimentSpec().averages
 
 
 def _internal_mode_figure(config):
