@@ -397,3 +397,39 @@ def test_roving_sensor_correction_is_exact_for_a_3dof_system():
         roving_sensor_correction(meas, dp[:, :2], ma, w)
     with pytest.raises(DataError, match="sensor_mass_kg"):
         roving_sensor_correction(meas, dp, -1.0, w)
+
+
+def test_uff_time_record_minus_z_is_sign_flipped_and_rotations_rejected(tmp_path):
+    import pyuff
+
+    from jointid.errors import DataError
+    from jointid.io.impact_files import read_impact_uff, write_impact_uff
+    from jointid.methods.impact import ImpactRecord
+
+    t = np.arange(256) / 1024.0
+    force = np.exp(-((t - 0.01) / 0.001) ** 2)[None] * 50.0
+    resp = np.sin(2 * np.pi * 60 * t)[None, None] * np.exp(-t)[None, None]
+    rec = ImpactRecord(force, resp, 1024.0, ["4w"], "9w")
+    p = write_impact_uff(tmp_path / "hits.uff", [rec])
+    sets = pyuff.UFF(str(p)).read_sets()
+    for s in sets:
+        if s["rsp_node"] == 4:
+            s["rsp_dir"] = -3
+            s["data"] = -np.asarray(s["data"])  # the same signal recorded along -Z
+    q = tmp_path / "flipped.uff"
+    pyuff.UFF(str(q)).write_sets(sets, mode="add")
+    back = read_impact_uff(q)[0]
+    assert np.allclose(back.responses[0, 0], resp[0, 0], rtol=1e-9, atol=1e-12)
+    assert np.allclose(back.force[0], force[0], rtol=1e-9, atol=1e-12)
+    for s in sets:
+        if s["rsp_node"] == 4:
+            s["rsp_dir"] = 5
+    r = tmp_path / "rot.uff"
+    pyuff.UFF(str(r)).write_sets(sets, mode="add")
+    with pytest.raises(DataError, match="direction code 5 is not supported"):
+        read_impact_uff(r)
+    # a failed write leaves an existing file untouched
+    before = p.read_bytes()
+    with pytest.raises(DataError):
+        write_impact_uff(p, [ImpactRecord(force, resp, 1024.0, ["4theta"], "9w")])
+    assert p.read_bytes() == before

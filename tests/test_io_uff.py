@@ -101,8 +101,10 @@ def test_uneven_grid_binary_exact_ascii_refused(tmp_path):
     f = Frequency(np.linspace(5.0, 1000.0, 4097))  # step 0.2428...: not 6-digit representable
     frf = _frf(f=f)
     with pytest.raises(DataError, match="binary=True"):
-        write_uff_frf(tmp_path / "a.uff", frf)
+        write_uff_frf(tmp_path / "a.uff", frf, binary=False)
     assert not (tmp_path / "a.uff").exists()
+    auto = read_uff_frf(write_uff_frf(tmp_path / "auto.uff", frf))  # default: binary where ASCII is not exact
+    np.testing.assert_array_equal(auto.frequency.hz, f.hz)
     back = read_uff_frf(write_uff_frf(tmp_path / "b.uff", frf, binary=True))
     np.testing.assert_array_equal(back.frequency.hz, f.hz)
     np.testing.assert_allclose(back.to("receptance").data, frf.data, rtol=1e-12, atol=0)

@@ -72,3 +72,22 @@ def test_only_and_config_validation(tmp_path):
     c = load_config(good)
     assert c.seed == 3 and c.grid.size == 200 and c.materials["A"].loss_factor == 0.2 and c.materials["A"].density == 1200.0
     assert c.layouts["model_2"].observed == (2, 8, 12, 18) and c.layouts["model_2"].excited == (3, 7, 13, 17)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("layouts = 3\n", "[layouts]: expected a table, got 3"),
+        ("[materials]\nA = 5\n", "[materials.A]: expected a table, got 5"),
+        ("seed = -1\n", "seed: expected an integer >= 0, got -1"),
+        ("[frequency]\nstart = 0.0\n", "[frequency].start: expected a positive number, got 0.0"),
+        ("[direct]\nstart = 700.0\n", "[direct]: start must be below stop"),
+        ("[direct]\nparallel_joints = 2.5\n", "[direct].parallel_joints: expected an integer >= 1, got 2.5"),
+    ],
+)
+def test_bad_config_names_the_key(tmp_path, text, message):
+    p = tmp_path / "c.toml"
+    p.write_text(text)
+    with pytest.raises(StudyError) as e:
+        load_config(p)
+    assert str(e.value) == f"{p}: {message}"

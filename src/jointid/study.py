@@ -59,8 +59,8 @@ are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     sample_rate = 8192.0      # Hz
     duration = 2.0            # s, record length per hit
     averages = 5              # hits per excited node
-    force_noise = 0.01        # noise rms / signal rms
-    response_noise = 0.01
+    force_noise = 0.01        # force noise rms / peak force
+    response_noise = 0.01     # response noise rms / response rms over the record
     pulse_duration = 0.0005   # s, half-sine hammer pulse
     pulse_amplitude = 100.0   # N
     exponential_window = 0.0  # s, time constant tau (0: none)
@@ -113,10 +113,6 @@ def _positive(v) -> str | None:
 
 def _nonneg(v) -> str | None:
     return None if v >= 0 else "a number >= 0"
-
-
-def _fraction(v) -> str | None:
-    return None if 0 <= v < 1 else "a number in [0, 1)"
 
 
 def _choices(*options: str) -> Callable[[Any], str | None]:
@@ -372,7 +368,7 @@ _ELASTOMER = {
     "length": _Field("number", unit="m", check=_positive),
     "diameter": _Field("number", unit="m", check=_positive),
     "poisson_ratio": _Field("number", check=lambda v: None if -1 < v < 0.5 else "a number in (-1, 0.5)"),
-    "elements": _Field("int", check=lambda v: None if v >= 2 else "an integer >= 2"),
+    "elements": _Field("int", check=lambda v: None if 2 <= v <= 200 else "an integer in 2..200"),
     "cap": _Field("bool"),
     "cap_diameter": _Field("number", unit="m", check=_positive),
     "cap_thickness": _Field("number", unit="m", check=_positive),
@@ -406,7 +402,7 @@ _EXPERIMENT = {
     "pulse_duration": _Field("number", False, 0.0005, unit="s", check=_positive),
     "pulse_amplitude": _Field("number", False, 100.0, unit="N", check=_positive),
     "exponential_window": _Field("number", False, 0.0, unit="s", check=_nonneg),
-    "seed": _Field("int", False, 0),
+    "seed": _Field("int", False, 0, check=lambda v: None if v >= 0 else "an integer >= 0"),
 }
 _TOP = ("beam", "joint", "measurement", "frequency", "accelerometers", "identification", "experiment")
 

@@ -6,6 +6,7 @@ import argparse
 
 import numpy as np
 
+from ..errors import StudyError
 from ..io.tables import write_csv
 from ..methods.inverse import stiffness_columns
 from ..pipeline import experiment, identify
@@ -35,6 +36,8 @@ def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
 
     study = study_from_args(args)
+    if args.seed is not None and args.seed < 0:
+        raise StudyError(f"--seed: expected an integer >= 0, got {args.seed}")
     result = experiment(study, seed=args.seed)
     for r in result.impact.rejected:
         print(f"rejected: {r.reason}")

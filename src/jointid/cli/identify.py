@@ -40,9 +40,11 @@ def summary(result, study, source: Path) -> dict:
         for b, db in enumerate(result.joint_dofs):
             k = result.stiffness[:, a, b]
             name = f"K_{da.direction}_{db.direction}"
+            stiff = k.real > 0  # Im/Re is a loss factor only where the storage part is positive
             terms[name] = {
                 "median_magnitude": float(np.median(np.abs(k))),
-                "median_loss_factor": float(np.median(k.imag / k.real)),
+                "median_loss_factor": float(np.median(k.imag[stiff] / k.real[stiff])) if stiff.any() else None,
+                "lines_with_positive_storage": int(stiff.sum()),
             }
     return {
         "study": study.source,
@@ -69,11 +71,16 @@ def summary(result, study, source: Path) -> dict:
 
 
 def write_identification(out: Path, result, study, source: Path, plots: bool = True, truth=None) -> None:
-    """Write ``joint_stiffness.csv``, ``summary.json`` and (``plots``) ``joint_stiffness.png`` into ``out``."""
+    """Write ``joint_stiffness.csv``, ``summary.json`` and (``plots``) ``joint_stiffness.png`` into ``out``.
+
+    Everything is computed (the figure too) before the first file is written.
+    """
+    fig = result.plot(truth=truth) if plots else None
+    text = json.dumps(summary(result, study, source), indent=2) + "\n"
     write_csv(out / "joint_stiffness.csv", result.columns())
-    atomic_write_text(out / "summary.json", json.dumps(summary(result, study, source), indent=2) + "\n")
-    if plots:
-        save_figure(result.plot(truth=truth), out / "joint_stiffness.png")
+    atomic_write_text(out / "summary.json", text)
+    if fig is not None:
+        save_figure(fig, out / "joint_stiffness.png")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -18,8 +18,9 @@
   type 1 (time response), grouped by reference ``(ref_node, ref_dir)`` and
   by ``load_case_id`` = hit number. The force record has ordinate specific data
   type 13 (excitation force); responses have 12 (acceleration), 11 (velocity)
-  or 8 (displacement), all the same. Direction codes: 3 (+Z) -> ``w``,
-  5 -> ``theta``.
+  or 8 (displacement), all the same. Direction codes: 3 (+Z) is ``w``; a
+  signal recorded along -Z (-3) is sign-flipped; rotations are not accepted
+  (they are never measured).
 
 """
 
@@ -38,8 +39,7 @@ from .atomic import atomic_path
 
 __all__ = ["read_impact_npz", "write_impact_npz", "read_impact_csv", "write_impact_csv", "read_impact_uff", "write_impact_uff"]
 
-_UFF_DIR_TO_DOF = {3: "w", 5: "theta"}
-_DOF_TO_UFF_DIR = {v: k for k, v in _UFF_DIR_TO_DOF.items()}
+_Z = 3  # UFF direction code of +Z, the transverse direction w; -Z records are sign-flipped
 _UFF_KIND = {12: "accelerance", 11: "mobility", 8: "receptance"}
 _UFF_SPEC = {v: k for k, v in _UFF_KIND.items()}
 _UFF_FORCE = 13
@@ -266,10 +266,20 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
         raise DataError(f"{path}: no UFF58 time-response records (function type 1)")
 
     def dof(node, direction, what):
-        d = _UFF_DIR_TO_DOF.get(abs(int(direction)))
-        if d is None:
-            raise DataError(f"{path}: {what} direction code {direction} not supported (3 -> w, 5 -> theta)")
-        return Dof(int(node), d)
+        if abs(int(direction)) != _Z:
+            raise DataError(
+                f"{path}: {what} direction code {direction} is not supported: impact records are transverse "
+                "(+Z = 3 is w, -Z = -3 is w with the sign flipped); rotations are never measured"
+            )
+        return Dof(int(node), "w")
+
+    def signed(s) -> np.ndarray:
+        """The record's samples in the +Z convention: a signal measured along -Z is sign-flipped.
+
+        A time record is one signal (its own direction ``rsp_dir``); the reference
+        direction only names the excited DOF, it does not change the signal's sign.
+        """
+        return np.sign(int(s["rsp_dir"])) * np.real(np.asarray(s["data"]))
 
     groups: dict[Dof, dict[int, dict]] = {}
     for s in sets:
@@ -310,8 +320,8 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
             if None in ks or len(ks) != 1:
                 raise DataError(f"{where}: responses must all be acceleration (12), velocity (11) or displacement (8)")
             kind = ks.pop()
-            forces.append(np.real(np.asarray(g["force"]["data"])))
-            resps.append([np.real(np.asarray(g["resp"][d]["data"])) for d in labels])
+            forces.append(signed(g["force"]))
+            resps.append([signed(g["resp"][d]) for d in labels])
         try:
             records.append(ImpactRecord(forces, resps, fs0, tuple(labels), ref, kind))
         except DataError as e:
@@ -332,13 +342,14 @@ def write_impact_uff(path: str | Path, records: Sequence[ImpactRecord]) -> Path:
     import pyuff
 
     records = [records] if isinstance(records, ImpactRecord) else list(records)
-    path = Path(path)
-    if path.exists():
-        path.unlink()
+    for rec in records:
+        for d in (rec.reference, *rec.response_dofs):
+            if d.direction != "w":
+                raise DataError(f"excited node {rec.reference}: UFF58 impact records are transverse (w) only, got {d}")
     sets = []
     for rec in records:
         t = rec.time_s
-        rn, rd = rec.reference.node, _DOF_TO_UFF_DIR[rec.reference.direction]
+        rn, rd = rec.reference.node, _Z
         for h in range(rec.n_hits):
             chans = [("force", rec.reference, _UFF_FORCE, rec.force[h])] + [
                 ("response", d, _UFF_SPEC[rec.kind], rec.responses[h, c]) for c, d in enumerate(rec.response_dofs)
@@ -358,7 +369,7 @@ def write_impact_uff(path: str | Path, records: Sequence[ImpactRecord]) -> Path:
                         load_case_id=h,
                         rsp_ent_name="beam",
                         rsp_node=d.node,
-                        rsp_dir=_DOF_TO_UFF_DIR[d.direction],
+                        rsp_dir=_Z,
                         ref_ent_name="beam",
                         ref_node=rn,
                         ref_dir=rd,

@@ -325,7 +325,7 @@ def write_uff_frf(
     frf: FRF,
     kind: str = "accelerance",
     coherence: np.ndarray | None = None,
-    binary: bool = False,
+    binary: bool | None = None,
     description: str = "jointid FRF",
 ) -> Path:
     """Write FRFs as UFF dataset 58, one record per (response, reference) pair, atomically.
@@ -346,8 +346,10 @@ def write_uff_frf(
         Kind written to the file; the data are converted exactly.
     coherence : ndarray, shape (F, r, c), real, optional
         Coherence in [0, 1], aligned with ``frf``.
-    binary : bool
-        Write binary 58 records (IEEE doubles) instead of ASCII.
+    binary : bool or None
+        True: binary 58 records (IEEE doubles, every frequency exact); False:
+        ASCII (refused when the 6-digit header cannot rebuild the axis exactly);
+        None (default): ASCII when it is exact, binary otherwise.
     description : str
         ID line 1 of each record (at most 80 characters).
 
@@ -390,6 +392,8 @@ def write_uff_frf(
             raise DataError("coherence must be real, finite and within [0, 1]")
         coh = coh.astype(float)
     even, f0, df = _even_axis(hz)
+    if binary is None:
+        binary = not even
     if not even and not binary:
         raise DataError(
             f"the frequency axis ({_axis(hz)}) cannot be written to an ASCII UFF58 file exactly: "

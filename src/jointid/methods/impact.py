@@ -688,7 +688,11 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
     notes: tuple[str, ...] = ()
     if o.exp_tau_s is not None and o.correct_exponential:
         h1, modes, notes = correct_exponential_window(freq.hz, h1, o.exp_tau_s, o.mode_bands_hz)
-        h2, _, _ = correct_exponential_window(freq.hz, h2, o.exp_tau_s, tuple(m.band_hz for m in modes))
+        # H2 in the bands H1 was corrected in; a band H2 cannot fit is skipped with a note, never fatal
+        h2, _, notes2 = correct_exponential_window(
+            freq.hz, h2, o.exp_tau_s, tuple(m.band_hz for m in modes), strict=o.mode_bands_hz is not None
+        )
+        notes = notes + tuple(f"H2 {n}" for n in notes2)
     return ImpactFRF(
         frequency=freq,
         h1=h1,
@@ -781,6 +785,7 @@ def correct_exponential_window(
     H: np.ndarray,
     tau_s: float,
     mode_bands_hz: Sequence[tuple[float, float]] | None = None,
+    strict: bool | None = None,
 ) -> tuple[np.ndarray, tuple[WindowMode, ...], tuple[str, ...]]:
     """Remove an exponential window's added damping ``1/tau`` from FRFs, mode by mode.
 
@@ -795,6 +800,9 @@ def correct_exponential_window(
     mode_bands_hz : sequence of (lo, hi), optional
         One isolated mode per band, Hz. None: detected at the >= 10 dB peaks of
         ``sum |H|^2`` (bands that cannot be fitted are then skipped and noted).
+    strict : bool or None
+        Raise on a band that cannot be fitted (True) or skip it with a note
+        (False); None: strict exactly when ``mode_bands_hz`` is given.
 
     Returns
     -------
@@ -817,6 +825,8 @@ def correct_exponential_window(
     shape = H.shape
     Hm = H.reshape(shape[0], -1)
     auto = mode_bands_hz is None
+    if strict is None:
+        strict = not auto  # bands the user gave must fit; detected ones may be skipped with a note
     bands = _detect_mode_bands(hz, Hm) if auto else [tuple(map(float, b)) for b in mode_bands_hz]
     out = Hm.copy()
     modes, notes = [], []
@@ -855,7 +865,7 @@ def correct_exponential_window(
                 WindowMode((lo, hi), wn_w / (2 * np.pi), -2.0 * lam_w.real / abs(lam_w), wn / (2 * np.pi), -2.0 * lam.real / abs(lam))
             )
         except DataError as e:
-            if not auto:
+            if strict:
                 raise
             notes.append(f"not corrected: {e}")
     return out.reshape(shape), tuple(modes), tuple(notes)

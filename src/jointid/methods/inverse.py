@@ -220,7 +220,8 @@ def _svd_solve_left(A: np.ndarray, rhs: np.ndarray):
     tol = s[:, :1] * max(A.shape[-2:]) * np.finfo(float).eps
     sinv = np.where(s > tol, 1.0 / np.where(s > tol, s, 1.0), 0.0)
     X = np.conj(np.swapaxes(Vh, -1, -2)) @ (sinv[..., None] * (np.conj(np.swapaxes(U, -1, -2)) @ rhs))
-    return X, s[:, 0] / s[:, -1]
+    with np.errstate(divide="ignore"):  # an exactly singular line has cond = inf
+        return X, s[:, 0] / s[:, -1]
 
 
 def _cond(A: np.ndarray) -> np.ndarray:
@@ -385,7 +386,8 @@ def _identify(B: np.ndarray, C: np.ndarray, options: InverseOptions):
     At = np.swapaxes(B, -1, -2)  # (F, e, n)
     Ct = np.swapaxes(C, -1, -2)  # (F, e, n): columns are right-hand sides
     U, s, Vh = np.linalg.svd(At, full_matrices=False)  # U (F,e,k), s (F,k), Vh (F,k,n)
-    cond = s[:, 0] / s[:, -1]
+    with np.errstate(divide="ignore"):
+        cond = s[:, 0] / s[:, -1]
     Uh = np.conj(np.swapaxes(U, -1, -2))
     proj = Uh @ Ct  # (F, k, n)
     lam = np.zeros(F)
@@ -393,12 +395,11 @@ def _identify(B: np.ndarray, C: np.ndarray, options: InverseOptions):
         beta = np.sum(np.abs(proj) ** 2, axis=-1)  # (F, k)
         out2 = np.sum(np.abs(Ct) ** 2, axis=(-2, -1)) - np.sum(beta, axis=-1)
         lam = _tikhonov_lambda(s, beta, np.maximum(out2, 0.0), e, options.regularization)
+    if options.symmetric and n > 1:
+        return _symmetric(B, C, lam), cond, lam  # lambda chosen on B's singular values, as for the plain solve
     filt = s / (s**2 + lam[:, None] ** 2)
     DuT = np.conj(np.swapaxes(Vh, -1, -2)) @ (filt[..., None] * proj)
-    Du = np.swapaxes(DuT, -1, -2)
-    if options.symmetric and n > 1:
-        Du = _symmetric(B, C, lam)
-    return Du, cond, lam
+    return np.swapaxes(DuT, -1, -2), cond, lam
 
 
 def _symmetric(B: np.ndarray, C: np.ndarray, lam: np.ndarray) -> np.ndarray:

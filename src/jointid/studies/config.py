@@ -141,8 +141,16 @@ def load_config(path: str | os.PathLike | None = None, seed: int | None = None) 
         except StudyError as exc:
             raise StudyError(f"{p}: {exc}") from None
     if seed is not None:
+        if seed < 0:
+            raise StudyError(f"--seed: expected an integer >= 0, got {seed}")
         cfg = replace(cfg, seed=int(seed))
     return cfg
+
+
+def _table(where: str, v: Any) -> Mapping[str, Any]:
+    if not isinstance(v, Mapping):
+        raise StudyError(f"{where}: expected a table, got {v!r}")
+    return v
 
 
 def _apply(cfg: ReproduceConfig, data: Mapping[str, Any]) -> ReproduceConfig:
@@ -150,16 +158,21 @@ def _apply(cfg: ReproduceConfig, data: Mapping[str, Any]) -> ReproduceConfig:
     for key in data:
         if key not in allowed:
             raise StudyError(f"unknown key {key!r}; expected one of: {', '.join(sorted(allowed))}")
+        if key != "seed":
+            _table(f"[{key}]", data[key])
+    for key in ("layouts", "materials"):
+        for name, value in data.get(key, {}).items():
+            _table(f"[{key}.{name}]", value)
     changes: dict[str, Any] = {}
     if "seed" in data:
-        if not isinstance(data["seed"], int) or isinstance(data["seed"], bool):
-            raise StudyError(f"seed: expected an integer, got {data['seed']!r}")
+        if not isinstance(data["seed"], int) or isinstance(data["seed"], bool) or data["seed"] < 0:
+            raise StudyError(f"seed: expected an integer >= 0, got {data['seed']!r}")
         changes["seed"] = data["seed"]
     fr = data.get("frequency", {})
     for k in fr:
         if k not in ("start", "stop", "step"):
             raise StudyError(f"[frequency]: unknown key {k!r}; expected start, stop, step")
-        changes[k] = _num(f"[frequency].{k}", fr[k], positive=k != "start")
+        changes[k] = _num(f"[frequency].{k}", fr[k])  # start > 0: the free beam is singular at 0 Hz
     if changes.get("start", cfg.start) >= changes.get("stop", cfg.stop):
         raise StudyError("[frequency]: start must be below stop")
     n_nodes = cfg.beam.nodes
@@ -204,7 +217,13 @@ def _apply(cfg: ReproduceConfig, data: Mapping[str, Any]) -> ReproduceConfig:
     for k in direct:
         if k not in ("start", "stop", "step", "amplitude_pp", "parallel_joints"):
             raise StudyError(f"[direct]: unknown key {k!r}; expected start, stop, step, amplitude_pp, parallel_joints")
-        key = k if k == "parallel_joints" else f"direct_{k}"
-        val = _num(f"[direct].{k}", direct[k])
-        changes[key] = int(val) if k == "parallel_joints" else val
+        if k == "parallel_joints":
+            v = direct[k]
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise StudyError(f"[direct].parallel_joints: expected an integer >= 1, got {v!r}")
+            changes[k] = v
+        else:
+            changes[f"direct_{k}"] = _num(f"[direct].{k}", direct[k])
+    if changes.get("direct_start", cfg.direct_start) >= changes.get("direct_stop", cfg.direct_stop):
+        raise StudyError("[direct]: start must be below stop")
     return replace(cfg, **changes)

@@ -62,7 +62,7 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
         findings.append(
             f"The direct method recovers Material {name}'s E, loss factor and density within "
             f"{rows[-1][10]}; G = kL/A from the static stiffness reads {static.shear_modulus_pa / 1e6:.3g} MPa, "
-            f"{100 * (1 - static.shear_modulus_pa / (m.elastic_modulus / (2 * 1.49))):.0f}% below the true G because the short cylinder also bends."
+            f"{100 * (1 - static.shear_modulus_pa / (true.elastic_modulus / (2 * (1 + true.poisson_ratio)))):.0f}% below the true G because the short cylinder also bends."
         )
         progress.update()
     table = Table(
