@@ -107,3 +107,15 @@ def test_large_model_paths_agree():
     # truncated modes + residual flexibility: ~1e-5 typical, worst near anti-resonances
     assert np.median(rel) < 1e-4
     assert np.abs(a - b).max() <= 2e-3 * np.abs(a).max()
+
+
+def test_sparse_direct_path_with_a_joint_equals_the_dense_one(monkeypatch):
+    import jointid.physics.synthesis as synthesis
+
+    s = beam_structure(0.9144, SEC, AL, 400).with_joint(_joint(200))  # 800 DOFs: the sparse path
+    f = Frequency.from_range(10, 1000, 30)
+    r, c = ["1w", "200w", "200theta", "400w"], ["100w", "300w"]
+    sparse = synthesize_frf(s, f, r, c).data
+    monkeypatch.setattr(synthesis, "DENSE_DIRECT_LIMIT", 1000)
+    dense = synthesize_frf(s, f, r, c).data
+    assert np.abs(sparse - dense).max() <= 1e-9 * np.abs(dense).max()

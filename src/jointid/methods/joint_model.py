@@ -74,8 +74,8 @@ from scipy.linalg import eigh
 
 from ..dofs import Dof
 from ..errors import ModelError
-from ..physics.elements import Material, Section, require_positive, timoshenko_element
-from ..physics.structure import ComplexStiffness
+from ..physics.elements import Material, Section, require_positive
+from ..physics.structure import ComplexStiffness, beam_structure
 
 __all__ = [
     "ElastomerMaterial",
@@ -280,17 +280,9 @@ class ElastomerJoint:
             raise ModelError("joint model: modulus must be a callable E*(f_hz) -> complex Pa, or None")
         kappa = self.kappa
         require_positive("shear coefficient", kappa, "(dimensionless)")
-        ne = int(self.elements)
         mat = Material(E, rho, 0.0, poisson_ratio=self.poisson_ratio)
-        Ke, Me = timoshenko_element(L / ne, self.section, mat, kappa)
-        n = 2 * (ne + 1)
-        K = np.zeros((n, n))
-        M = np.zeros((n, n))
-        rows = (2 * np.arange(ne))[:, None] + np.arange(4)[None, :]
-        np.add.at(K, (rows[:, :, None], rows[:, None, :]), Ke)
-        np.add.at(M, (rows[:, :, None], rows[:, None, :]), Me)
-        K.setflags(write=False)
-        M.setflags(write=False)
+        cylinder = beam_structure(L, self.section, mat, int(self.elements) + 1, kappa)  # undamped: eta is applied per line
+        K, M = cylinder.K.real, cylinder.M
         object.__setattr__(self, "_K", K)
         object.__setattr__(self, "_M", M)
 

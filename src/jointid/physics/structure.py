@@ -192,17 +192,21 @@ class Structure:
         self.add_joints(D, f)
         return D
 
+    def joint_terms(self, f_hz: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each joint's stiffness on its active DOFs: ``(K_j (F, k, k), active indices (k,))`` pairs."""
+        pos = {d: i for i, d in enumerate(self.dofs)}
+        out = []
+        for joint in self.joints:
+            keep = [a for a, d in enumerate(joint.dofs) if d in pos]
+            if keep:
+                idx = np.array([pos[joint.dofs[a]] for a in keep], dtype=int)
+                out.append((joint(f_hz)[:, keep][:, :, keep], idx))
+        return out
+
     def add_joints(self, D: np.ndarray, f_hz: np.ndarray) -> None:
         """Add every frequency-dependent joint term to ``D`` (F, n, n) in place (active DOFs)."""
-        if not self.joints:
-            return
-        pos = {d: i for i, d in enumerate(self.dofs)}
-        for joint in self.joints:
-            kj = joint(f_hz)
-            keep = [a for a, d in enumerate(joint.dofs) if d in pos]
-            idx = np.array([pos[joint.dofs[a]] for a in keep], dtype=int)
-            if idx.size:
-                D[:, idx[:, None], idx[None, :]] += kj[:, keep][:, :, keep]
+        for kj, idx in self.joint_terms(f_hz):
+            D[:, idx[:, None], idx[None, :]] += kj
 
     # ------------------------------------------------------------ builders
     def with_mass(self, node: int, mass_kg: float, rotary_inertia_kg_m2: float = 0.0) -> "Structure":

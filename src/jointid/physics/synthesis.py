@@ -121,12 +121,7 @@ def receptance_direct(structure: Structure, frequency: Frequency, responses, ref
     Sd = sp.diags(scale)
     K = sp.csc_matrix(structure.K)
     M = sp.csc_matrix(structure.M)
-    pos = {d: i for i, d in enumerate(structure.dofs)}
-    joint_terms = []
-    for j in structure.joints:
-        keep = [a for a, d in enumerate(j.dofs) if d in pos]
-        idx = np.array([pos[j.dofs[a]] for a in keep], dtype=int)
-        joint_terms.append((j(frequency.hz)[:, keep][:, :, keep], idx))
+    joint_terms = structure.joint_terms(frequency.hz)
     w2 = frequency.omega**2
     for i in range(F):  # large sparse models: one sparse LU per line
         D = K - w2[i] * M
