@@ -56,7 +56,7 @@ def main() -> None:
     beam = benchmark_beam()
     joint = parametric_joint(10, 2e5, 60.0, 1.5e3, 0.12, growth=0.5, reference_frequency=100, exponent=0.5)
     jd = joint.dofs
-    warm = Frequency(np.linspace(5, 1000, 50))  # first-call costs (imports, thread pool) out of the timings
+    warm = Frequency(np.linspace(5, 1000, 1000))  # first-call costs (imports, thread pool) out of the timings
     identify_joint(beam, synthesize_frf(beam.with_joint(joint), warm, [f"{n}w" for n in OBSERVED], [f"{n}w" for n in EXCITED]), jd)
     for lines in (1000, 20000):
         freq = Frequency(np.linspace(5, 1000, lines))
