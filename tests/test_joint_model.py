@@ -37,6 +37,8 @@ def test_static_blocked_transfer_equals_guided_timoshenko(name):
     analytic = 12 * Ec * I / ((1 + phi) * L**3)
     k = j.blocked_transfer_stiffness([1e-6])[0]
     assert abs(k / analytic - 1) < 1e-9
+    assert j.static_guided_stiffness() == pytest.approx(analytic, rel=1e-12)
+    assert j.static_shear_stiffness() == pytest.approx(G * A / L, rel=1e-12)
     # about two thirds of GA/L: bending is not negligible for L = d
     ratio = (k / (G * A / L)).real
     assert ratio == pytest.approx(kappa * phi / (1 + phi), rel=1e-9)
@@ -51,6 +53,7 @@ def test_static_driving_point_is_inverse_cantilever_flexibility(name):
     C = np.array([[L**3 / (3 * Ec * I) + L / (kappa * G * A), L**2 / (2 * Ec * I)], [L**2 / (2 * Ec * I), L / (Ec * I)]])
     analytic = np.linalg.inv(C)
     j = ElastomerJoint.from_material(name)
+    assert np.allclose(j.static_cantilever_matrix(), analytic, rtol=1e-12, atol=0)
     for include_cap in (True, False):
         K = j.driving_point_matrix([1e-7], include_cap=include_cap)[0]
         assert np.allclose(K, analytic, rtol=1e-9, atol=0)

@@ -36,6 +36,7 @@ from ..dofs import Dof
 from ..errors import DataError
 from ..methods.impact import ImpactRecord, where_hit
 from .atomic import atomic_path
+from .uff import FUNC_TIME
 
 __all__ = ["read_impact_npz", "write_impact_npz", "read_impact_csv", "write_impact_csv", "read_impact_uff", "write_impact_uff"]
 
@@ -261,7 +262,7 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
         raise DataError(f"{path}: cannot read as UFF ({e})") from None
     if isinstance(sets, dict):
         sets = [sets]
-    sets = [s for s in sets if s.get("type") == 58 and int(s.get("func_type", 0)) == 1]
+    sets = [s for s in sets if s.get("type") == 58 and int(s.get("func_type", 0)) == FUNC_TIME]
     if not sets:
         raise DataError(f"{path}: no UFF58 time-response records (function type 1)")
 
@@ -364,7 +365,7 @@ def write_impact_uff(path: str | Path, records: Sequence[ImpactRecord]) -> Path:
                         id3="NONE",
                         id4="NONE",
                         id5="NONE",
-                        func_type=1,
+                        func_type=FUNC_TIME,
                         ver_num=0,
                         load_case_id=h,
                         rsp_ent_name="beam",

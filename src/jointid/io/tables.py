@@ -12,7 +12,7 @@ import numpy as np
 
 from .atomic import atomic_write_text
 
-__all__ = ["write_csv", "read_csv"]
+__all__ = ["write_csv"]
 
 
 def _fmt(v) -> str:
@@ -41,19 +41,3 @@ def write_csv(path: str | os.PathLike, columns: Mapping[str, Sequence]) -> Path:
     for row in zip(*cols):
         w.writerow([_fmt(v) for v in row])
     return atomic_write_text(path, buf.getvalue())
-
-
-def read_csv(path: str | os.PathLike) -> dict[str, list[str]]:
-    """Read a CSV with a header into name -> list of strings (no conversion)."""
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        rows = list(csv.reader(fh))
-    if not rows:
-        return {}
-    header = [h.strip() for h in rows[0]]
-    out: dict[str, list[str]] = {h: [] for h in header}
-    for r in rows[1:]:
-        if not r:
-            continue
-        for h, v in zip(header, r):
-            out[h].append(v.strip())
-    return out
