@@ -94,7 +94,13 @@ def simulate(study: Study, frequency: Frequency | None = None) -> VirtualTest:
 
 def inverse_options(study: Study) -> InverseOptions:
     """The :class:`InverseOptions` of the study's ``[identification]`` section."""
-    return InverseOptions(symmetric=study.identification.symmetric, regularization=study.identification.regularization)
+    spec = study.identification
+    return InverseOptions(
+        symmetric=spec.symmetric,
+        regularization=spec.regularization,
+        estimation=spec.estimation,
+        cond_rtol=spec.cond_rtol,
+    )
 
 
 def identify(study: Study, measured: FRF, options: InverseOptions | None = None) -> InverseResult:

@@ -49,6 +49,8 @@ are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     symmetric = false         # enforce Du = Du^T
     regularization = "none"   # "none" | "gcv" | "lcurve" (Tikhonov, lambda per line)
     model_accelerometers = false  # add the [accelerometers] to Do
+    estimation = "qr"         # "qr" (fast) | "svd" (one SVD per line): same least-squares solution
+    cond_rtol = 0.01          # certified relative accuracy of cond_A with "qr" (0: an SVD on every line)
 
     [frequency]
     start = 5.0               # Hz
@@ -282,6 +284,8 @@ class IdentificationSpec:
     symmetric: bool = False
     regularization: str = "none"
     model_accelerometers: bool = False
+    estimation: str = "qr"
+    cond_rtol: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -387,6 +391,8 @@ _IDENTIFICATION = {
     "symmetric": _Field("bool", False, False),
     "regularization": _Field("str", False, "none", check=_choices("none", "gcv", "lcurve")),
     "model_accelerometers": _Field("bool", False, False),
+    "estimation": _Field("str", False, "qr", check=_choices("qr", "svd")),
+    "cond_rtol": _Field("number", False, 0.01, check=lambda v: None if 0 <= v < 1 else "a number in [0, 1)"),
 }
 _FREQUENCY = {
     "start": _Field("number", True, unit="Hz", check=_nonneg),

@@ -24,8 +24,12 @@ Needs ``|e| >= |n|`` and ``H*[n, e]`` of rank ``|n|``.
 
 Numerics
 --------
-Both steps are solved through one batched SVD per step over all frequency
-lines (LAPACK ``gesdd``), never through normal equations. Rotational
+Neither step uses the normal equations. The estimation step is a Householder
+QR least-squares solve per line (LAPACK's ``gels`` algorithm; lines whose
+``cond_A`` may exceed 1e6 get the SVD pseudo-inverse instead), the
+identification step a small SVD per line; see
+:mod:`jointid.methods.estimation`. Everything is batched over frequency in
+chunks of lines run on the available cores. Rotational
 coordinates are scaled by a length ``l`` (default: the mean element length):
 moment rows are divided by ``l`` and rotation unknowns multiplied by it, so
 every equation and unknown has force/translation units. This weights the least
@@ -33,7 +37,11 @@ squares sensibly and makes the condition numbers ``sigma_max / sigma_min``
 meaningful:
 
 * ``cond_A`` of ``Do[nbar, mbar]`` spikes where a combination of joint forces
-  gives no response at the observed points (too few or badly placed points);
+  gives no response at the observed points (too few or badly placed points).
+  ``Do[nbar, mbar] = K - w^2 M`` is linear in ``w^2``, so exact SVDs at a
+  subset of lines bracket it everywhere (Weyl's inequality); it is reported
+  within a certified relative accuracy (default 1%, ``cond_rtol``; bound per
+  line in ``cond_A_bound``), see :mod:`jointid.methods.condition`;
 * ``cond_B`` of ``H*[n, e]`` peaks at the constrained structure's resonances
   (one mode dominates; the columns become parallel);
 * ``cond_H`` of the measured ``H*[m, e]``.
@@ -60,12 +68,16 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from ..dofs import Dof, parse_dofs
 from ..errors import IdentificationError
 from ..frequency import Frequency
 from ..frf import FRF
+from ..physics.modes import DENSE_EIGEN_LIMIT, natural_modes
 from ..physics.structure import Structure
+from .condition import pencil_condition
+from .estimation import EstimationLayout, estimate_qr, estimate_svd
 
 __all__ = [
     "Reliability",
@@ -76,6 +88,8 @@ __all__ = [
 ]
 
 _CHUNK_LINES = 1000
+#: Above this condition number of ``Do[nbar, mbar]`` the QR estimation hands the line to the SVD solver.
+_QR_MAX_COND = 1e6
 
 
 @dataclass(frozen=True)
@@ -115,18 +129,35 @@ class InverseOptions:
         Length l used to scale rotations (default: mean element length).
     reliability : Reliability
         Thresholds of the ``reliable`` flag.
+    estimation : {"qr", "svd"}
+        Solver of the estimation step (:mod:`jointid.methods.estimation`); both
+        return the least-squares solution ``Do[nbar, mbar]^+ b``. ``"qr"``
+        (default): Householder QR per line (LAPACK's least-squares algorithm);
+        lines whose ``cond_A`` may exceed 1e10 go to the SVD solver, which is
+        minimum-norm on rank-deficient lines. ``"svd"``: one SVD per line
+        everywhere (about 6x slower).
+    cond_rtol : float
+        With ``estimation="qr"``: certified relative accuracy of ``cond_A``
+        (:func:`~jointid.methods.condition.pencil_condition`); 0 computes it by
+        an SVD on every line. The SVD solver always gives it exactly.
     """
 
     symmetric: bool = False
     regularization: str = "none"
     rotation_scale_m: float | None = None
     reliability: Reliability = field(default_factory=Reliability)
+    estimation: str = "qr"
+    cond_rtol: float = 1e-2
 
     def __post_init__(self) -> None:
         if self.regularization not in ("none", "gcv", "lcurve"):
             raise IdentificationError(
                 f"regularization must be 'none', 'gcv' or 'lcurve', got {self.regularization!r}"
             )
+        if self.estimation not in ("qr", "svd"):
+            raise IdentificationError(f"estimation must be 'qr' or 'svd', got {self.estimation!r}")
+        if not (isinstance(self.cond_rtol, (int, float)) and np.isfinite(self.cond_rtol) and 0 <= self.cond_rtol < 1):
+            raise IdentificationError(f"cond_rtol must be a number in [0, 1), got {self.cond_rtol!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -152,6 +183,8 @@ class InverseResult:
     regularization_lambda : ndarray, shape (F,)
         Tikhonov lambda per line (scaled units; 0 without regularization).
     options : InverseOptions
+    cond_A_bound : ndarray, shape (F,)
+        Certified relative error bound of ``cond_A`` (0 where it came from an SVD of that line).
     """
 
     frequency: Frequency
@@ -165,6 +198,7 @@ class InverseResult:
     reliable: np.ndarray
     regularization_lambda: np.ndarray
     options: InverseOptions
+    cond_A_bound: np.ndarray
 
     def term(self, i: str, j: str) -> np.ndarray:
         """Stiffness term ``K_ij`` (directions ``"w"``/``"theta"``) vs frequency, shape (F,)."""
@@ -212,16 +246,6 @@ def check_layout(n_joint: int, observed: Sequence, excited: Sequence) -> None:
             f"{len(excited)} excited coordinate(s) for {n_joint} joint DOFs: the identification step needs "
             f"at least as many excited coordinates as joint DOFs (|e| >= |n|); excite more points"
         )
-
-
-def _svd_solve_left(A: np.ndarray, rhs: np.ndarray):
-    """Least-squares solution of ``A X = rhs`` per line by SVD; returns (X, cond)."""
-    U, s, Vh = np.linalg.svd(A, full_matrices=False)
-    tol = s[:, :1] * max(A.shape[-2:]) * np.finfo(float).eps
-    sinv = np.where(s > tol, 1.0 / np.where(s > tol, s, 1.0), 0.0)
-    X = np.conj(np.swapaxes(Vh, -1, -2)) @ (sinv[..., None] * (np.conj(np.swapaxes(U, -1, -2)) @ rhs))
-    with np.errstate(divide="ignore"):  # an exactly singular line has cond = inf
-        return X, s[:, 0] / s[:, -1]
 
 
 def _cond(A: np.ndarray) -> np.ndarray:
@@ -308,9 +332,6 @@ def identify_joint(
     n_idx = np.array([pos[d] for d in n_dofs])
     m_idx = np.array([pos[d] for d in m_dofs])
     e_idx = np.array([pos[d] for d in e_dofs])
-    nbar = np.array([i for i in range(N) if i not in set(n_idx)])
-    mbar = np.array([i for i in range(N) if i not in set(m_idx)])
-
     if options.rotation_scale_m is not None:
         ell = float(options.rotation_scale_m)
     else:
@@ -318,54 +339,60 @@ def identify_joint(
         ell = float(np.mean(np.diff(xs))) if xs.size > 1 else 1.0
     # scaled coordinates: rotation unknowns theta' = ell * theta, moment rows / ell
     sc = np.array([1.0 if d.direction == "w" else 1.0 / ell for d in dofs])  # D_s = S D S with S = diag(sc)
+    loads = np.zeros((N, len(e_dofs)))
+    loads[e_idx, np.arange(len(e_dofs))] = sc[e_idx]
+    layout = EstimationLayout(
+        n=n_idx,
+        m=m_idx,
+        e=e_idx,
+        nbar=np.array([i for i in range(N) if i not in set(n_idx)], dtype=int),
+        mbar=np.array([i for i in range(N) if i not in set(m_idx)], dtype=int),
+        loads=loads,
+        stiffness=free.K * np.outer(sc, sc),
+        mass=free.M * np.outer(sc, sc),
+    )
+    ho_nn = _driving_point_receptance(free, n_idx)
 
     F = freq.size
+    w2 = freq.omega**2
     Du = np.empty((F, len(n_dofs), len(n_dofs)), complex)
     H_all = np.empty((F, N, len(e_dofs)), complex)
     condA = np.empty(F)
+    condA_bound = np.zeros(F)
     condB = np.empty(F)
     lam_out = np.zeros(F)
     ratio = np.empty((F, len(n_dofs)))
-    I_ne = np.zeros((N, len(e_dofs)))
-    I_ne[e_idx, np.arange(len(e_dofs))] = 1.0
-    condH = _cond(H_meas)
+    condH = np.empty(F)
+    n_scale = sc[n_idx][:, None] * sc[n_idx][None, :]
 
-    def run_chunk(a: int) -> None:
-        sl = slice(a, a + _CHUNK_LINES)
-        Do = free.dynamic_stiffness(freq.hz[sl])
-        Ds = Do * (sc[:, None] * sc[None, :])[None]
-        Hm = H_meas[sl]
-        # ---- estimation: Ds[nbar, mbar] Ys[mbar] = I[nbar, e] * sc - Ds[nbar, m] Ys[m], with Y = S^-1 H
-        Hs_m = Hm / sc[m_idx][None, :, None]
-        A = Ds[:, nbar][:, :, mbar]
-        rhs = (I_ne[nbar] * sc[nbar, None])[None] - Ds[:, nbar][:, :, m_idx] @ Hs_m
-        Ys_mbar, condA[sl] = _svd_solve_left(A, rhs)
-        Hs = np.empty((Do.shape[0], N, len(e_dofs)), complex)
-        Hs[:, m_idx] = Hs_m
-        Hs[:, mbar] = Ys_mbar
-        H_all[sl] = Hs * sc[None, :, None]
-        # ---- identification: Dus Bs = Cs (scaled), Du = S^-1 Dus S^-1
-        Bs = Hs[:, n_idx]
-        Cs = (I_ne[n_idx] * sc[n_idx, None])[None] - Ds[:, n_idx] @ Hs
-        Dus, condB[sl], lam_out[sl] = _identify(Bs, Cs, options)
-        Du[sl] = Dus / (sc[n_idx][:, None] * sc[n_idx][None, :])[None]
-        # ---- identifiability: |Du_ii| |Ho_ii|, Ho = Do^-1 columns n
-        E = np.zeros((N, len(n_dofs)))
-        E[n_idx, np.arange(len(n_dofs))] = 1.0
-        Ho = np.linalg.solve(Do, np.broadcast_to(E, (Do.shape[0], N, len(n_dofs))))
-        ho_nn = Ho[:, n_idx, np.arange(len(n_dofs))]
-        ratio[sl] = np.abs(np.diagonal(Du[sl], axis1=1, axis2=2)) * np.abs(ho_nn)
+    def solve(lines: np.ndarray, method: str) -> None:
+        """Both steps on the given lines (chunk); writes the outputs at those lines."""
+        Ys_m = H_meas[lines] / sc[m_idx][None, :, None]
+        condH[lines] = _cond(H_meas[lines])
+        if method == "qr":
+            Ys, Cs = estimate_qr(layout, w2[lines], Ys_m)
+        else:
+            Ys, Cs, condA[lines] = estimate_svd(layout, w2[lines], Ys_m)
+        H_all[lines] = Ys * sc[None, :, None]
+        # identification: Dus Bs = Cs (scaled), Du = S^-1 Dus S^-1
+        Dus, condB[lines], lam_out[lines] = _identify(Ys[:, n_idx], Cs, options)
+        Du[lines] = Dus / n_scale[None]
+        # identifiability: |Du_ii| |Ho_ii|
+        ratio[lines] = np.abs(np.diagonal(Du[lines], axis1=1, axis2=2)) * np.abs(ho_nn(freq.hz[lines]))
 
-    # chunks bound memory (Do is F x N x N) and run on the available cores: each is a batched
-    # LAPACK call that releases the GIL, and chunks write disjoint slices of the outputs
-    starts = range(0, F, _CHUNK_LINES)
-    workers = min(len(starts), os.cpu_count() or 1, 4)
-    if workers > 1:
-        with ThreadPoolExecutor(workers) as pool:
-            list(pool.map(run_chunk, starts))
+    everything = np.arange(F)
+    if options.estimation == "svd":
+        _map_chunks(solve, everything, method="svd")
     else:
-        for a in starts:
-            run_chunk(a)
+        A = layout.estimation_matrix(np.zeros(1))[0]
+        cond = pencil_condition(A, layout.mass[np.ix_(layout.nbar, layout.mbar)], w2, options.cond_rtol)
+        condA[:], condA_bound[:] = cond.values, cond.bound
+        # (nearly) rank-deficient lines need the pseudo-inverse: the SVD solver, which also gives cond_A exactly
+        hard = cond.upper > _QR_MAX_COND
+        _map_chunks(solve, everything[~hard], method="qr")
+        if hard.any():
+            _map_chunks(solve, everything[hard], method="svd")
+            condA_bound[hard] = 0.0
 
     rel = options.reliability
     k = next((i for i, d in enumerate(n_dofs) if d.direction == "w"), 0)
@@ -376,7 +403,50 @@ def identify_joint(
         & (ratio[:, k] <= rel.max_ratio)
     )
     estimated = FRF(freq, H_all, dofs, e_dofs, "receptance")
-    return InverseResult(freq, n_dofs, Du, estimated, condA, condB, condH, ratio, reliable, lam_out, options)
+    return InverseResult(freq, n_dofs, Du, estimated, condA, condB, condH, ratio, reliable, lam_out, options, condA_bound)
+
+
+def _driving_point_receptance(free: Structure, n_idx: np.ndarray):
+    """``f_hz -> diag(Do^-1)[n]`` (F, |n|): modal sum over every mode, or a batched solve.
+
+    Only the identifiability ratio uses it, so the modal sum's accuracy (the
+    eigensolver's, ~1e-10 relative) is ample.
+    """
+    eta = free.proportional_loss_factor
+    if eta is not None and len(free.dofs) <= DENSE_EIGEN_LIMIT:
+        modes = natural_modes(free)
+        lam = modes.eigenvalues * (1.0 + 1j * eta)
+        phi2 = modes.shapes[n_idx] ** 2  # (|n|, N)
+
+        def modal(f_hz):
+            return (1.0 / (lam[None, :] - (2.0 * np.pi * f_hz[:, None]) ** 2)) @ phi2.T
+
+        return modal
+
+    def solved(f_hz):
+        E = np.zeros((len(free.dofs), n_idx.size))
+        E[n_idx, np.arange(n_idx.size)] = 1.0
+        Ho = np.linalg.solve(free.dynamic_stiffness(f_hz), np.broadcast_to(E, (f_hz.size,) + E.shape))
+        return Ho[:, n_idx, np.arange(n_idx.size)]
+
+    return solved
+
+
+def _map_chunks(solve, lines: np.ndarray, **kwargs) -> None:
+    """Run ``solve(chunk, **kwargs)`` over chunks of ``lines`` on the available cores.
+
+    Chunks bound memory (``Do`` alone is F x N x N) and each is a few batched
+    LAPACK calls and BLAS products that release the GIL; chunks write disjoint lines.
+    """
+    chunks = [lines[a : a + _CHUNK_LINES] for a in range(0, lines.size, _CHUNK_LINES)]
+    workers = min(len(chunks), os.cpu_count() or 1, 4)
+    if workers > 1:
+        # one BLAS thread per worker: BLAS threads inside worker threads oversubscribe the cores
+        with threadpool_limits(1, user_api="blas"), ThreadPoolExecutor(workers) as pool:
+            list(pool.map(lambda c: solve(c, **kwargs), chunks))
+    else:
+        for c in chunks:
+            solve(c, **kwargs)
 
 
 def _identify(B: np.ndarray, C: np.ndarray, options: InverseOptions):
