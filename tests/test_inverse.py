@@ -131,3 +131,47 @@ def test_unmodelled_accelerometer_mass_degrades_and_mass_option_restores():
     # translational error of 19% over 100-1000 Hz; modelled, the error is round-off
     assert e_without > 0.1
     assert e_with < 1e-8
+
+
+def _noisy(frf, seed=2, level=0.01):
+    rng = np.random.default_rng(seed)
+    noise = level * (rng.standard_normal(frf.shape) + 1j * rng.standard_normal(frf.shape)) / np.sqrt(2)
+    return FRF(frf.frequency, frf.data * (1 + noise), frf.responses, frf.references, frf.kind)
+
+
+def test_qr_and_svd_estimation_give_the_same_least_squares_solution_on_noisy_data():
+    noisy = _noisy(_measure(10, [1, 3, 6, 9, 12, 15, 19]))
+    qr = identify_joint(BEAM, noisy, ["10w", "10theta"])
+    svd = identify_joint(BEAM, noisy, ["10w", "10theta"], InverseOptions(estimation="svd"))
+    assert qr.options.estimation == "qr"
+    assert np.abs(qr.stiffness - svd.stiffness).max() / np.abs(svd.stiffness).max() < 1e-10
+    assert np.abs(qr.estimated.data - svd.estimated.data).max() / np.abs(svd.estimated.data).max() < 1e-10
+    assert np.array_equal(qr.cond_H, svd.cond_H) and np.allclose(qr.cond_B, svd.cond_B, rtol=1e-8)
+
+
+def test_cond_A_is_certified_and_ill_conditioned_lines_use_the_svd_solver():
+    frf = _measure(10, [8, 12])  # cond_A spikes to 3e6 near 60 Hz
+    fast = identify_joint(BEAM, frf, ["10w", "10theta"])
+    svd = identify_joint(BEAM, frf, ["10w", "10theta"], InverseOptions(estimation="svd"))
+    assert np.all(svd.cond_A_bound == 0)
+    err = np.abs(fast.cond_A / svd.cond_A - 1)
+    assert np.all(err <= fast.cond_A_bound + 1e-9) and fast.cond_A_bound.max() <= 0.01
+    hard = fast.cond_A * (1 + fast.cond_A_bound) > 1e6
+    assert 0 < hard.sum() < 20  # measured: 2 lines
+    assert np.all(fast.cond_A_bound[hard] == 0)
+    assert np.allclose(fast.stiffness[hard], svd.stiffness[hard], rtol=1e-12, atol=0)
+    exact = identify_joint(BEAM, frf, ["10w", "10theta"], InverseOptions(cond_rtol=0))
+    assert np.all(exact.cond_A_bound == 0) and np.allclose(exact.cond_A, svd.cond_A, rtol=1e-10)
+
+
+@pytest.mark.parametrize(
+    "kwargs, msg",
+    [
+        ({"estimation": "lu"}, "estimation must be 'qr' or 'svd', got 'lu'"),
+        ({"cond_rtol": -0.1}, r"cond_rtol must be a number in \[0, 1\), got -0.1"),
+        ({"cond_rtol": float("nan")}, r"cond_rtol must be a number in \[0, 1\), got nan"),
+    ],
+)
+def test_bad_inverse_options(kwargs, msg):
+    with pytest.raises(IdentificationError, match=msg):
+        InverseOptions(**kwargs)

@@ -70,6 +70,8 @@ def _with(section, key, value):
         (_with("frequency", "start", 2000.0), "[frequency]: start (2000 Hz) must be below stop (1000 Hz)"),
         (_with("frequency", "step", 0.0), "[frequency].step: expected a positive number (Hz), got 0.0"),
         ({**BASE, "beem": {}}, "unknown section [beem]; expected sections:"),
+        ({**BASE, "identification": {"estimation": "lu"}}, "[identification].estimation: expected one of"),
+        ({**BASE, "identification": {"cond_rtol": 2.0}}, "[identification].cond_rtol: expected a number in [0, 1), got 2.0"),
     ],
 )
 def test_bad_study_names_the_key(data, msg):

@@ -87,7 +87,7 @@ __all__ = [
     "check_layout",
 ]
 
-_CHUNK_LINES = 1000
+_CHUNK_LINES = 250
 #: Above this condition number of ``Do[nbar, mbar]`` the QR estimation hands the line to the SVD solver.
 _QR_MAX_COND = 1e6
 
