@@ -9,6 +9,7 @@ from jointid.frequency import Frequency
 from jointid.frf import FRF
 from jointid.methods.inverse import InverseOptions, identify_joint
 from jointid.physics.joints import parametric_joint
+from jointid.physics.structure import Structure
 from jointid.physics.synthesis import synthesize_frf
 
 BEAM = benchmark_beam()
@@ -175,3 +176,43 @@ def test_cond_A_is_certified_and_ill_conditioned_lines_use_the_svd_solver():
 def test_bad_inverse_options(kwargs, msg):
     with pytest.raises(IdentificationError, match=msg):
         InverseOptions(**kwargs)
+
+
+def test_massless_rotations_in_the_free_model():
+    # lumped translational masses only: M is singular, so no modal sum; the solve is used
+    M = np.diag([1.0 if d.direction == "w" else 0.0 for d in BEAM.all_dofs]) * 0.01
+    lumped = Structure(BEAM.all_dofs, BEAM.coordinates, M, BEAM.stiffness)
+    j = parametric_joint(10, 2e5, 60.0, 0.0, 0.1, dofs=("w",))
+    freq = Frequency.from_range(5, 300, 1)
+    frf = synthesize_frf(lumped.with_joint(j), freq, ["4w", "16w"], ["9w"], kind="receptance")
+    r = identify_joint(lumped, frf, ["10w"])
+    assert np.abs(r.term("w", "w") - j(freq.hz)[:, 0, 0]).max() < 1e-8 * 2e5
+    assert np.all(np.isfinite(r.identifiability))
+
+
+def test_zero_hz_line_is_an_error():
+    frf = synthesize_frf(BEAM.with_joint(_joint(10)), Frequency.from_range(0, 10, 1), ["8w", "12w"], EXCITED)
+    with pytest.raises(IdentificationError, match="needs frequencies > 0 Hz"):
+        identify_joint(BEAM, frf, ["10w", "10theta"])
+
+
+def test_concurrent_calls_restore_the_blas_thread_count():
+    import threading
+
+    from threadpoolctl import threadpool_info
+
+    def blas():
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+    before = blas()
+    frf = _measure(10, [8, 12], freq=Frequency.from_range(5, 1000, 0.25))
+    results = []
+    threads = [
+        threading.Thread(target=lambda: results.append(identify_joint(BEAM, frf, ["10w", "10theta"]))) for _ in range(3)
+    ]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(results) == 3 and blas() == before
+    assert all(np.array_equal(r.stiffness, results[0].stiffness) for r in results)

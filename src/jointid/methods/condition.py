@@ -12,17 +12,24 @@ anchors (it bisects the gaps) until, on every line, the bracket of
 interpolated linearly in ``t`` between the anchors and clipped to the bracket.
 Where ``sigma_min`` is small (a spike of the condition number) the bracket is
 wide and the anchors become dense, down to an SVD on every line; where it is
-smooth a few hundred SVDs cover tens of thousands of lines.
+smooth a few hundred SVDs cover tens of thousands of lines. Lines whose bracket
+straddles one of the caller's decision ``levels`` (a reliability threshold)
+also get an SVD, so a decision taken on the reported value is the one the exact
+value would give.
+
+The anchor SVDs themselves carry LAPACK's round-off, ``max(r, c) eps
+sigma_max`` in absolute terms; the brackets are widened by it, so the bound is
+certified up to that round-off on the anchors themselves.
 """
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+
+from ..parallel import map_chunks
 
 __all__ = ["ConditionNumbers", "pencil_condition"]
 
@@ -53,8 +60,8 @@ class ConditionNumbers:
         return self.values * (1.0 + self.bound)
 
 
-def pencil_condition(A0: np.ndarray, M: np.ndarray, w2: np.ndarray, rtol: float = 1e-3, *,
-                     first_anchors: int = 33, workers: int | None = None) -> ConditionNumbers:
+def pencil_condition(A0: np.ndarray, M: np.ndarray, w2: np.ndarray, rtol: float = 1e-2, *,
+                     levels: Sequence[float] = (), first_anchors: int = 33) -> ConditionNumbers:
     """Condition numbers ``sigma_max / sigma_min`` of ``A0 - w^2 M`` on every line, within ``rtol``.
 
     Parameters
@@ -64,13 +71,13 @@ def pencil_condition(A0: np.ndarray, M: np.ndarray, w2: np.ndarray, rtol: float 
     M : ndarray, shape (r, c), real or complex
         The coefficient of ``-w^2``.
     w2 : ndarray, shape (F,)
-        Squared circular frequencies, (rad/s)^2, strictly increasing.
+        Squared circular frequencies, (rad/s)^2, non-decreasing.
     rtol : float
         Certified relative accuracy; 0 computes an SVD on every line.
+    levels : sequence of float
+        Decision thresholds: a line whose bracket contains one gets an SVD.
     first_anchors : int
         Number of evenly spaced anchors to start from (the gaps are then bisected).
-    workers : int, optional
-        Threads for the SVDs (default: the available cores, at most 4).
 
     Returns
     -------
@@ -80,20 +87,22 @@ def pencil_condition(A0: np.ndarray, M: np.ndarray, w2: np.ndarray, rtol: float 
     F = w2.size
     if not (np.isfinite(rtol) and rtol >= 0):
         raise ValueError(f"rtol must be a finite number >= 0, got {rtol!r}")
-    if np.any(np.diff(w2) <= 0):
-        raise ValueError("w2 must be strictly increasing")
+    if np.any(np.diff(w2) < 0):
+        raise ValueError("w2 must be non-decreasing")
     if F == 0 or min(A0.shape) == 0:
         return ConditionNumbers(np.ones(F), np.zeros(F), np.ones(F, bool))
     lip = float(np.linalg.norm(M, 2))
     smax, smin = np.full(F, np.nan), np.full(F, np.nan)
     exact = np.zeros(F, bool)
-    workers = workers or min(os.cpu_count() or 1, 4)
+    roundoff = max(A0.shape) * np.finfo(float).eps
+    levels = np.asarray(levels, dtype=float).reshape(-1)
     new = np.arange(F) if rtol == 0 else np.unique(np.linspace(0, F - 1, max(int(first_anchors), 2)).round().astype(int))
     while True:
-        smax[new], smin[new] = _extreme_singular_values(A0, M, w2[new], workers)
+        smax[new], smin[new] = _extreme_singular_values(A0, M, w2[new])
         exact[new] = True
-        values, bound = _bracket(w2, smax, smin, exact, lip)
-        bad = np.flatnonzero(~(bound <= rtol))
+        values, bound, lo, hi = _bracket(w2, smax, smin, exact, lip, roundoff)
+        straddle = np.any((lo[:, None] <= levels[None, :]) & (levels[None, :] < hi[:, None]), axis=1)
+        bad = np.flatnonzero(~(bound <= rtol) | (straddle & ~exact))
         if bad.size == 0:
             return ConditionNumbers(values, bound, exact)
         anchors = np.flatnonzero(exact)
@@ -101,33 +110,28 @@ def pencil_condition(A0: np.ndarray, M: np.ndarray, w2: np.ndarray, rtol: float 
         new = np.unique((anchors[j - 1] + anchors[j]) // 2)
 
 
-def _extreme_singular_values(A0, M, t, workers):
+def _extreme_singular_values(A0, M, t):
     """(sigma_max, sigma_min) of ``A0 - t M`` for each ``t``, batched SVDs in chunks."""
     smax, smin = np.empty(t.size), np.empty(t.size)
 
-    def run(a):
-        tt = t[a : a + _CHUNK]
-        s = np.linalg.svd(A0[None] - tt[:, None, None] * M[None], compute_uv=False)
-        smax[a : a + _CHUNK], smin[a : a + _CHUNK] = s[:, 0], s[:, -1]
+    def run(idx):
+        s = np.linalg.svd(A0[None] - t[idx, None, None] * M[None], compute_uv=False)
+        smax[idx], smin[idx] = s[:, 0], s[:, -1]
 
-    starts = range(0, t.size, _CHUNK)
-    if workers > 1 and len(starts) > 1:
-        with threadpool_limits(1, user_api="blas"), ThreadPoolExecutor(min(workers, len(starts))) as pool:
-            list(pool.map(run, starts))
-    else:
-        for a in starts:
-            run(a)
+    map_chunks(run, np.arange(t.size), _CHUNK)
     return smax, smin
 
 
-def _bracket(w2, smax, smin, exact, lip):
-    """Interpolated condition number and its certified relative error bound on every line."""
+def _bracket(w2, smax, smin, exact, lip, roundoff):
+    """Interpolated condition number, its certified relative error bound and bracket (lo, hi) per line."""
     F = w2.size
     anchors = np.flatnonzero(exact)  # always includes 0 and F - 1
     pos = np.searchsorted(anchors, np.arange(F))
     right = anchors[np.minimum(pos, anchors.size - 1)]
     left = np.where(exact, np.arange(F), anchors[np.maximum(pos - 1, 0)])
-    dl, dr = lip * (w2 - w2[left]), lip * (w2[right] - w2)
+    # Weyl, widened by the anchor SVDs' own round-off
+    dl = lip * (w2 - w2[left]) + roundoff * smax[left]
+    dr = lip * (w2[right] - w2) + roundoff * smax[right]
     span = w2[right] - w2[left]
     frac = np.divide(w2 - w2[left], span, out=np.zeros(F), where=span > 0)
 
@@ -144,4 +148,5 @@ def _bracket(w2, smax, smin, exact, lip):
         lo = amax_lo / amin_hi
         bound = np.maximum(hi / values - 1.0, 1.0 - lo / values)
     bound[exact] = 0.0
-    return values, bound
+    lo[exact] = hi[exact] = values[exact]
+    return values, bound, lo, hi

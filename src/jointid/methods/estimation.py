@@ -22,9 +22,9 @@ Two solvers return the same ``x`` when ``A`` has full column rank:
     with singular values below ``max(shape) eps s_max`` dropped (the
     pseudo-inverse, minimum-norm on rank-deficient lines); ``cond(A)`` exactly.
 
-Both are O(N^3) per line and are run on chunks of lines; neither forms ``Do``
-for the products with known receptances (those are single matrix products with
-``K`` and ``M`` over all lines of a chunk).
+Both are O(N^3) per line and are run on chunks of lines. Neither forms all of
+``Do``: only ``Do[nbar, mbar]`` per line, and the products of ``Do`` with known
+receptances are single matrix products with ``K`` and ``M`` over a whole chunk.
 """
 
 from __future__ import annotations
@@ -98,6 +98,8 @@ def svd_solve_left(A: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
     ``A`` shape (F, r, c), ``rhs`` (F, r, k); ``X`` (F, c, k), ``cond`` (F,) (inf if singular).
     """
+    if A.shape[-1] == 0:  # nothing to estimate
+        return np.zeros(A.shape[:1] + (0, rhs.shape[-1]), complex), np.ones(A.shape[0])
     U, s, Vh = np.linalg.svd(A, full_matrices=False)
     tol = s[:, :1] * max(A.shape[-2:]) * np.finfo(float).eps
     sinv = np.where(s > tol, 1.0 / np.where(s > tol, s, 1.0), 0.0)

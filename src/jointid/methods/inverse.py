@@ -62,19 +62,17 @@ the L-curve (biased: it shrinks ``Du`` where ``H*[n, e]`` is ill-conditioned).
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from ..dofs import Dof, parse_dofs
 from ..errors import IdentificationError
 from ..frequency import Frequency
 from ..frf import FRF
 from ..physics.modes import DENSE_EIGEN_LIMIT, natural_modes
+from ..parallel import map_chunks
 from ..physics.structure import Structure
 from .condition import pencil_condition
 from .estimation import EstimationLayout, estimate_qr, estimate_svd
@@ -133,9 +131,9 @@ class InverseOptions:
         Solver of the estimation step (:mod:`jointid.methods.estimation`); both
         return the least-squares solution ``Do[nbar, mbar]^+ b``. ``"qr"``
         (default): Householder QR per line (LAPACK's least-squares algorithm);
-        lines whose ``cond_A`` may exceed 1e10 go to the SVD solver, which is
+        lines whose ``cond_A`` may exceed 1e6 go to the SVD solver, which is
         minimum-norm on rank-deficient lines. ``"svd"``: one SVD per line
-        everywhere (about 6x slower).
+        everywhere (3-4x slower on 2 cores, ``benchmarks/identify.py``).
     cond_rtol : float
         With ``estimation="qr"``: certified relative accuracy of ``cond_A``
         (:func:`~jointid.methods.condition.pencil_condition`); 0 computes it by
@@ -325,8 +323,13 @@ def identify_joint(
             raise IdentificationError(f"{what} DOF(s) {missing} are not DOFs of the free model (nodes {free.nodes[0]}..{free.nodes[-1]})")
     if free.joints:
         raise IdentificationError("the free model must not contain frequency-dependent joints: Do is the free beam alone")
-    H_meas = measured.to("receptance").data
     freq = measured.frequency
+    if freq.hz[0] <= 0.0:
+        raise IdentificationError(
+            "identify_joint needs frequencies > 0 Hz (a free-free beam's dynamic stiffness is singular at 0 Hz); "
+            "drop the 0 Hz line"
+        )
+    H_meas = measured.to("receptance").data
 
     N = len(dofs)
     n_idx = np.array([pos[d] for d in n_dofs])
@@ -382,16 +385,22 @@ def identify_joint(
 
     everything = np.arange(F)
     if options.estimation == "svd":
-        _map_chunks(solve, everything, method="svd")
+        map_chunks(solve, everything, _CHUNK_LINES, method="svd")
     else:
         A = layout.estimation_matrix(np.zeros(1))[0]
-        cond = pencil_condition(A, layout.mass[np.ix_(layout.nbar, layout.mbar)], w2, options.cond_rtol)
+        cond = pencil_condition(
+            A,
+            layout.mass[np.ix_(layout.nbar, layout.mbar)],
+            w2,
+            options.cond_rtol,
+            levels=(options.reliability.max_cond_A, _QR_MAX_COND),  # decisions taken on exact values
+        )
         condA[:], condA_bound[:] = cond.values, cond.bound
         # (nearly) rank-deficient lines need the pseudo-inverse: the SVD solver, which also gives cond_A exactly
-        hard = cond.upper > _QR_MAX_COND
-        _map_chunks(solve, everything[~hard], method="qr")
+        hard = ~(cond.values <= _QR_MAX_COND)
+        map_chunks(solve, everything[~hard], _CHUNK_LINES, method="qr")
         if hard.any():
-            _map_chunks(solve, everything[hard], method="svd")
+            map_chunks(solve, everything[hard], _CHUNK_LINES, method="svd")
             condA_bound[hard] = 0.0
 
     rel = options.reliability
@@ -410,11 +419,17 @@ def _driving_point_receptance(free: Structure, n_idx: np.ndarray):
     """``f_hz -> diag(Do^-1)[n]`` (F, |n|): modal sum over every mode, or a batched solve.
 
     Only the identifiability ratio uses it, so the modal sum's accuracy (the
-    eigensolver's, ~1e-10 relative) is ample.
+    eigensolver's, 1e-8 to 1e-7 relative on the benchmark beam) is ample. A
+    mass matrix that is not positive definite (massless DOFs) takes the solve.
     """
     eta = free.proportional_loss_factor
+    modes = None
     if eta is not None and len(free.dofs) <= DENSE_EIGEN_LIMIT:
-        modes = natural_modes(free)
+        try:
+            modes = natural_modes(free)
+        except np.linalg.LinAlgError:
+            modes = None
+    if modes is not None:
         lam = modes.eigenvalues * (1.0 + 1j * eta)
         phi2 = modes.shapes[n_idx] ** 2  # (|n|, N)
 
@@ -430,23 +445,6 @@ def _driving_point_receptance(free: Structure, n_idx: np.ndarray):
         return Ho[:, n_idx, np.arange(n_idx.size)]
 
     return solved
-
-
-def _map_chunks(solve, lines: np.ndarray, **kwargs) -> None:
-    """Run ``solve(chunk, **kwargs)`` over chunks of ``lines`` on the available cores.
-
-    Chunks bound memory (``Do`` alone is F x N x N) and each is a few batched
-    LAPACK calls and BLAS products that release the GIL; chunks write disjoint lines.
-    """
-    chunks = [lines[a : a + _CHUNK_LINES] for a in range(0, lines.size, _CHUNK_LINES)]
-    workers = min(len(chunks), os.cpu_count() or 1, 4)
-    if workers > 1:
-        # one BLAS thread per worker: BLAS threads inside worker threads oversubscribe the cores
-        with threadpool_limits(1, user_api="blas"), ThreadPoolExecutor(workers) as pool:
-            list(pool.map(lambda c: solve(c, **kwargs), chunks))
-    else:
-        for c in chunks:
-            solve(c, **kwargs)
 
 
 def _identify(B: np.ndarray, C: np.ndarray, options: InverseOptions):
