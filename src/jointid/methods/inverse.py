@@ -387,10 +387,10 @@ def identify_joint(
     if options.estimation == "svd":
         map_chunks(solve, everything, _CHUNK_LINES, method="svd")
     else:
-        A = layout.estimation_matrix(np.zeros(1))[0]
-        cond = pencil_condition(
-            A,
-            layout.mass[np.ix_(layout.nbar, layout.mbar)],
+        block = np.ix_(layout.nbar, layout.mbar)
+        cond = pencil_condition(  # Do[nbar, mbar] = K - w^2 M
+            layout.stiffness[block],
+            layout.mass[block],
             w2,
             options.cond_rtol,
             levels=(options.reliability.max_cond_A, _QR_MAX_COND),  # decisions taken on exact values
