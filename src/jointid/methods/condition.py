@@ -54,11 +54,6 @@ class ConditionNumbers:
     bound: np.ndarray
     exact: np.ndarray
 
-    @property
-    def upper(self) -> np.ndarray:
-        """Certified upper bound of the condition number per line."""
-        return self.values * (1.0 + self.bound)
-
 
 def pencil_condition(A0: np.ndarray, M: np.ndarray, w2: np.ndarray, rtol: float = 1e-2, *,
                      levels: Sequence[float] = (), first_anchors: int = 33) -> ConditionNumbers:

@@ -387,10 +387,8 @@ def identify_joint(
     if options.estimation == "svd":
         map_chunks(solve, everything, _CHUNK_LINES, method="svd")
     else:
-        block = np.ix_(layout.nbar, layout.mbar)
-        cond = pencil_condition(  # Do[nbar, mbar] = K - w^2 M
-            layout.stiffness[block],
-            layout.mass[block],
+        cond = pencil_condition(
+            *layout.estimation_blocks(),
             w2,
             options.cond_rtol,
             levels=(options.reliability.max_cond_A, _QR_MAX_COND),  # decisions taken on exact values
