@@ -41,7 +41,7 @@ def test_direct_writes_stiffness_fit_and_plot(tmp_path, main, capsys):
     joint = _data(tmp_path / "data.csv")
     out = tmp_path / "out"
     assert main(["direct", str(tmp_path / "data.csv"), "--out", str(out), "--amplitude", str(AMP)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["direct_fit.json", "direct_stiffness.csv", "direct_stiffness.png"]
+    assert sorted(p.name for p in out.iterdir()) == [".jointid-manifest.json", "direct_fit.json", "direct_stiffness.csv", "direct_stiffness.png"]
     rows = _read(out / "direct_stiffness.csv")
     assert list(rows[0]) == ["frequency_hz", "stiffness_real", "stiffness_imag", "magnitude", "loss_factor", "amplitude_ratio", "amplitude_ok"]
     f = np.array([float(r["frequency_hz"]) for r in rows])

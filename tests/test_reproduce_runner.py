@@ -12,14 +12,14 @@ from jointid.studies.config import load_config
 from jointid.report.html import Table
 
 
-def _fake_module(fail: bool):
+def _fake_module(fail: bool, data: str = "fake"):
     def run(config, progress):
         progress.total(2)
         progress.update()
         if fail:
             raise ValueError("the joint model diverged at 950 Hz")
         progress.update()
-        return StudyOutput("conditioning", "Fake", ("text",), (Table("t", ["a"], [["1"]]),), {"fake": {"x": [1.0, 2.0]}}, (), (("case", 0.01, 0.002),), ("A finding.",))
+        return StudyOutput("conditioning", "Fake", ("text",), (Table("t", ["a"], [["1"]]),), {data: {"x": [1.0, 2.0]}}, (), (("case", 0.01, 0.002),), ("A finding.",))
 
     return types.SimpleNamespace(run=run)
 
@@ -35,16 +35,21 @@ def test_failing_study_leaves_previous_output_untouched(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary directory left
 
 
-def test_successful_run_replaces_output_whole(tmp_path, monkeypatch):
+def test_successful_run_replaces_its_own_output_only(tmp_path, monkeypatch):
     out = tmp_path / "out"
     out.mkdir()
-    (out / "stale.csv").write_text("old")
+    (out / "stale.csv").write_text("a user's file")  # not jointid's: kept
     monkeypatch.setattr(runner, "load_study_module", lambda name: _fake_module(fail=False))
     res = runner.run_reproduce(load_config(), out, ["conditioning"], quiet=True)
     html = res.report.read_text()
     assert "A finding." in html and "<table>" in html
     assert (out / "data" / "fake.csv").read_text().splitlines() == ["x", "1.0", "2.0"]
-    assert not (out / "stale.csv").exists()
+    # a second run that writes other data files: the first run's fake.csv is stale and goes
+    monkeypatch.setattr(runner, "load_study_module", lambda name: _fake_module(fail=False, data="other"))
+    runner.run_reproduce(load_config(), out, ["conditioning"], quiet=True)
+    assert sorted(p.name for p in (out / "data").iterdir()) == ["other.csv"]
+    assert (out / "stale.csv").read_text() == "a user's file"
+    assert sorted(p.name for p in out.iterdir()) == [".jointid-manifest.json", "data", "report.html", "stale.csv"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 

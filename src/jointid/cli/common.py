@@ -1,4 +1,10 @@
-"""Helpers shared by CLI subcommands: the study argument, output directory."""
+"""Helpers shared by CLI subcommands: the study argument, output directory.
+
+Every subcommand writes its files through :class:`jointid.io.output_dir.OutputSet`
+(``with OutputSet(args.out, command="NAME") as out:`` opened *before* computing,
+``out.write_csv/write_text/write_figure/write_bytes`` while computing; leaving
+the block commits). See that module for what is replaced in ``--out``.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +14,13 @@ from pathlib import Path
 from ..benchmark import benchmark_study_path
 from ..study import Study, load_study
 
-__all__ = ["add_study_argument", "study_from_args", "add_out_argument"]
+__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "OUT_HELP"]
+
+#: Help text of ``--out DIR``.
+OUT_HELP = (
+    "output directory (created if missing); only files jointid wrote there (listed in DIR/.jointid-manifest.json) "
+    "are replaced, all at once when the command succeeds"
+)
 
 
 def add_study_argument(p: argparse.ArgumentParser, required: bool = True) -> None:
@@ -29,4 +41,4 @@ def study_from_args(args: argparse.Namespace) -> Study:
 
 def add_out_argument(p: argparse.ArgumentParser) -> None:
     """Add the required ``--out DIR`` option."""
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory (created if missing)")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help=OUT_HELP)

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError
-from ..io.atomic import atomic_write_bytes, atomic_write_text
-from ..io.tables import write_csv
+from ..io.output_dir import OutputSet
+from .common import OUT_HELP
 
 __all__ = ["add_parser", "run", "direct_summary"]
 
@@ -44,7 +44,7 @@ def add_parser(sub) -> None:
         "DIR/direct_fit.json and DIR/direct_stiffness.png.",
     )
     p.add_argument("data", type=Path, metavar="DATA.csv", help="step-sine time histories (CSV long format)")
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory (created if missing)")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help=OUT_HELP)
     p.add_argument("--parallel-joints", type=int, default=2, metavar="N", help="joints loaded in parallel (default 2, double shear)")
     p.add_argument("--amplitude", type=float, default=None, metavar="X",
                    help="commanded displacement amplitude, m, peak (default: the median achieved amplitude)")
@@ -93,14 +93,20 @@ def direct_summary(args, result, static, fit, modulus, zener=None) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``jointid direct``; returns 0. Raises JointIdError subclasses on bad input (nothing written)."""
-    from ..methods.joint_model import ElastomerJoint
-    from ..methods.material_fit import complex_modulus_per_line, fit_material, fit_zener, static_estimate
-    from ..methods.stepsine import process_stepsine, read_stepsine_csv
-
     if args.parallel_joints < 1:
         raise DataError(f"--parallel-joints must be >= 1, got {args.parallel_joints}")
     if args.amplitude is not None and not args.amplitude > 0:
         raise DataError(f"--amplitude must be a positive displacement amplitude in m (peak), got {args.amplitude}")
+    with OutputSet(args.out, command="direct") as out:  # validated and locked before computing
+        return _run(args, out)
+
+
+def _run(args: argparse.Namespace, out: OutputSet) -> int:
+    """Compute and stage the outputs of ``jointid direct`` in ``out``."""
+    from ..methods.joint_model import ElastomerJoint
+    from ..methods.material_fit import complex_modulus_per_line, fit_material, fit_zener, static_estimate
+    from ..methods.stepsine import process_stepsine, read_stepsine_csv
+
     blocks = read_stepsine_csv(args.data, columns=_pairs(args.column, "column", False), scale=_pairs(args.scale, "scale", True))
     result = process_stepsine(blocks, parallel_joints=args.parallel_joints, commanded_amplitude_m=args.amplitude, tolerance=args.tolerance)
     ok = result.amplitude_ok
@@ -125,15 +131,14 @@ def run(args: argparse.Namespace) -> int:
         buf = io.BytesIO()
         plot_direct_stiffness(result, fit).savefig(buf, format="png", dpi=120)
         png = buf.getvalue()
-    # everything is computed: now write, each file atomically
-    out = Path(args.out)
-    write_csv(out / "direct_stiffness.csv", csv_columns)
-    atomic_write_text(out / "direct_fit.json", text)
+    # everything is computed: stage the files (they appear together when `out` commits)
+    out.write_csv("direct_stiffness.csv", csv_columns)
+    out.write_text("direct_fit.json", text)
     if png is not None:
-        atomic_write_bytes(out / "direct_stiffness.png", png)
+        out.write_bytes("direct_stiffness.png", png)
     n_flag = int((~ok).sum())
     print(
         f"direct: {ok.size} lines ({n_flag} flagged), E = {fit.elastic_modulus_pa / 1e6:.4g} MPa, "
-        f"eta = {fit.loss_factor:.4g}, rho = {fit.density_kg_m3:.4g} kg/m^3, residual {fit.residual_rms:.2%}; wrote {out}"
+        f"eta = {fit.loss_factor:.4g}, rho = {fit.density_kg_m3:.4g} kg/m^3, residual {fit.residual_rms:.2%}; wrote {out.directory}"
     )
     return 0

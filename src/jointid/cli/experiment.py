@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 
 from ..errors import StudyError
-from ..io.tables import write_csv
+from ..io.output_dir import OutputSet
 from ..methods.inverse import stiffness_columns
 from ..pipeline import experiment, identify
 from .common import add_out_argument, add_study_argument, study_from_args
@@ -38,29 +38,30 @@ def run(args: argparse.Namespace) -> int:
     study = study_from_args(args)
     if args.seed is not None and args.seed < 0:
         raise StudyError(f"--seed: expected an integer >= 0, got {args.seed}")
-    result = experiment(study, seed=args.seed)
-    for r in result.impact.rejected:
-        print(f"rejected: {r.reason}")
-    uff = write_uff_frf(args.out / "frf.uff", result.frf, kind="accelerance", coherence=result.coherence)
-    write_csv(args.out / "true_joint.csv", stiffness_columns(result.frf.frequency, study.joint.joint_dofs, result.truth))
-    identified = identify(study, read_frf(uff, n_nodes=study.beam.nodes))  # the same path as real data
-    truth = result.truth
-    write_identification(args.out, identified, study, uff, plots=not args.no_plots, truth=truth)
-    k = identified.stiffness[:, 0, 0]
-    t = truth[:, 0, 0]
-    err = np.abs(k - t) / np.abs(t)
-    eta_err = np.abs(k.imag / k.real - t.imag / t.real)
-    f = identified.frequency.hz
-    write_csv(args.out / "experiment_errors.csv", {
-        "frequency_hz": f, "translational_magnitude_error": np.abs(np.abs(k) / np.abs(t) - 1),
-        "translational_relative_error": err, "translational_loss_factor_error": eta_err,
-        "coherence_min": result.coherence.min(axis=(1, 2)), "reliable": identified.reliable,
-    })
+    with OutputSet(args.out, command="experiment") as out:
+        result = experiment(study, seed=args.seed)
+        for r in result.impact.rejected:
+            print(f"rejected: {r.reason}")
+        uff = out.write_file("frf.uff", lambda p: write_uff_frf(p, result.frf, kind="accelerance", coherence=result.coherence))
+        out.write_csv("true_joint.csv", stiffness_columns(result.frf.frequency, study.joint.joint_dofs, result.truth))
+        identified = identify(study, read_frf(out.staged("frf.uff"), n_nodes=study.beam.nodes))  # the same path as real data
+        truth = result.truth
+        write_identification(out, identified, study, uff, plots=not args.no_plots, truth=truth)
+        k = identified.stiffness[:, 0, 0]
+        t = truth[:, 0, 0]
+        err = np.abs(k - t) / np.abs(t)
+        eta_err = np.abs(k.imag / k.real - t.imag / t.real)
+        f = identified.frequency.hz
+        out.write_csv("experiment_errors.csv", {
+            "frequency_hz": f, "translational_magnitude_error": np.abs(np.abs(k) / np.abs(t) - 1),
+            "translational_relative_error": err, "translational_loss_factor_error": eta_err,
+            "coherence_min": result.coherence.min(axis=(1, 2)), "reliable": identified.reliable,
+        })
     band = (f >= 100) & (f <= 1000)
     if band.any():
         print(
             f"translational stiffness error over 100-1000 Hz: median {100 * np.median(err[band]):.2f}%, "
             f"90th percentile {100 * np.percentile(err[band], 90):.2f}% ({band.sum()} lines)"
         )
-    print(f"wrote {uff}, {args.out / 'joint_stiffness.csv'} and {args.out / 'experiment_errors.csv'}")
+    print(f"wrote {uff}, {out.path('joint_stiffness.csv')} and {out.path('experiment_errors.csv')}")
     return 0

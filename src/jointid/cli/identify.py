@@ -8,10 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.atomic import atomic_write_text
-from ..io.tables import write_csv
+from ..io.output_dir import OutputSet
 from ..pipeline import identify
-from ..plots.style import save_figure
 from .common import add_out_argument, add_study_argument, study_from_args
 
 
@@ -73,30 +71,30 @@ def summary(result, study, source: Path) -> dict:
     }
 
 
-def write_identification(out: Path, result, study, source: Path, plots: bool = True, truth=None) -> None:
-    """Write ``joint_stiffness.csv``, ``summary.json`` and (``plots``) ``joint_stiffness.png`` into ``out``.
+def write_identification(out: OutputSet, result, study, source: Path, plots: bool = True, truth=None) -> None:
+    """Stage ``joint_stiffness.csv``, ``summary.json`` and (``plots``) ``joint_stiffness.png`` in ``out``.
 
-    Everything is computed (the figure too) before the first file is written.
+    ``source`` is the FRF file named in ``summary.json``. The files appear
+    when ``out`` commits.
     """
-    fig = result.plot(truth=truth) if plots else None
-    text = json.dumps(summary(result, study, source), indent=2) + "\n"
-    write_csv(out / "joint_stiffness.csv", result.columns())
-    atomic_write_text(out / "summary.json", text)
-    if fig is not None:
-        save_figure(fig, out / "joint_stiffness.png")
+    out.write_csv("joint_stiffness.csv", result.columns())
+    out.write_text("summary.json", json.dumps(summary(result, study, source), indent=2) + "\n")
+    if plots:
+        out.write_figure("joint_stiffness.png", result.plot(truth=truth))
 
 
 def run(args: argparse.Namespace) -> int:
     from ..io.frf_files import read_frf
 
     study = study_from_args(args)
-    measured = read_frf(args.frf, n_nodes=study.beam.nodes)
-    result = identify(study, measured)
-    write_identification(args.out, result, study, args.frf, plots=not args.no_plots)
+    with OutputSet(args.out, command="identify") as out:
+        measured = read_frf(args.frf, n_nodes=study.beam.nodes)
+        result = identify(study, measured)
+        write_identification(out, result, study, args.frf, plots=not args.no_plots)
     f = result.frequency.hz
     print(
         f"identified {len(result.joint_dofs)}x{len(result.joint_dofs)} joint stiffness on {f.size} lines "
         f"({f[0]:g}-{f[-1]:g} Hz); {100 * np.mean(result.reliable):.0f}% of lines reliable; "
-        f"wrote {args.out / 'joint_stiffness.csv'}"
+        f"wrote {out.path('joint_stiffness.csv')}"
     )
     return 0

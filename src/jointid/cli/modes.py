@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-from ..io.tables import write_csv
+from ..io.output_dir import OutputSet
 from ..physics.modes import natural_modes
 from ..physics.synthesis import synthesize_frf
 from ..plots.frf import plot_frf
-from ..plots.style import save_figure
 from .common import add_out_argument, add_study_argument, study_from_args
 
 
@@ -28,19 +27,20 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     study = study_from_args(args)
-    beam = study.beam.structure()
-    modes = natural_modes(beam)
-    f = modes.frequencies_hz
-    write_csv(args.out / "modes.csv", {"mode": range(1, f.size + 1), "frequency_hz": f})
+    with OutputSet(args.out, command="modes") as out:
+        beam = study.beam.structure()
+        modes = natural_modes(beam)
+        f = modes.frequencies_hz
+        out.write_csv("modes.csv", {"mode": range(1, f.size + 1), "frequency_hz": f})
+        if not args.no_plots:
+            dofs = study.measurement.excited_dofs
+            frf = synthesize_frf(beam, study.grid, dofs, dofs, kind="accelerance", modes=modes)
+            fig = plot_frf(frf, pairs=[(d, d) for d in dofs], markers_hz=f[f > 1e-3],
+                           title="free-free driving-point accelerance (dotted: natural frequencies)")
+            out.write_figure("modes_frf.png", fig)
     print(f"free-free modes of {study.source} ({study.beam.nodes} nodes, {study.beam.theory}):")
     for i, x in enumerate(f[:12], 1):
         print(f"  mode {i:2d}: {x:10.2f} Hz" + ("  (rigid body)" if x < 1e-3 else ""))
     if f.size > 12:
-        print(f"  ... {f.size} modes in all, written to {args.out / 'modes.csv'}")
-    if not args.no_plots:
-        dofs = study.measurement.excited_dofs
-        frf = synthesize_frf(beam, study.grid, dofs, dofs, kind="accelerance", modes=modes)
-        fig = plot_frf(frf, pairs=[(d, d) for d in dofs], markers_hz=f[f > 1e-3],
-                       title="free-free driving-point accelerance (dotted: natural frequencies)")
-        save_figure(fig, args.out / "modes_frf.png")
+        print(f"  ... {f.size} modes in all, written to {out.path('modes.csv')}")
     return 0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..io.tables import write_csv
+from ..io.output_dir import OutputSet
 from ..methods.inverse import stiffness_columns
 from ..pipeline import simulate
 from .common import add_out_argument, add_study_argument, study_from_args
@@ -28,12 +28,13 @@ def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
 
     study = study_from_args(args)
-    test = simulate(study)
-    write_uff_frf(args.out / "frf.uff", test.frf, kind="accelerance")
-    write_csv(args.out / "true_joint.csv", stiffness_columns(test.frequency, test.joint_dofs, test.truth))
+    with OutputSet(args.out, command="simulate") as out:
+        test = simulate(study)
+        uff = out.write_file("frf.uff", lambda p: write_uff_frf(p, test.frf, kind="accelerance"))
+        csv = out.write_csv("true_joint.csv", stiffness_columns(test.frequency, test.joint_dofs, test.truth))
     f = test.frequency.hz
     print(
-        f"wrote {args.out / 'frf.uff'} ({len(test.frf.responses)} x {len(test.frf.references)} accelerances, "
-        f"{f.size} lines {f[0]:g}-{f[-1]:g} Hz) and {args.out / 'true_joint.csv'}"
+        f"wrote {uff} ({len(test.frf.responses)} x {len(test.frf.references)} accelerances, "
+        f"{f.size} lines {f[0]:g}-{f[-1]:g} Hz) and {csv}"
     )
     return 0

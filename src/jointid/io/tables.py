@@ -12,7 +12,7 @@ import numpy as np
 
 from .atomic import atomic_write_text
 
-__all__ = ["write_csv"]
+__all__ = ["write_csv", "format_csv"]
 
 
 def _fmt(v) -> str:
@@ -25,8 +25,8 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def write_csv(path: str | os.PathLike, columns: Mapping[str, Sequence]) -> Path:
-    """Write equal-length ``columns`` (name -> values) as CSV with a header, atomically.
+def format_csv(columns: Mapping[str, Sequence]) -> str:
+    """The CSV text of equal-length ``columns`` (name -> values), header row first.
 
     Floats are written with full precision (``repr``), booleans as ``true``/``false``.
     """
@@ -40,4 +40,12 @@ def write_csv(path: str | os.PathLike, columns: Mapping[str, Sequence]) -> Path:
     w.writerow(names)
     for row in zip(*cols):
         w.writerow([_fmt(v) for v in row])
-    return atomic_write_text(path, buf.getvalue())
+    return buf.getvalue()
+
+
+def write_csv(path: str | os.PathLike, columns: Mapping[str, Sequence]) -> Path:
+    """Write equal-length ``columns`` (name -> values) as CSV with a header, atomically.
+
+    The text is that of :func:`format_csv`; returns the path.
+    """
+    return atomic_write_text(path, format_csv(columns))

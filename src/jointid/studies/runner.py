@@ -1,10 +1,13 @@
-"""Run the comparative studies and write the report atomically.
+"""Run the comparative studies and write the report as one output set.
 
-``run_reproduce`` runs the selected studies in order, each with its own
-progress bar on a terminal, then writes ``report.html``, ``figures/*.png`` and
-``data/*.csv`` into a temporary directory beside the output directory and
-renames it into place only when everything succeeded: an interrupted run or a
-failing study leaves the previous output (or nothing) behind, never half a report.
+``run_reproduce`` opens the output directory first (a file, an unwritable
+directory or one in use by another run is refused before any study runs), runs
+the selected studies in order, each with its own progress bar on a terminal,
+then writes ``report.html``, ``figures/*.png`` and ``data/*.csv`` through
+:class:`jointid.io.output_dir.OutputSet`: staged, and renamed into place only
+when everything succeeded. An interrupted run or a failing study leaves the
+directory as it was, never half a report; files in it that jointid did not
+write are never touched (``--out .`` in a checkout is safe).
 """
 
 from __future__ import annotations
@@ -13,9 +16,7 @@ import datetime
 import importlib
 import io
 import os
-import shutil
 import sys
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +24,7 @@ from typing import Sequence
 
 from .. import __version__
 from ..errors import JointIdError, StudyError
-from ..io.tables import write_csv
+from ..io.output_dir import OutputSet
 from ..report.html import Section, Table, render_report
 from .common import SUMMARY_BAND_HZ, Progress, StudyOutput
 from .config import STUDY_NAMES, ReproduceConfig
@@ -82,11 +83,25 @@ def _bar(name: str, quiet: bool):
 def run_reproduce(config: ReproduceConfig, out: str | os.PathLike, only: Sequence[str] | None = None, quiet: bool = False) -> ReproduceResult:
     """Run the studies ``only`` (default: all) and write the report into ``out``.
 
+    ``out`` is validated and locked before the first study runs; see
+    :class:`jointid.io.output_dir.OutputSet` for what is replaced in it.
+
     Raises
     ------
     StudyFailed
         Naming the study that failed and why; ``out`` is left as it was.
+    OutputError
+        ``out`` is a file, not writable, in use, or holds a file of the same
+        name that jointid did not write; raised before any study runs (or,
+        for a name clash, before anything is written).
     """
+    with OutputSet(out, command="reproduce") as target:
+        outputs, seconds = _run_studies(config, only, quiet)
+        report = _write(target, config, outputs, seconds)
+    return ReproduceResult(tuple(outputs), seconds, report)
+
+
+def _run_studies(config: ReproduceConfig, only: Sequence[str] | None, quiet: bool) -> tuple[list, dict]:
     names = tuple(only) if only else STUDY_NAMES
     outputs, seconds = [], {}
     for name in names:
@@ -113,8 +128,7 @@ def run_reproduce(config: ReproduceConfig, out: str | os.PathLike, only: Sequenc
             if bar is not None:
                 bar.close()
         seconds[name] = time.perf_counter() - t
-    report = _write(Path(out), config, outputs, seconds)
-    return ReproduceResult(tuple(outputs), seconds, report)
+    return outputs, seconds
 
 
 def _summary_section(outputs: Sequence[StudyOutput], config: ReproduceConfig, seconds: dict) -> Section:
@@ -139,45 +153,24 @@ def _summary_section(outputs: Sequence[StudyOutput], config: ReproduceConfig, se
     )
 
 
-def _write(out: Path, config: ReproduceConfig, outputs: Sequence[StudyOutput], seconds: dict) -> Path:
-    out = out.resolve()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    try:
-        (tmp / "figures").mkdir()
-        (tmp / "data").mkdir()
-        sections = [_summary_section(outputs, config, seconds)]
-        for o in outputs:
-            for name, columns in o.data.items():
-                write_csv(tmp / "data" / f"{name}.csv", columns)
-            figs = []
-            for name, fig, caption in o.figures:
-                buf = io.BytesIO()
-                fig.savefig(buf, format="png", dpi=110)
-                png = buf.getvalue()
-                (tmp / "figures" / f"{name}.png").write_bytes(png)
-                figs.append((name, png, caption))
-            sections.append(Section(o.title, o.name, o.paragraphs, o.tables, tuple(figs)))
-        meta = (
-            f"jointid {__version__}, {datetime.datetime.now().isoformat(timespec='seconds')}; seed {config.seed}; "
-            f"beam {config.beam.length:g} m, {config.beam.nodes} nodes; joint at node {config.joint_node}; "
-            f"grid {config.start:g}-{config.stop:g} Hz step {config.step:g} Hz"
-        )
-        (tmp / "report.html").write_text(render_report("jointid: direct and inverse identification of an elastomeric joint", meta, sections), encoding="utf-8")
-        old = None
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-            os.replace(out, old / out.name)
-        try:
-            os.replace(tmp, out)
-        except BaseException:
-            if old is not None:  # put the previous output back
-                os.replace(old / out.name, out)
-                shutil.rmtree(old, ignore_errors=True)
-            raise
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return out / "report.html"
+def _write(target: OutputSet, config: ReproduceConfig, outputs: Sequence[StudyOutput], seconds: dict) -> Path:
+    """Stage ``report.html``, ``figures/*.png`` and ``data/*.csv`` in ``target``; returns the report's final path."""
+    sections = [_summary_section(outputs, config, seconds)]
+    for o in outputs:
+        for name, columns in o.data.items():
+            target.write_csv(f"data/{name}.csv", columns)
+        figs = []
+        for name, fig, caption in o.figures:
+            buf = io.BytesIO()
+            fig.savefig(buf, format="png", dpi=110)
+            png = buf.getvalue()
+            target.write_bytes(f"figures/{name}.png", png)
+            figs.append((name, png, caption))
+        sections.append(Section(o.title, o.name, o.paragraphs, o.tables, tuple(figs)))
+    meta = (
+        f"jointid {__version__}, {datetime.datetime.now().isoformat(timespec='seconds')}; seed {config.seed}; "
+        f"beam {config.beam.length:g} m, {config.beam.nodes} nodes; joint at node {config.joint_node}; "
+        f"grid {config.start:g}-{config.stop:g} Hz step {config.step:g} Hz"
+    )
+    html = render_report("jointid: direct and inverse identification of an elastomeric joint", meta, sections)
+    return target.write_text("report.html", html)

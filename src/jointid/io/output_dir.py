@@ -1,0 +1,414 @@
+"""One writer for a command's output directory: :class:`OutputSet`.
+
+Every ``jointid`` command writes its files through an :class:`OutputSet`::
+
+    with OutputSet(args.out, command="identify") as out:   # validates, locks DIR
+        result = compute(...)                               # nothing in DIR yet
+        out.write_csv("joint_stiffness.csv", result.columns())
+        out.write_text("summary.json", text)
+        out.write_figure("joint_stiffness.png", fig)
+    # leaving the block without an exception commits the set; with one, DIR is as before
+
+What a user can rely on
+-----------------------
+* ``DIR`` is only ever added to. jointid replaces or removes a file in ``DIR``
+  only if it is in jointid's manifest ``DIR/.jointid-manifest.json`` (a file
+  jointid wrote) *and* its content is still what jointid wrote (SHA-256). Any
+  other file or directory in ``DIR`` is left exactly as it was: ``--out .`` in a
+  git checkout leaves ``.git`` and the sources alone.
+* If ``DIR`` exists and is not a directory: :class:`OutputError`
+  ``"--out DIR is a file; give a directory"`` (exit 2), nothing touched.
+* If a file the command would write exists in ``DIR`` but jointid did not write
+  it (or it was edited since): :class:`OutputError` naming it, asking to move it
+  or choose another ``--out``; nothing written. This is checked as each file is
+  produced and again before the first rename.
+* ``DIR`` is created if missing, locked and checked writable on entry, *before*
+  any computation. A second run into the same ``DIR`` while one is running is
+  refused with one line naming ``DIR`` (``fcntl.flock`` on ``DIR/.jointid.lock``;
+  the lock file is removed when the run ends).
+* Files are produced in a staging directory ``DIR/.jointid-staging-*`` (same
+  file system) and renamed into place one by one with :func:`os.replace` only
+  after *all* of them were produced; an exception before that (a failing
+  computation, Ctrl-C, a full disk while staging) leaves ``DIR`` exactly as it
+  was (a ``DIR`` this run created is removed again), with no temporary debris.
+  Staging left by a killed run is removed by the next run into ``DIR``.
+* Files of the same command's previous set that this run does not produce (a
+  PNG after ``--no-plots``) are removed, if unchanged. The sets of other
+  commands writing into the same ``DIR`` are kept (``jointid simulate --out d``
+  then ``jointid identify --frf d/frf.uff --out d`` keeps ``d/frf.uff``); a file
+  two commands write belongs to the one that wrote it last.
+* Subdirectories (``figures/``, ``data/``) are created as needed; jointid
+  removes a subdirectory only if it created it and it is empty.
+* Files and directories get the user's umask permissions (like ``open``/``mkdir``).
+
+The manifest survives a crash between renames: before the first rename it lists
+both the old and the new content of every file being replaced.
+
+Names are relative POSIX paths (``"figures/a.png"``); names starting with
+``.jointid`` are reserved.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path, PurePosixPath
+from typing import Callable, Mapping, Sequence
+
+from ..errors import JointIdError
+from .atomic import atomic_write_text, create_temp_file
+from .tables import format_csv
+
+try:  # POSIX; elsewhere runs are not locked against each other
+    import fcntl
+except ImportError:  # pragma: no cover
+    fcntl = None
+
+__all__ = ["OutputSet", "OutputError", "MANIFEST_NAME", "LOCK_NAME", "STAGING_PREFIX"]
+
+#: Manifest of the files jointid wrote in an output directory.
+MANIFEST_NAME = ".jointid-manifest.json"
+#: Lock file held (flock) while a run writes into the directory.
+LOCK_NAME = ".jointid.lock"
+#: Prefix of the staging directory inside the output directory.
+STAGING_PREFIX = ".jointid-staging-"
+_MANIFEST_FORMAT = "jointid-output-manifest"
+
+
+class OutputError(JointIdError, OSError):
+    """An output directory cannot be used as asked; the message names it and says what to do."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _empty_manifest() -> dict:
+    return {"format": _MANIFEST_FORMAT, "version": 1, "sets": {}, "directories": []}
+
+
+def _read_manifest(directory: Path) -> dict:
+    """The manifest of ``directory``; an absent or unreadable one owns nothing (the safe reading)."""
+    try:
+        data = json.loads((directory / MANIFEST_NAME).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return _empty_manifest()
+    if not isinstance(data, dict) or data.get("format") != _MANIFEST_FORMAT:
+        return _empty_manifest()
+    sets = data.get("sets")
+    dirs = data.get("directories")
+    m = _empty_manifest()
+    if isinstance(sets, dict):
+        for cmd, files in sets.items():
+            if isinstance(files, dict):
+                m["sets"][str(cmd)] = {str(k): [str(h) for h in v] for k, v in files.items() if isinstance(v, list)}
+    if isinstance(dirs, list):
+        m["directories"] = [str(d) for d in dirs]
+    return m
+
+
+def _write_manifest(directory: Path, manifest: dict) -> None:
+    atomic_write_text(directory / MANIFEST_NAME, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+
+
+def _makedirs(path: Path) -> list[Path]:
+    """``mkdir -p path``; returns the directories it created, outermost first."""
+    missing = []
+    p = path
+    while not p.exists() and not p.is_symlink():
+        missing.append(p)
+        if p.parent == p:
+            break
+        p = p.parent
+    created = []
+    for d in reversed(missing):
+        os.mkdir(d)  # mode 0o777 filtered by the umask
+        created.append(d)
+    return created
+
+
+def _key(name: str) -> str:
+    """Normalized relative POSIX name; ValueError (a programming error) for anything else."""
+    p = PurePosixPath(name)
+    if not name or "\\" in name or p.is_absolute() or any(part in ("", ".", "..") for part in p.parts) or p.as_posix() != name.rstrip("/"):
+        raise ValueError(f"output name {name!r}: expected a relative path like 'data/x.csv'")
+    if p.parts[0].startswith(".jointid"):
+        raise ValueError(f"output name {name!r}: names starting with '.jointid' are reserved")
+    return p.as_posix()
+
+
+class OutputSet:
+    """The files one command writes into an output directory, committed together.
+
+    Parameters
+    ----------
+    directory : path-like
+        The ``--out`` directory; created (with missing parents) on :meth:`open`.
+    command : str
+        Name of the command (``"identify"``, ``"reproduce"``, ...): the manifest
+        keeps one set of files per command, and a run removes stale files of
+        its own command's previous set only.
+
+    Notes
+    -----
+    Use it as a context manager (``with OutputSet(out, "identify") as o:``):
+    entering opens (validate, create, lock, stage), leaving without an
+    exception commits, leaving with one discards everything. ``open``,
+    ``commit`` and ``close`` are also public for callers that cannot use
+    ``with``. Not thread-safe: one OutputSet per run.
+    """
+
+    def __init__(self, directory: str | os.PathLike, command: str):
+        self.directory = Path(directory)
+        self.command = str(command)
+        self._staging: Path | None = None
+        self._lock_fd: int | None = None
+        self._created: list[Path] = []
+        self._manifest = _empty_manifest()
+        self._files: dict[str, Path] = {}
+        self._committed = False
+
+    # ------------------------------------------------------------ lifecycle
+    def __enter__(self) -> "OutputSet":
+        return self.open()
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            try:
+                self.commit()
+            finally:
+                self.close()
+        else:
+            self.close()
+
+    def open(self) -> "OutputSet":
+        """Validate ``directory`` (a directory, writable, not in use), create it if missing, lock it.
+
+        Raises
+        ------
+        OutputError
+            ``--out DIR is a file; give a directory``, not creatable or not
+            writable, or in use by another jointid run. Nothing is changed then.
+        """
+        d = self.directory
+        if self._staging is not None:
+            raise RuntimeError("OutputSet is already open")
+        if d.exists() and not d.is_dir():
+            raise OutputError(f"--out {d} is a file; give a directory")
+        try:
+            self._created = _makedirs(d)
+        except OSError as exc:
+            raise OutputError(f"--out {d}: cannot create the directory: {exc.strerror or exc}") from exc
+        try:
+            self._lock()
+            self._manifest = _read_manifest(d)
+            for old in d.glob(STAGING_PREFIX + "*"):  # left by a killed run; we hold the lock
+                if old.is_dir() and not old.is_symlink():
+                    shutil.rmtree(old, ignore_errors=True)
+            try:
+                self._staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=d))
+            except OSError as exc:
+                raise OutputError(f"--out {d} is not writable: {exc.strerror or exc}") from exc
+        except BaseException:
+            self._release(failed=True)
+            raise
+        return self
+
+    def close(self) -> None:
+        """Discard what was staged and not committed, unlock; a ``DIR`` created by a failed run is removed."""
+        self._release(failed=not self._committed)
+
+    def _lock(self) -> None:
+        path = self.directory / LOCK_NAME
+        while True:
+            try:
+                fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+            except OSError as exc:
+                raise OutputError(f"--out {self.directory} is not writable: {exc.strerror or exc}") from exc
+            if fcntl is None:  # pragma: no cover
+                self._lock_fd = fd
+                return
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                raise OutputError(
+                    f"--out {self.directory} is being written by another jointid run; wait for it to finish or choose another --out"
+                ) from None
+            # the previous holder removes the lock file before it unlocks: make sure we locked the file that is there now
+            try:
+                same = os.path.samestat(os.stat(path), os.fstat(fd))
+            except FileNotFoundError:
+                same = False
+            if same:
+                self._lock_fd = fd
+                return
+            os.close(fd)
+
+    def _release(self, failed: bool) -> None:
+        if self._staging is not None:
+            shutil.rmtree(self._staging, ignore_errors=True)
+            self._staging = None
+        if self._lock_fd is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(self.directory / LOCK_NAME)  # while still locked (see _lock)
+            os.close(self._lock_fd)
+            self._lock_fd = None
+        if failed:
+            for d in reversed(self._created):  # a DIR this run created goes again, if empty
+                with contextlib.suppress(OSError):
+                    os.rmdir(d)
+        self._created = []
+
+    # ------------------------------------------------------------ writing
+    def path(self, name: str) -> Path:
+        """Final path of output ``name`` in the directory (for messages; it exists after commit)."""
+        return self.directory / _key(name)
+
+    def staged(self, name: str) -> Path:
+        """Staged file of output ``name``, already written in this set (to read it back before commit)."""
+        key = _key(name)
+        if key not in self._files:
+            raise KeyError(f"{name!r} was not written in this output set")
+        return self._files[key]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Names written so far, in order."""
+        return tuple(self._files)
+
+    def write_bytes(self, name: str, data: bytes) -> Path:
+        """Stage ``data`` as output ``name``; returns its final path."""
+        return self.write_file(name, lambda p: p.write_bytes(data))
+
+    def write_text(self, name: str, text: str) -> Path:
+        """Stage ``text`` (UTF-8) as output ``name``; returns its final path."""
+        return self.write_file(name, lambda p: p.write_text(text, encoding="utf-8"))
+
+    def write_csv(self, name: str, columns: Mapping[str, Sequence]) -> Path:
+        """Stage equal-length ``columns`` as CSV (:func:`jointid.io.tables.format_csv`); returns the final path."""
+        text = format_csv(columns)
+        return self.write_text(name, text)
+
+    def write_figure(self, name: str, fig, dpi: int = 120) -> Path:
+        """Stage matplotlib ``fig`` as a PNG; returns the final path."""
+        return self.write_file(name, lambda p: fig.savefig(p, format="png", dpi=dpi))
+
+    def write_file(self, name: str, writer: Callable[[Path], object]) -> Path:
+        """Stage output ``name`` with ``writer(path)``, which must create the file at ``path``.
+
+        For writers that take a path (``write_uff_frf``, ``np.savez``...). An
+        ``OSError`` while staging is reported naming the final path, never
+        the staging one. Returns the final path.
+        """
+        if self._staging is None:
+            raise RuntimeError("OutputSet is not open (use it in a with block)")
+        key = _key(name)
+        if key in self._files:
+            raise ValueError(f"output {key!r} written twice in one output set")
+        self._check_target(key)
+        staged = self._staging / key
+        final = self.directory / key
+        try:
+            staged.parent.mkdir(parents=True, exist_ok=True)
+            writer(staged)
+        except OSError as exc:
+            raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
+        if not staged.is_file():
+            raise RuntimeError(f"the writer of {key!r} produced no file")
+        self._files[key] = staged
+        return final
+
+    # ------------------------------------------------------------ commit
+    def _owner(self, key: str) -> tuple[str, list[str]] | None:
+        """(command, hashes) of the manifest entry of ``key``, or None if jointid does not own it."""
+        for cmd, files in self._manifest["sets"].items():
+            if key in files:
+                return cmd, files[key]
+        return None
+
+    def _check_target(self, key: str) -> None:
+        """Refuse if writing ``key`` would replace something jointid did not write."""
+        d = self.directory
+        parts = PurePosixPath(key).parts
+        for i in range(1, len(parts)):
+            sub = d.joinpath(*parts[:i])
+            if os.path.lexists(sub) and not sub.is_dir():
+                raise OutputError(f"{sub} is not a directory and jointid would write {d / key}; move it or choose another --out")
+        target = d / key
+        if not os.path.lexists(target):
+            return
+        owner = self._owner(key)
+        if target.is_symlink() or not target.is_file() or owner is None:
+            raise OutputError(f"{target} exists and was not written by jointid; move it or choose another --out")
+        if _sha256(target) not in owner[1]:
+            raise OutputError(f"{target} was changed after jointid wrote it; move it or choose another --out")
+
+    def commit(self) -> tuple[Path, ...]:
+        """Rename every staged file into place, remove this command's stale files, update the manifest.
+
+        Returns the final paths written. Raises :class:`OutputError` (nothing
+        renamed) if a target became a file jointid did not write meanwhile.
+        """
+        if self._staging is None:
+            raise RuntimeError("OutputSet is not open")
+        d = self.directory
+        for key in self._files:  # again: a user may have put a file there while we computed
+            self._check_target(key)
+        new = {key: _sha256(staged) for key, staged in self._files.items()}
+        sets = {cmd: dict(files) for cmd, files in self._manifest["sets"].items()}
+        previous = sets.pop(self.command, {})
+        for cmd in sets:  # a file this run writes now belongs to this command
+            sets[cmd] = {k: v for k, v in sets[cmd].items() if k not in new}
+        dirs = list(self._manifest["directories"])
+        try:
+            # 1. a manifest valid whatever happens next: old and new content of each file
+            transition = dict(previous)
+            for key, h in new.items():
+                old = self._owner(key)
+                transition[key] = [h] + (old[1] if old else [])
+            _write_manifest(d, {**_empty_manifest(), "sets": {**sets, self.command: transition}, "directories": sorted(set(dirs))})
+            # 2. directories, then every file renamed into place
+            for key, staged in self._files.items():
+                parent = PurePosixPath(key).parent
+                for i in range(1, len(parent.parts) + 1):
+                    sub = PurePosixPath(*parent.parts[:i])
+                    if not (d / sub).is_dir():
+                        os.mkdir(d / sub)
+                        dirs.append(sub.as_posix())
+                os.replace(staged, d / key)
+            # 3. stale files of this command's previous set, if unchanged since jointid wrote them
+            for key, hashes in previous.items():
+                if key in new:
+                    continue
+                target = d / key
+                if target.is_file() and not target.is_symlink() and _sha256(target) in hashes:
+                    target.unlink()
+            # 4. directories jointid created that are now empty and hold no output
+            kept = []
+            owned = set(new) | {k for files in sets.values() for k in files}
+            for sub in sorted(set(dirs), key=lambda s: -len(PurePosixPath(s).parts)):
+                p = d / sub
+                if not p.is_dir() or p.is_symlink():
+                    continue
+                if not any(k.startswith(sub + "/") for k in owned):
+                    with contextlib.suppress(OSError):
+                        p.rmdir()  # only if empty
+                if p.is_dir():
+                    kept.append(sub)
+            _write_manifest(d, {**_empty_manifest(), "sets": {**sets, self.command: {k: [h] for k, h in new.items()}}, "directories": sorted(kept)})
+        except OSError as exc:
+            raise OutputError(f"cannot write into --out {d}: {exc.strerror or exc}") from exc
+        self._committed = True
+        return tuple(d / key for key in self._files)
