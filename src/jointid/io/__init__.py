@@ -1,1 +1,1 @@
-"""jointid.io: file formats (UFF58, CSV) and atomic output."""
+"""jointid.io: file formats (UFF58, CSV), atomic files and the output-directory writer (:mod:`.output_dir`)."""

@@ -26,7 +26,10 @@ def new_figure(rows: int = 1, cols: int = 1, height_ratios=None, figsize=(8.0, 6
 
 
 def save_figure(fig: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
-    """Save ``fig`` as PNG at ``path`` atomically; returns the path."""
+    """Save ``fig`` as PNG at ``path`` atomically (umask permissions); returns the path.
+
+    For a command's outputs use :meth:`jointid.io.output_dir.OutputSet.write_figure`.
+    """
     with atomic_path(path, suffix=".png") as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     return Path(path)

@@ -1,0 +1,139 @@
+"""Every command's --out: a checkout survives `reproduce --out .`, a file is refused, user files survive."""
+
+import subprocess
+
+import pytest
+
+from jointid.cli.main import main
+from jointid.io.output_dir import MANIFEST_NAME, OutputSet
+from test_output_dir import snapshot
+
+STUDY = """
+[beam]
+length = 0.9144
+width = 0.0127
+height = 0.0127
+elastic_modulus = 69e9
+density = 2700.0
+loss_factor = 0.006
+poisson_ratio = 0.33
+shear_coefficient = 0.8333333333333334
+nodes = 19
+
+[joint]
+node = 10
+dofs = ["w", "theta"]
+
+[joint.model]
+type = "parametric"
+k_w_w = 2.0e5
+k_w_theta = 1.5e3
+k_theta_theta = 60.0
+loss_factor = 0.12
+
+[measurement]
+observed = [1, 3, 6, 9, 12, 15, 19]
+excited  = [3, 9, 15]
+
+[frequency]
+start = 20.0
+stop = 1000.0
+step = 20.0
+"""
+
+
+def _git(cwd, *args):
+    return subprocess.run(["git", *args], cwd=cwd, check=True, capture_output=True, text=True).stdout
+
+
+def test_reproduce_into_a_git_checkout_keeps_everything(tmp_path, monkeypatch, capsys):
+    repo = tmp_path / "repo"
+    repo.mkdir()
+    _git(repo, "init", "-q")
+    (repo / "analysis.py").write_text("print('mine')\n")
+    (repo / "data").mkdir()
+    (repo / "data" / "measured.csv").write_text("f,x\n1,2\n")  # a user directory reproduce also writes into
+    _git(repo, "add", ".")
+    _git(repo, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "init")
+    before = snapshot(repo)
+    monkeypatch.chdir(repo)
+    for _ in range(2):  # twice: the second run replaces its own files only
+        assert main(["reproduce", "--out", ".", "--only", "conditioning", "--quiet"]) == 0
+    after = snapshot(repo)
+    assert {k: v for k, v in after.items() if k in before} == before  # .git and every file untouched
+    new = sorted(k for k in set(after) - set(before))
+    status = _git(repo, "status", "--porcelain", "-uall").splitlines()
+    assert status == [
+        "?? .jointid-manifest.json",
+        "?? data/conditioning_condition_numbers.csv",
+        "?? data/conditioning_model_1_translational.csv",
+        "?? data/conditioning_model_2_translational.csv",
+        "?? figures/conditioning_condition_numbers.png",
+        "?? figures/conditioning_translational.png",
+        "?? report.html",
+    ]
+    assert new == sorted(["figures"] + [s[3:] for s in status])
+    _git(repo, "fsck", "--no-progress")
+    assert "wrote report.html" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", [["reproduce", "--only", "conditioning", "--quiet"], ["modes"], ["simulate"]])
+def test_out_naming_a_file_is_refused(tmp_path, monkeypatch, capsys, command):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "notes.txt").write_text("my notes\n")
+    assert main([*command, "--out", "notes.txt"]) == 2
+    assert capsys.readouterr().err == f"jointid {command[0]}: error: --out notes.txt is a file; give a directory\n"
+    assert (tmp_path / "notes.txt").read_text() == "my notes\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_user_file_survives_two_runs_and_no_plots_removes_the_png(tmp_path):
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    sim, out = tmp_path / "sim", tmp_path / "out"
+    assert main(["simulate", str(study), "--out", str(sim)]) == 0
+    out.mkdir()
+    (out / "notes.md").write_text("my notes")
+    assert main(["identify", str(study), "--frf", str(sim / "frf.uff"), "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "joint_stiffness.csv", "joint_stiffness.png", "notes.md", "summary.json"]
+    assert main(["identify", str(study), "--frf", str(sim / "frf.uff"), "--out", str(out), "--no-plots"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "joint_stiffness.csv", "notes.md", "summary.json"]
+    assert (out / "notes.md").read_text() == "my notes"
+    # identify into the simulation's directory keeps the FRF file it reads (another command's output)
+    assert main(["identify", str(study), "--frf", str(sim / "frf.uff"), "--out", str(sim), "--no-plots"]) == 0
+    assert sorted(p.name for p in sim.iterdir()) == [MANIFEST_NAME, "frf.uff", "joint_stiffness.csv", "summary.json", "true_joint.csv"]
+
+
+def test_identify_failure_leaves_dir_exactly_as_before(tmp_path, capsys):
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    out = tmp_path / "out"
+    assert main(["simulate", str(study), "--out", str(out)]) == 0
+    (out / "mine.txt").write_text("user")
+    bad = tmp_path / "bad.csv"
+    bad.write_text("frequency_hz,response,reference,real,imag\n")
+    before = snapshot(out)
+    assert main(["identify", str(study), "--frf", str(bad), "--out", str(out)]) == 2
+    assert str(bad) in capsys.readouterr().err
+    assert snapshot(out) == before
+
+
+def test_clash_with_a_user_file_is_one_line(tmp_path, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "modes.csv").write_text("my own table")
+    assert main(["modes", "--out", str(out)]) == 2
+    assert capsys.readouterr().err == (
+        f"jointid modes: error: {out / 'modes.csv'} exists and was not written by jointid; move it or choose another --out\n"
+    )
+    assert sorted(p.name for p in out.iterdir()) == ["modes.csv"] and (out / "modes.csv").read_text() == "my own table"
+
+
+def test_second_run_while_one_writes_is_refused(tmp_path, capsys):
+    out = tmp_path / "out"
+    with OutputSet(out, "modes"):  # another run holds the directory
+        assert main(["modes", "--out", str(out), "--no-plots"]) == 2
+    assert capsys.readouterr().err == (
+        f"jointid modes: error: --out {out} is being written by another jointid run; wait for it to finish or choose another --out\n"
+    )
+    assert main(["modes", "--out", str(out), "--no-plots"]) == 0
