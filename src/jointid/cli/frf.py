@@ -36,28 +36,28 @@ def add_parser(sub) -> None:
                    help="FRF kind written to frf.uff, converted exactly (default accelerance)")
     p.add_argument("--band-hz", nargs=2, type=float, metavar=("LO", "HI"), default=None,
                    help="output band, Hz (default: first line above 0 Hz to Nyquist)")
-    p.add_argument("--force-window-ms", type=float, default=None,
+    p.add_argument("--force-window-ms", metavar="MS", type=float, default=None,
                    help="flat length of the force window, ms (default: no force window)")
-    p.add_argument("--pretrigger-ms", type=float, default=0.0,
+    p.add_argument("--pretrigger-ms", metavar="MS", type=float, default=0.0,
                    help="start of the force window and of the exponential decay before the pulse start, ms (default 0)")
-    p.add_argument("--force-taper-ms", type=float, default=0.0, help="half-cosine taper on both sides of the force window, ms")
-    p.add_argument("--exp-tau-ms", type=float, default=None,
+    p.add_argument("--force-taper-ms", metavar="MS", type=float, default=0.0, help="half-cosine taper on both sides of the force window, ms")
+    p.add_argument("--exp-tau-ms", metavar="MS", type=float, default=None,
                    help="exponential window time constant, ms (default: no exponential window)")
     p.add_argument("--no-exp-correction", action="store_true",
                    help="keep the exponential window's added damping (default: corrected mode by mode)")
     p.add_argument("--mode-band-hz", nargs=2, type=float, action="append", metavar=("LO", "HI"), default=None,
                    help="a band around one isolated mode for the window correction, Hz (repeat; default: detected)")
-    p.add_argument("--n-fft", type=int, default=None, help="FFT length >= samples per hit (zero padding; default: record length)")
-    p.add_argument("--double-hit-fraction", type=float, default=0.1,
+    p.add_argument("--n-fft", metavar="N", type=int, default=None, help="FFT length >= samples per hit (zero padding; default: record length)")
+    p.add_argument("--double-hit-fraction", metavar="X", type=float, default=0.1,
                    help="a force sample outside the main pulse above this fraction of the peak is a double hit (default 0.1)")
-    p.add_argument("--force-clip-n", type=float, default=None, help="force channel full scale, N (overload check)")
-    p.add_argument("--response-clip", type=float, default=None,
+    p.add_argument("--force-clip-n", metavar="N", type=float, default=None, help="force channel full scale, N (overload check)")
+    p.add_argument("--response-clip", metavar="X", type=float, default=None,
                    help="response channels' full scale, in the response unit (m/s^2 for accelerations)")
-    p.add_argument("--overload-fraction", type=float, default=0.99,
+    p.add_argument("--overload-fraction", metavar="X", type=float, default=0.99,
                    help="a sample at this fraction of the full scale is an overload (default 0.99)")
-    p.add_argument("--flat-top-samples", type=int, default=3,
+    p.add_argument("--flat-top-samples", metavar="N", type=int, default=3,
                    help="consecutive samples at a channel's maximum that mean saturation (0: off; default 3)")
-    p.add_argument("--n-nodes", type=int, default=None, help="number of beam nodes: a DOF outside 1..N is an error")
+    p.add_argument("--n-nodes", metavar="N", type=int, default=None, help="number of beam nodes: a DOF outside 1..N is an error")
     p.add_argument("--no-plots", action="store_true", help="skip DIR/frf.png")
     p.set_defaults(func=run)
 
