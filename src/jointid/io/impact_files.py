@@ -19,8 +19,15 @@
   by ``load_case_id`` = hit number. The force record has ordinate specific data
   type 13 (excitation force); responses have 12 (acceleration), 11 (velocity)
   or 8 (displacement), all the same. Direction codes: 3 (+Z) is ``w``; a
-  signal recorded along -Z (-3) is sign-flipped; rotations are not accepted
-  (they are never measured).
+  signal recorded along -Z (-3) is sign-flipped; other directions (X, Y,
+  rotations) are not accepted (they are never measured). Reference direction
+  0 means "no reference", as acquisition systems write time records: the
+  excited DOF is then the node of the load case's force record (one force
+  record per load case, so every hit needs its own ``load_case_id``). The
+  sample interval of an evenly spaced record is stored with 6 significant
+  digits (``%13.5e``); when an integer sample rate (Hz) rounds to exactly
+  that increment it is taken (exact for the usual 8192, 25600, 51200 Hz ...),
+  otherwise ``1 / increment`` (relative error <= 5e-6).
 
 """
 
@@ -241,17 +248,32 @@ def _is_float(x: str) -> bool:
         return not x.strip()
 
 
+def _uff_rate(s: dict, where: str) -> float:
+    """Sample rate of a UFF58 time record (see the module docstring on the 6-digit increment)."""
+    fs = _rate_from_time(np.asarray(s["x"], dtype=float), where)
+    inc = float(s.get("abscissa_inc") or 0.0)
+    if int(s.get("abscissa_spacing", 0) or 0) == 1 and inc > 0:
+        cand = round(1.0 / inc)
+        half_digit = 0.5 * 10.0 ** (math.floor(math.log10(inc)) - 5)
+        if cand > 0 and abs(1.0 / cand - inc) <= half_digit * (1.0 + 1e-9):
+            return float(cand)
+    return fs
+
+
 def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
     """Read UFF58 time records (function type 1) as records, one per reference DOF.
 
     Hits are told apart by ``load_case_id``; the force record of a hit has
     ordinate specific data type 13, the responses 12/11/8 (see module docstring).
+    Records with reference direction 0 (no reference) belong to the excited
+    DOF of their load case's force record.
 
     Raises
     ------
     DataError
-        No time records, a hit without force, unknown directions, a non-uniform
-        or inconsistent abscissa (naming the excited node and hit).
+        No time records, a hit without force, unknown directions, a load case
+        without reference whose force record is missing or ambiguous, a
+        non-uniform or inconsistent abscissa (naming the excited node and hit).
     """
     import pyuff
 
@@ -270,7 +292,8 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
         if abs(int(direction)) != _Z:
             raise DataError(
                 f"{path}: {what} direction code {direction} is not supported: impact records are transverse "
-                "(+Z = 3 is w, -Z = -3 is w with the sign flipped); rotations are never measured"
+                "(+Z = 3 is w, -Z = -3 is w with the sign flipped; a reference direction 0 means no reference); "
+                "X, Y and rotations are never measured"
             )
         return Dof(int(node), "w")
 
@@ -282,13 +305,31 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
         """
         return np.sign(int(s["rsp_dir"])) * np.real(np.asarray(s["data"]))
 
+    def is_force(s) -> bool:
+        return int(s.get("ordinate_spec_data_type", 0)) == _UFF_FORCE
+
+    # records without a reference (direction 0) take the excited DOF from their load case's force record
+    case_force: dict[int, set[Dof]] = {}
+    for s in sets:
+        if int(s["ref_dir"]) == 0 and is_force(s):
+            case_force.setdefault(int(s.get("load_case_id", 0)), set()).add(dof(s["rsp_node"], s["rsp_dir"], "force"))
     groups: dict[Dof, dict[int, dict]] = {}
     for s in sets:
-        ref = dof(s["ref_node"], s["ref_dir"], "reference")
         h = int(s.get("load_case_id", 0))
+        if int(s["ref_dir"]) == 0:
+            refs = case_force.get(h, set())
+            if len(refs) != 1:
+                found = "no force record" if not refs else f"force records at {sorted(str(d) for d in refs)}"
+                raise DataError(
+                    f"{path}: load case {h}: time records without a reference (direction 0) and {found} "
+                    "(ordinate specific data type 13) to tell the excited node; give each hit its own load case "
+                    "with one force record, or write the reference node and direction"
+                )
+            ref = next(iter(refs))
+        else:
+            ref = dof(s["ref_node"], s["ref_dir"], "reference")
         g = groups.setdefault(ref, {}).setdefault(h, {"force": None, "resp": {}})
-        spec = int(s.get("ordinate_spec_data_type", 0))
-        if spec == _UFF_FORCE:
+        if is_force(s):
             g["force"] = s
         else:
             g["resp"][dof(s["rsp_node"], s["rsp_dir"], "response")] = s
@@ -308,7 +349,7 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
                 raise DataError(f"{where}: no response records")
             fs = None
             for name, s in [("force", g["force"])] + [(f"response {d}", g["resp"][d]) for d in labels]:
-                fs_s = _rate_from_time(np.asarray(s["x"], dtype=float), f"{where}, {name}")
+                fs_s = _uff_rate(s, f"{where}, {name}")
                 if fs is None:
                     fs = fs_s
                 elif not math.isclose(fs_s, fs, rel_tol=1e-6):

@@ -1,0 +1,122 @@
+"""``jointid frf``: roving-hammer time histories -> H1/H2 + coherence (UFF58), rejected hits, figure."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from ..errors import DataError
+from ..frf import KINDS
+from .common import add_out_argument
+
+#: (flag, ImpactOptions field, must be > 0 (else >= 0)) of the window options given in ms (converted x / 1000).
+_MS_OPTIONS = (
+    ("force_window_ms", "force_window_s", True),
+    ("pretrigger_ms", "force_pretrigger_s", False),
+    ("force_taper_ms", "force_taper_s", False),
+    ("exp_tau_ms", "exp_tau_s", True),
+)
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "frf",
+        help="impact-hammer time histories -> H1/H2 and coherence (frf.uff), rejected hits, figure",
+        description="Estimate FRFs from roving-hammer hits (.npz per excited node, long .csv, or UFF58 time records "
+        ".uff/.unv/.58; layouts in jointid.io.impact_files): double-hit and overload checks, optional force and "
+        "exponential windows (the exponential window's damping corrected mode by mode), H1 or H2 averaged over "
+        "the accepted hits. Writes DIR/frf.uff (UFF58 FRF records plus coherence records), DIR/rejected_hits.csv "
+        "(one row per finding: excited_dof, hit, check, channel, value, threshold, unit, time_s, reason) and "
+        "DIR/frf.png (magnitude, coherence beneath).",
+    )
+    p.add_argument("hits", nargs="+", metavar="HITS", help="hit files (.npz, .csv, .uff/.unv/.58)")
+    add_out_argument(p)
+    p.add_argument("--estimator", choices=("h1", "h2"), default="h1", help="FRF estimator written (default h1)")
+    p.add_argument("--kind", choices=KINDS, default="accelerance",
+                   help="FRF kind written to frf.uff, converted exactly (default accelerance)")
+    p.add_argument("--band-hz", nargs=2, type=float, metavar=("LO", "HI"), default=None,
+                   help="output band, Hz (default: first line above 0 Hz to Nyquist)")
+    p.add_argument("--force-window-ms", metavar="MS", type=float, default=None,
+                   help="flat length of the force window, ms (default: no force window)")
+    p.add_argument("--pretrigger-ms", metavar="MS", type=float, default=0.0,
+                   help="start of the force window and of the exponential decay before the pulse start, ms (default 0)")
+    p.add_argument("--force-taper-ms", metavar="MS", type=float, default=0.0, help="half-cosine taper on both sides of the force window, ms")
+    p.add_argument("--exp-tau-ms", metavar="MS", type=float, default=None,
+                   help="exponential window time constant, ms (default: no exponential window)")
+    p.add_argument("--no-exp-correction", action="store_true",
+                   help="keep the exponential window's added damping (default: corrected mode by mode)")
+    p.add_argument("--mode-band-hz", nargs=2, type=float, action="append", metavar=("LO", "HI"), default=None,
+                   help="a band around one isolated mode for the window correction, Hz (repeat; default: detected)")
+    p.add_argument("--n-fft", metavar="N", type=int, default=None, help="FFT length >= samples per hit (zero padding; default: record length)")
+    p.add_argument("--double-hit-fraction", metavar="X", type=float, default=0.1,
+                   help="a force sample outside the main pulse above this fraction of the peak is a double hit (default 0.1)")
+    p.add_argument("--force-clip-n", metavar="N", type=float, default=None, help="force channel full scale, N (overload check)")
+    p.add_argument("--response-clip", metavar="X", type=float, default=None,
+                   help="response channels' full scale, in the response unit (m/s^2 for accelerations)")
+    p.add_argument("--overload-fraction", metavar="X", type=float, default=0.99,
+                   help="a sample at this fraction of the full scale is an overload (default 0.99)")
+    p.add_argument("--flat-top-samples", metavar="N", type=int, default=3,
+                   help="consecutive samples at a channel's maximum that mean saturation (0: off; default 3)")
+    p.add_argument("--n-nodes", metavar="N", type=int, default=None, help="number of beam nodes: a DOF outside 1..N is an error")
+    p.add_argument("--no-plots", action="store_true", help="skip DIR/frf.png")
+    p.set_defaults(func=run)
+
+
+def impact_options_from_args(args: argparse.Namespace):
+    """The :class:`~jointid.methods.impact.ImpactOptions` of the command line (ms -> s exactly as ``x / 1000``)."""
+    from ..methods.impact import ImpactOptions
+
+    kw = {}
+    for flag, field, positive in _MS_OPTIONS:
+        v = getattr(args, flag)
+        if v is None:
+            continue
+        if not (math.isfinite(v) and (v > 0 if positive else v >= 0)):
+            raise DataError(f"--{flag.replace('_', '-')}: expected a number {'>' if positive else '>='} 0 (ms), got {v:g}")
+        kw[field] = v / 1000.0
+    if args.n_fft is not None and args.n_fft < 1:
+        raise DataError(f"--n-fft: expected a positive integer, got {args.n_fft}")
+    if args.n_nodes is not None and args.n_nodes < 1:
+        raise DataError(f"--n-nodes: expected a positive integer, got {args.n_nodes}")
+    for flag in ("band_hz", "mode_band_hz"):
+        for band in ([getattr(args, flag)] if flag == "band_hz" else getattr(args, flag)) or []:
+            if band is not None and not (0 <= band[0] < band[1] and math.isfinite(band[1])):
+                raise DataError(f"--{flag.replace('_', '-')}: expected LO HI with 0 <= LO < HI, got {band[0]:g} {band[1]:g}")
+    return ImpactOptions(
+        **kw,
+        correct_exponential=not args.no_exp_correction,
+        mode_bands_hz=tuple(tuple(b) for b in args.mode_band_hz) if args.mode_band_hz else None,
+        band_hz=tuple(args.band_hz) if args.band_hz else None,
+        n_fft=args.n_fft,
+        double_hit_fraction=args.double_hit_fraction,
+        force_clip_n=args.force_clip_n,
+        response_clip=args.response_clip,
+        overload_fraction=args.overload_fraction,
+        flat_top_samples=args.flat_top_samples,
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..hits import frf_from_hits
+    from ..io.frf_files import write_frf
+    from ..io.tables import write_csv
+    from ..plots.impact import plot_impact_frf
+    from ..plots.style import save_figure
+
+    options = impact_options_from_args(args)
+    result = frf_from_hits(args.hits, options, estimator=args.estimator, n_nodes=args.n_nodes)
+    frf = result.frf.to(args.kind)  # fails here (one line), before any file is written, at a 0 Hz line
+    rejected = result.rejected_table()
+    figure = None if args.no_plots else plot_impact_frf(result.impact, args.estimator, kind=args.kind)
+    for line in result.summary():
+        print(line)
+    for r in result.impact.rejected:
+        print(f"rejected: {r.reason}")
+    # every output is computed above; all files are written here
+    out = args.out
+    written = [write_frf(out / "frf.uff", frf, kind=args.kind, coherence=result.coherence)]
+    written.append(write_csv(out / "rejected_hits.csv", rejected))
+    if figure is not None:
+        written.append(save_figure(figure, out / "frf.png"))
+    print(f"wrote {', '.join(str(p) for p in written)}")
+    return 0
