@@ -92,6 +92,8 @@ class ParameterEstimate:
         One of the statuses of the module docstring.
     reason : str
         Why the status is not ``identified`` (empty when it is).
+    label : str
+        Short human name for messages (default: ``name``), e.g. ``"density"``.
     """
 
     name: str
@@ -100,6 +102,12 @@ class ParameterEstimate:
     std_error: float
     status: str
     reason: str = ""
+    label: str = ""
+
+    @property
+    def title(self) -> str:
+        """``label`` or, if empty, ``name``."""
+        return self.label or self.name
 
     @property
     def identified(self) -> bool:
@@ -134,14 +142,24 @@ class ParameterEstimate:
         return d
 
     def describe(self, scale: float = 1.0, unit: str | None = None, digits: int = 4) -> str:
-        """Terminal text, e.g. ``"E = 15 +- 0.0034 MPa"``, ``"rho held at 1100 kg/m^3"`` or ``"eta not identified"``."""
+        """Terminal text, e.g. ``"E = 15 +- 0.0034 MPa"``, ``"density held at 1100 kg/m^3"``, ``"E not identified"``.
+
+        Parameters
+        ----------
+        scale : float
+            Divisor of value and standard error (e.g. 1e6 with ``unit="MPa"``).
+        unit : str, optional
+            Unit shown (default ``self.unit``; ``"-"`` shows none).
+        digits : int
+            Significant digits of the value.
+        """
         u = self.unit if unit is None else unit
         u = "" if u == "-" else f" {u}"
         if self.identified:
-            return f"{self.name} = {self.value / scale:.{digits}g} +- {self.std_error / scale:.2g}{u}"
+            return f"{self.title} = {self.value / scale:.{digits}g} +- {self.std_error / scale:.2g}{u}"
         if self.held:
-            return f"{self.name} held at {self.value / scale:.{digits}g}{u}"
-        return f"{self.name} {self.status.replace('_', ' ')}"
+            return f"{self.title} held at {self.value / scale:.{digits}g}{u} ({self.status.replace('_', ' ')}, not identified)"
+        return f"{self.title} {self.status.replace('_', ' ')}"
 
 
 def jacobian_covariance(jac: np.ndarray, residual: np.ndarray) -> np.ndarray:
@@ -212,13 +230,13 @@ def correlation_matrix(cov: np.ndarray) -> np.ndarray:
 
 
 def classify(name: str, unit: str, value: float, std_error: float, bounds: tuple[float, float] | None,
-             max_relative_std: float = MAX_RELATIVE_STD, upper_inclusive: bool = True) -> ParameterEstimate:
+             max_relative_std: float = MAX_RELATIVE_STD, upper_inclusive: bool = True, label: str = "") -> ParameterEstimate:
     """Status ``identified`` or ``not_identified`` from the physical bounds and the relative standard error.
 
     Parameters
     ----------
-    name, unit : str
-        Parameter key and unit.
+    name, unit, label : str
+        Parameter key, unit and short human name.
     value, std_error : float
         Fitted value and standard error (same unit).
     bounds : (low, high) or None
@@ -230,16 +248,16 @@ def classify(name: str, unit: str, value: float, std_error: float, bounds: tuple
     value = float(value)
     std_error = float(std_error)
     if not math.isfinite(value):
-        return ParameterEstimate(name, unit, value, std_error, NOT_IDENTIFIED, "the fit did not give a finite value")
+        return ParameterEstimate(name, unit, value, std_error, NOT_IDENTIFIED, "the fit did not give a finite value", label)
     if bounds is not None:
         lo, hi = bounds
         outside = value < lo or (value > hi if upper_inclusive else value >= hi)
         if outside:
             close = "]" if upper_inclusive else ")"
             return ParameterEstimate(name, unit, value, std_error, NOT_IDENTIFIED,
-                                     f"the fitted value lies outside the physical range [{lo:g}, {hi:g}{close} {unit}")
+                                     f"the fitted value lies outside the physical range [{lo:g}, {hi:g}{close} {unit}", label)
     rel = std_error / abs(value) if value != 0 else math.inf
     if not rel <= max_relative_std:
         what = "the data do not constrain it" if not math.isfinite(rel) else f"relative standard error {rel:.0%} > {max_relative_std:.0%}"
-        return ParameterEstimate(name, unit, value, std_error, NOT_IDENTIFIED, what)
-    return ParameterEstimate(name, unit, value, std_error, IDENTIFIED)
+        return ParameterEstimate(name, unit, value, std_error, NOT_IDENTIFIED, what, label)
+    return ParameterEstimate(name, unit, value, std_error, IDENTIFIED, "", label)

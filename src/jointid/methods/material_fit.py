@@ -268,7 +268,7 @@ class MaterialFit:
             if p.identified:
                 continue
             held = f"; held at {p.value:g} {p.unit}" if p.held else "; its value is not reported"
-            out.append(f"{p.name} {p.status.replace('_', ' ')}: {p.reason}{held}")
+            out.append(f"{p.title} {p.status.replace('_', ' ')}: {p.reason}{held}")
         return tuple(out)
 
     def to_dict(self) -> dict:
@@ -437,7 +437,7 @@ def fit_material(
         with np.errstate(over="ignore", invalid="ignore"):
             vals, cov, sol = _fit(tpl, f, k, np.log([E0, eta0, rho0]), None)
         nfev += sol.nfev
-        rho_param = classify("density_kg_m3", "kg/m^3", vals[2], math.sqrt(cov[2, 2]), bnd["density_kg_m3"], max_relative_std)
+        rho_param = classify("density_kg_m3", "kg/m^3", vals[2], math.sqrt(cov[2, 2]), bnd["density_kg_m3"], max_relative_std, label="density")
         if rho_param.identified:
             rho_check = min(vals[2], default_density_kg_m3)
             frac = inertia_fraction(tpl, f, vals[0], vals[1], rho_check)
@@ -451,13 +451,13 @@ def fit_material(
             vals, cov, sol = _fit(tpl, f, k, np.log([E0, eta0]), held)
         nfev += sol.nfev
         if density_kg_m3 is None:
-            rho_param = ParameterEstimate("density_kg_m3", "kg/m^3", held, math.nan, HELD_AT_DEFAULT, rho_param.reason)
+            rho_param = ParameterEstimate("density_kg_m3", "kg/m^3", held, math.nan, HELD_AT_DEFAULT, rho_param.reason, "density")
         else:
-            rho_param = ParameterEstimate("density_kg_m3", "kg/m^3", held, math.nan, FIXED, "given by the caller")
+            rho_param = ParameterEstimate("density_kg_m3", "kg/m^3", held, math.nan, FIXED, "given by the caller", "density")
     E, eta, rho = (float(v) for v in vals)
     params = (
-        classify("elastic_modulus_pa", "Pa", E, math.sqrt(cov[0, 0]), bnd["elastic_modulus_pa"], max_relative_std),
-        classify("loss_factor", "-", eta, math.sqrt(cov[1, 1]), bnd["loss_factor"], max_relative_std, upper_inclusive=False),
+        classify("elastic_modulus_pa", "Pa", E, math.sqrt(cov[0, 0]), bnd["elastic_modulus_pa"], max_relative_std, label="E"),
+        classify("loss_factor", "-", eta, math.sqrt(cov[1, 1]), bnd["loss_factor"], max_relative_std, upper_inclusive=False, label="loss factor"),
         rho_param,
     )
     fitted_joint = tpl.with_material(E, eta, rho)

@@ -88,7 +88,7 @@ class ZenerFit:
     @property
     def warnings(self) -> tuple[str, ...]:
         """One line per parameter that is not identified (run to a bound, or undetermined)."""
-        return tuple(f"Zener {p.name} {p.status.replace('_', ' ')}: {p.reason}" for p in self.parameters if not p.identified)
+        return tuple(f"Zener {p.title} {p.status.replace('_', ' ')}: {p.reason}" for p in self.parameters if not p.identified)
 
     def modulus(self, f_hz) -> np.ndarray:
         """E*(f), Pa, complex, shape (F,) (usable as ``ElastomerJoint(modulus=...)``)."""
@@ -197,16 +197,17 @@ def fit_zener(frequency_hz, modulus_pa, initial: tuple[float, float, float, floa
     cov = propagate_covariance(cov_x, T)
     se = np.sqrt(np.diag(cov))
     at_bound = _bound_reasons(f, E0, Einf, tau, a)
-    spec = [("E0_pa", "Pa", E0, modulus_bounds_pa), ("Einf_pa", "Pa", Einf, None), ("tau_s", "s", tau, None), ("alpha", "-", a, None)]
+    spec = [("E0_pa", "Pa", E0, modulus_bounds_pa, "E0"), ("Einf_pa", "Pa", Einf, None, "Einf"),
+            ("tau_s", "s", tau, None, "tau"), ("alpha", "-", a, None, "alpha")]
     params = []
-    for (name, unit, value, bounds), s in zip(spec, se):
+    for (name, unit, value, bounds, label), s in zip(spec, se):
         if name in at_bound:
-            params.append(ParameterEstimate(name, unit, value, float(s), AT_BOUND, at_bound[name]))
+            params.append(ParameterEstimate(name, unit, value, float(s), AT_BOUND, at_bound[name], label))
             continue
-        p = classify(name, unit, value, float(s), bounds)
+        p = classify(name, unit, value, float(s), bounds, label=label)
         if p.status == IDENTIFIED and at_bound:
             # a parameter of a degenerate model is not determined either, whatever its local error
             p = ParameterEstimate(name, unit, value, float(s), NOT_IDENTIFIED,
-                                  "another Zener parameter ran to a bound; the model is degenerate on this band")
+                                  "another Zener parameter ran to a bound; the model is degenerate on this band", label)
         params.append(p)
     return ZenerFit(E0, Einf, tau, a, float(np.sqrt(np.mean(rr**2))), tuple(params), correlation_matrix(cov))
