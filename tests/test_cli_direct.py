@@ -32,6 +32,14 @@ def _data(path, material="B", ratio=None, seed=0):
     return joint
 
 
+def _strict_load(path):
+    """Parse with a strict JSON parser: NaN/Infinity are errors."""
+    def refuse(name):
+        raise ValueError(f"{path}: non-standard JSON constant {name}")
+
+    return json.loads(path.read_text(), parse_constant=refuse)
+
+
 def _read(path):
     with open(path, newline="") as fh:
         return list(csv.DictReader(fh))
@@ -49,15 +57,19 @@ def test_direct_writes_stiffness_fit_and_plot(tmp_path, main, capsys):
     truth = joint.blocked_transfer_stiffness(f)  # per joint: the CLI divided by 2
     assert np.max(np.abs(np.abs(k) / np.abs(truth) - 1)) < 0.005
     assert [r["amplitude_ok"] for r in rows] == ["false" if x >= 550 else "true" for x in f]
-    fit = json.loads((out / "direct_fit.json").read_text())
+    fit = _strict_load(out / "direct_fit.json")
     m = MATERIALS["B"]
-    assert abs(fit["fit"]["elastic_modulus_pa"] / m.E - 1) < 0.01
-    assert abs(fit["fit"]["loss_factor"] / m.eta - 1) < 0.01
-    assert abs(fit["fit"]["density_kg_m3"] / m.rho - 1) < 0.01
+    par = fit["fit"]["parameters"]
+    assert all(p["status"] == "identified" for p in par.values()) and fit["warnings"] == []
+    assert abs(par["elastic_modulus_pa"]["value"] / m.E - 1) < 0.01
+    assert abs(par["loss_factor"]["value"] / m.eta - 1) < 0.01
+    assert abs(par["density_kg_m3"]["value"] / m.rho - 1) < 0.01
+    assert 0 < par["density_kg_m3"]["std_error"] < 0.01 * m.rho
     assert fit["flagged_lines_hz"] == [550.0, 575.0, 600.0]
     assert fit["static"]["elastic_modulus_pa"] == pytest.approx(2 * fit["static"]["shear_modulus_pa"] * 1.49)
     assert (out / "direct_stiffness.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "E = " in capsys.readouterr().out
+    cap = capsys.readouterr()
+    assert "E = " in cap.out and "density = " in cap.out and cap.err == ""
 
 
 def test_single_joint_median_amplitude_and_mapping(tmp_path, main):
@@ -77,7 +89,7 @@ def test_single_joint_median_amplitude_and_mapping(tmp_path, main):
     rows = _read(out / "direct_stiffness.csv")
     k = np.array([float(r["magnitude"]) for r in rows])
     assert np.max(np.abs(k / (2 * np.abs(joint.blocked_transfer_stiffness(F))) - 1)) < 0.005
-    fit = json.loads((out / "direct_fit.json").read_text())
+    fit = _strict_load(out / "direct_fit.json")
     assert fit["commanded_amplitude_source"] == "median achieved amplitude"
     assert all(r["amplitude_ok"] == "true" for r in rows)
 
@@ -131,3 +143,91 @@ def test_too_few_lines_at_amplitude(tmp_path, main, capsys):
     assert main(["direct", str(tmp_path / "data.csv"), "--out", str(out), "--amplitude", "1e-4"]) != 0
     assert "reached the commanded amplitude" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_low_band_density_is_held_and_never_printed(tmp_path, main, capsys):
+    # Material A (internal mode ~1.2 kHz) tested at 10-200 Hz only: the density is not identified
+    f = np.arange(10.0, 201.0, 10.0)
+    joint = ElastomerJoint.from_material("A")
+    write_stepsine_csv(tmp_path / "low.csv", synthesize_stepsine(f, joint.blocked_transfer_stiffness, AMP, seed=3,
+                                                                 displacement_noise=0.01, force_noise=0.01))
+    out = tmp_path / "out"
+    assert main(["direct", str(tmp_path / "low.csv"), "--out", str(out), "--no-plots"]) == 0
+    cap = capsys.readouterr()
+    assert "density held at 1100 kg/m^3 (held at default, not identified)" in cap.out
+    assert "density = " not in cap.out
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("jointid direct: warning: density held at default: inertia changes K21 by only")
+    d = _strict_load(out / "direct_fit.json")
+    rho = d["fit"]["parameters"]["density_kg_m3"]
+    assert rho["value"] is None and rho["status"] == "held_at_default" and rho["held_value"] == 1100.0
+    assert d["warnings"] == [err[0].removeprefix("jointid direct: warning: ")]
+    assert d["complex_modulus"]["density_used_kg_m3"] == 1100.0
+    assert abs(d["fit"]["parameters"]["elastic_modulus_pa"]["value"] / 15e6 - 1) < 0.005
+    # the figure's legend marks the density as held; the lower panel is the loss factor (Re K21 > 0)
+    from jointid.methods.material_fit import fit_material
+    from jointid.methods.stepsine import process_stepsine, read_stepsine_csv
+    from jointid.plots.direct import plot_direct_stiffness
+
+    res = process_stepsine(read_stepsine_csv(tmp_path / "low.csv"))
+    fig = plot_direct_stiffness(res, fit_material(res.frequency_hz, res.stiffness))
+    ax_m, ax_e = fig.axes
+    assert ax_e.get_ylabel() == "loss factor (-)"
+    labels = [ln.get_label() for ln in ax_m.get_lines()]
+    assert labels[-1] == "FE joint model: E = 15 MPa, eta = 0.0999, rho held at 1100 kg/m^3"
+    assert ax_m.get_lines()[-1].get_zorder() > ax_m.get_lines()[0].get_zorder()
+
+
+def test_example_data_round_trip_through_the_internal_mode(tmp_path, main, capsys):
+    ex = tmp_path / "example.csv"
+    assert main(["direct", "--example", str(ex)]) == 0
+    assert f"wrote example step-sine data to {ex}" in capsys.readouterr().out
+    out = tmp_path / "out"
+    assert main(["direct", str(ex), "--out", str(out), "--zener", "--no-plots"]) == 0
+    cap = capsys.readouterr()
+    d = _strict_load(out / "direct_fit.json")
+    par = d["fit"]["parameters"]
+    m = MATERIALS["B"]
+    for key, true in (("elastic_modulus_pa", m.E), ("loss_factor", m.eta), ("density_kg_m3", m.rho)):
+        assert par[key]["status"] == "identified"
+        assert abs(par[key]["value"] / true - 1) < 0.005
+    # the example's modulus is constant: a Zener fit has no relaxation to see and says so
+    assert d["zener"]["parameters"]["tau_s"]["status"] == "at_bound"
+    assert d["zener"]["parameters"]["tau_s"]["value"] is None
+    assert "jointid direct: warning: Zener tau at bound: tau ran to 0" in cap.err
+    # past the internal mode (~925 Hz) the lower panel shows the phase, not a loss factor running to infinity
+    from jointid.methods.stepsine import process_stepsine
+    from jointid.methods.stepsine_synth import example_stepsine
+    from jointid.plots.direct import plot_direct_stiffness
+
+    fig = plot_direct_stiffness(process_stepsine(example_stepsine()))
+    phase = fig.axes[1].get_lines()[0].get_ydata()
+    assert fig.axes[1].get_ylabel() == "phase of K21 (deg)"
+    assert phase[0] == pytest.approx(np.degrees(np.arctan(0.15)), abs=1.0) and -200 < phase[-1] < -150
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["direct", "--out", "o"], "give DATA.csv and --out DIR"),
+    (["direct", "data.csv"], "give DATA.csv and --out DIR"),
+    (["direct", "data.csv", "--example", "x.csv"], "--example OUT.csv writes example data only"),
+    (["direct", "data.csv", "--out", "o", "--density", "-3"], "--density must be the elastomer density in kg/m^3"),
+])
+def test_argument_errors(tmp_path, main, capsys, monkeypatch, argv, message):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_summary_json_is_strict_with_non_finite_values_as_null():
+    from jointid.cli.direct import summary_text
+
+    text = summary_text({"a": float("inf"), "b": [1.0, float("nan")], "c": {"d": np.float64(2.0)}})
+
+    def refuse(name):
+        raise ValueError(name)
+
+    d = json.loads(text, parse_constant=refuse)
+    assert d["a"] is None and d["b"] == [1.0, None] and d["c"] == {"d": 2.0}
+    assert d["non_finite_values"] == "2 value(s) were NaN or infinite and are written as null: a, b[1]"

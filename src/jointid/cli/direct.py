@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import io
 import json
+import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +15,7 @@ from ..errors import DataError
 from ..io.output_dir import OutputSet
 from .common import OUT_HELP
 
-__all__ = ["add_parser", "run", "direct_summary"]
+__all__ = ["add_parser", "run", "direct_summary", "strict_json"]
 
 
 def _pairs(items, what: str, number: bool) -> dict:
@@ -41,10 +43,15 @@ def add_parser(sub) -> None:
         "force; CSV long format with columns frequency_hz, time_s, displacement_m, force_n, one block per test "
         "frequency) into the complex blocked transfer stiffness per joint, fit the elastomer's E, loss factor "
         "and density with the FE joint model, and write DIR/direct_stiffness.csv (N/m per joint), "
-        "DIR/direct_fit.json and DIR/direct_stiffness.png.",
+        "DIR/direct_fit.json and DIR/direct_stiffness.png. Every fitted parameter comes with a standard error and "
+        "a status; one the data cannot determine (e.g. the density on a band far below the joint's internal mode) "
+        "is held at a default or reported as not identified, with a warning. "
+        "`jointid direct --example OUT.csv` writes built-in example data to try the command on.",
     )
-    p.add_argument("data", type=Path, metavar="DATA.csv", help="step-sine time histories (CSV long format)")
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help=OUT_HELP)
+    p.add_argument("data", type=Path, nargs="?", metavar="DATA.csv", help="step-sine time histories (CSV long format)")
+    p.add_argument("--out", type=Path, metavar="DIR", help=OUT_HELP + "; required with DATA.csv")
+    p.add_argument("--example", type=Path, metavar="OUT.csv",
+                   help="write the built-in example step-sine test (Material B, 25-1500 Hz, two joints, 1%% noise) to OUT.csv and stop")
     p.add_argument("--parallel-joints", type=int, default=2, metavar="N", help="joints loaded in parallel (default 2, double shear)")
     p.add_argument("--amplitude", type=float, default=None, metavar="X",
                    help="commanded displacement amplitude, m, peak (default: the median achieved amplitude)")
@@ -57,13 +64,44 @@ def add_parser(sub) -> None:
                    help="CSV column of a quantity (frequency, time, displacement, force); repeatable")
     p.add_argument("--scale", action="append", metavar="QUANTITY=FACTOR",
                    help="factor from the file's unit to SI for a quantity, e.g. displacement=1e-3 for mm; repeatable")
+    p.add_argument("--density", type=float, default=None, metavar="KG_M3",
+                   help="known elastomer density, kg/m^3: held, only E and the loss factor are fitted")
     p.add_argument("--zener", action="store_true", help="also fit a fractional-derivative Zener model to E*(f)")
     p.add_argument("--no-plots", action="store_true", help="skip the figure")
     p.set_defaults(func=run)
 
 
+def strict_json(obj, path: str = "", replaced: list | None = None):
+    """``obj`` with every non-finite float replaced by None; the JSON paths replaced are appended to ``replaced``."""
+    if isinstance(obj, dict):
+        return {k: strict_json(v, f"{path}.{k}" if path else str(k), replaced) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [strict_json(v, f"{path}[{i}]", replaced) for i, v in enumerate(obj)]
+    if isinstance(obj, (float, np.floating)):
+        if math.isfinite(obj):
+            return float(obj)
+        if replaced is not None:
+            replaced.append(path)
+        return None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+def summary_text(summary: dict) -> str:
+    """The summary as strict JSON text (RFC 8259: no NaN/Infinity; non-finite numbers become null with a note)."""
+    replaced: list = []
+    clean = strict_json(summary, replaced=replaced)
+    if replaced:
+        shown = ", ".join(replaced[:5]) + (f" and {len(replaced) - 5} more" if len(replaced) > 5 else "")
+        clean["non_finite_values"] = f"{len(replaced)} value(s) were NaN or infinite and are written as null: {shown}"
+    return json.dumps(clean, indent=2, allow_nan=False) + "\n"
+
+
 def direct_summary(args, result, static, fit, modulus, zener=None) -> dict:
-    """JSON-ready summary of a direct identification."""
+    """JSON-ready summary of a direct identification (values only for identified parameters; see ``fit.parameters``)."""
     flagged = result.frequency_hz[~result.amplitude_ok]
     return {
         "data_file": str(args.data),
@@ -86,13 +124,24 @@ def direct_summary(args, result, static, fit, modulus, zener=None) -> dict:
             "density": "kg/m^3",
             "amplitude": "m, peak",
         },
+        "warnings": list(fit.warnings) + (list(zener.warnings) if zener is not None else []),
         "notes": "fit and E*(f) use the lines that reached the commanded amplitude; static G = k L / A "
-        "under-reads G for L = d (guided Timoshenko stiffness ~ guided_ratio GA/L); the corrected value divides by it",
+        "under-reads G for L = d (guided Timoshenko stiffness ~ guided_ratio GA/L); the corrected value divides by it; "
+        "a parameter's value is given only when its status is 'identified' (held values are assumptions, under held_value); "
+        "std_error is the first-order standard error s^2 (J^T J)^-1 of the least-squares fit in the parameter's unit; "
+        "E*(f) per line uses the fit's density (density_used_kg_m3), held or identified",
     }
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``jointid direct``; returns 0. Raises JointIdError subclasses on bad input (nothing written)."""
+
+    if args.example is not None:
+        return _write_example(args)
+    if args.data is None or args.out is None:
+        raise DataError("give DATA.csv and --out DIR (or --example OUT.csv to write example data to try the command on)")
+    if args.density is not None and not 0 < args.density < 1e5:
+        raise DataError(f"--density must be the elastomer density in kg/m^3 (e.g. 1100), got {args.density}")
     if args.parallel_joints < 1:
         raise DataError(f"--parallel-joints must be >= 1, got {args.parallel_joints}")
     if args.amplitude is not None and not args.amplitude > 0:
@@ -118,12 +167,17 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     f, k = result.frequency_hz[ok], result.stiffness[ok]
     template = ElastomerJoint(10e6, 0.1, 1100.0, args.length, args.diameter, args.poisson_ratio)
     static = static_estimate(f, k, lines=args.static_lines, length_m=args.length, diameter_m=args.diameter, poisson_ratio=args.poisson_ratio)
-    fit = fit_material(f, k, joint=template)
+    fit = fit_material(f, k, joint=template, density_kg_m3=args.density)
     modulus = complex_modulus_per_line(f, k, fit.density_kg_m3, joint=template)
-    zener = fit_zener(f, modulus.modulus_pa) if args.zener else None
+    zener = None
+    if args.zener:
+        c = modulus.converged
+        if c.sum() < 3:
+            raise DataError(f"--zener: E*(f) converged on only {int(c.sum())} lines; a Zener fit needs at least 3")
+        zener = fit_zener(f[c], modulus.modulus_pa[c])
 
     csv_columns = result.columns()
-    text = json.dumps(direct_summary(args, result, static, fit, modulus, zener), indent=2) + "\n"
+    text = summary_text(direct_summary(args, result, static, fit, modulus, zener))
     png = None
     if not args.no_plots:
         from ..plots.direct import plot_direct_stiffness
@@ -137,8 +191,31 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     if png is not None:
         out.write_bytes("direct_stiffness.png", png)
     n_flag = int((~ok).sum())
+    E, eta, rho = fit.parameters
     print(
-        f"direct: {ok.size} lines ({n_flag} flagged), E = {fit.elastic_modulus_pa / 1e6:.4g} MPa, "
-        f"eta = {fit.loss_factor:.4g}, rho = {fit.density_kg_m3:.4g} kg/m^3, residual {fit.residual_rms:.2%}; wrote {out.directory}"
+        f"direct: {ok.size} lines ({n_flag} flagged), {E.describe(1e6, 'MPa')}, {eta.describe()}, "
+        f"{rho.describe()}, residual {fit.residual_rms:.2%}; wrote {out.directory}"
+    )
+    for w in fit.warnings + (zener.warnings if zener is not None else ()):
+        print(f"jointid direct: warning: {w}", file=sys.stderr)
+    return 0
+
+
+def _write_example(args) -> int:
+    """``--example OUT.csv``: write the built-in example step-sine data."""
+    from ..methods.stepsine import write_stepsine_csv
+    from ..methods.stepsine_synth import EXAMPLE, example_stepsine
+
+    if args.data is not None or args.out is not None:
+        raise DataError("--example OUT.csv writes example data only; run `jointid direct OUT.csv --out DIR` on it afterwards")
+    if args.example.exists():
+        raise DataError(f"--example {args.example} exists; jointid does not overwrite a file it did not write: give a new file name")
+    blocks = example_stepsine()
+    path = write_stepsine_csv(args.example, blocks)
+    e = EXAMPLE
+    print(
+        f"direct: wrote example step-sine data to {path} (Material {e['material']}: E 8.8 MPa, eta 0.15, rho 1100 kg/m^3; "
+        f"{e['start_hz']:g}-{e['stop_hz']:g} Hz every {e['step_hz']:g} Hz, {e['amplitude_m']:g} m peak, "
+        f"{e['parallel_joints']} joints, {e['noise']:.0%} noise); next: jointid direct {path} --out DIR"
     )
     return 0

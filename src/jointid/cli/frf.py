@@ -99,24 +99,23 @@ def impact_options_from_args(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     from ..hits import frf_from_hits
     from ..io.frf_files import write_frf
-    from ..io.tables import write_csv
+    from ..io.output_dir import OutputSet
     from ..plots.impact import plot_impact_frf
-    from ..plots.style import save_figure
 
     options = impact_options_from_args(args)
-    result = frf_from_hits(args.hits, options, estimator=args.estimator, n_nodes=args.n_nodes)
-    frf = result.frf.to(args.kind)  # fails here (one line), before any file is written, at a 0 Hz line
-    rejected = result.rejected_table()
-    figure = None if args.no_plots else plot_impact_frf(result.impact, args.estimator, kind=args.kind)
-    for line in result.summary():
-        print(line)
-    for r in result.impact.rejected:
-        print(f"rejected: {r.reason}")
-    # every output is computed above; all files are written here
-    out = args.out
-    written = [write_frf(out / "frf.uff", frf, kind=args.kind, coherence=result.coherence)]
-    written.append(write_csv(out / "rejected_hits.csv", rejected))
-    if figure is not None:
-        written.append(save_figure(figure, out / "frf.png"))
+    with OutputSet(args.out, command="frf") as out:  # validated and locked before computing
+        result = frf_from_hits(args.hits, options, estimator=args.estimator, n_nodes=args.n_nodes)
+        frf = result.frf.to(args.kind)  # fails here (one line), before any file is written, at a 0 Hz line
+        rejected = result.rejected_table()
+        figure = None if args.no_plots else plot_impact_frf(result.impact, args.estimator, kind=args.kind)
+        for line in result.summary():
+            print(line)
+        for r in result.impact.rejected:
+            print(f"rejected: {r.reason}")
+        # every output is computed above; the files appear together when `out` commits
+        written = [out.write_file("frf.uff", lambda p: write_frf(p, frf, kind=args.kind, coherence=result.coherence))]
+        written.append(out.write_csv("rejected_hits.csv", rejected))
+        if figure is not None:
+            written.append(out.write_figure("frf.png", figure))
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0

@@ -2,7 +2,7 @@
 
 Three levels, from the simplest:
 
-1. :func:`static_estimate` -- the quasi-static stiffness ``k`` (storage part
+1. :func:`static_estimate` (:mod:`jointid.methods.material_static`) -- the quasi-static stiffness ``k`` (storage part
    averaged over the lowest test frequencies, per joint) gives the naive shear
    modulus ``G = k L / A`` and ``E = 2 G (1 + nu)`` (nu = 0.49). For a short
    cylinder (L = d) the guided Timoshenko stiffness is only about 0.64 GA/L,
@@ -12,26 +12,48 @@ Three levels, from the simplest:
    on log-parameters, relative complex residuals ``(K_model - K) / |K|``) of
    a constant E, loss factor and density so that the FE joint model
    (:class:`~jointid.methods.joint_model.ElastomerJoint`, blocked transfer
-   stiffness) reproduces the measured K21 over the band.
-3. :func:`complex_modulus_per_line` -- E*(f) per line with the density fixed,
+   stiffness) reproduces the measured K21 over the band. Every parameter gets
+   a standard error (``s^2 (J^T J)^-1`` propagated to its own unit) and a
+   status: the density is held at a default when the band lies too far
+   below the joint's internal mode (or it leaves the rubber range), and a
+   parameter outside its physical range or with > 50 % relative error is
+   ``not_identified`` (:mod:`jointid.methods.fit_statistics`).
+3. :func:`complex_modulus_per_line` (:mod:`jointid.methods.modulus_per_line`) -- E*(f) per line with the density fixed,
    by a vectorized complex Newton iteration on ``K21(E*) = K_measured``
    (the derivative ``dS/dE* = U^T (K_ref / E_ref) U`` of the condensed matrix
-   is exact); :func:`fit_zener` fits a fractional-derivative Zener model
+   is exact); :func:`~jointid.methods.zener_fit.fit_zener` (re-exported here)
+   fits a fractional-derivative Zener model
    ``E*(w) = (E0 + Einf (j w tau)^alpha) / (1 + (j w tau)^alpha)`` to it.
 
-Every result is a frozen dataclass with ``to_dict()`` for JSON.
+This module holds level 2 and re-exports the others, so ``from
+jointid.methods.material_fit import ...`` reaches every fit. Every result is
+a frozen dataclass with ``to_dict()`` for JSON.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import DataError, ModelError
+from .fit_statistics import (
+    FIXED,
+    HELD_AT_DEFAULT,
+    MAX_RELATIVE_STD,
+    NOT_IDENTIFIED,
+    ParameterEstimate,
+    classify,
+    correlation_matrix,
+    jacobian_covariance,
+    propagate_covariance,
+)
 from .joint_model import DEFAULT_DIAMETER_M, DEFAULT_LENGTH_M, DEFAULT_POISSON, ElastomerJoint
+from .material_static import StaticEstimate, as_band_arrays, joint_template, static_estimate
+from .modulus_per_line import ComplexModulus, complex_modulus_per_line
+from .zener_fit import ZenerFit, fit_zener, zener_modulus
 
 __all__ = [
     "StaticEstimate",
@@ -43,118 +65,36 @@ __all__ = [
     "complex_modulus_per_line",
     "fit_zener",
     "zener_modulus",
+    "inertia_fraction",
+    "PHYSICAL_BOUNDS",
+    "DEFAULT_DENSITY",
+    "MIN_INERTIA_FRACTION",
 ]
 
 
-def _as_arrays(frequency_hz, stiffness) -> tuple[np.ndarray, np.ndarray]:
-    f = np.asarray(frequency_hz, dtype=float).reshape(-1)
-    k = np.asarray(stiffness, dtype=complex).reshape(-1)
-    if f.shape != k.shape:
-        raise DataError(f"frequency ({f.size} lines) and stiffness ({k.size} values) differ in length")
-    if f.size == 0:
-        raise DataError("no frequency lines to fit; check the amplitude flags and the band")
-    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(k))):
-        raise DataError("frequency or stiffness contains NaN/inf; drop those lines before fitting")
-    if np.any(k == 0):
-        raise DataError(f"line {f[int(np.argmax(k == 0))]:g} Hz: the stiffness is zero; check the force channel")
-    return f, k
-
-
-# ---------------------------------------------------------------- static
-@dataclass(frozen=True)
-class StaticEstimate:
-    """Quasi-static shear and Young's moduli from the lowest test frequencies.
-
-    Parameters
-    ----------
-    stiffness_n_m : float
-        Storage stiffness per joint averaged over ``frequency_hz``, N/m.
-    loss_factor : float
-        Mean loss factor over the same lines.
-    shear_modulus_pa : float
-        ``G = k L / A``, Pa.
-    elastic_modulus_pa : float
-        ``E = 2 G (1 + nu)``, Pa.
-    guided_ratio : float
-        Static guided Timoshenko stiffness over GA/L of the cylinder.
-    corrected_shear_modulus_pa, corrected_elastic_modulus_pa : float
-        ``G / guided_ratio`` and the matching E, Pa.
-    frequency_hz : tuple of float
-        Lines used, Hz.
-    length_m, area_m2, poisson_ratio : float
-        Geometry and nu used.
-    """
-
-    stiffness_n_m: float
-    loss_factor: float
-    shear_modulus_pa: float
-    elastic_modulus_pa: float
-    guided_ratio: float
-    corrected_shear_modulus_pa: float
-    corrected_elastic_modulus_pa: float
-    frequency_hz: tuple
-    length_m: float
-    area_m2: float
-    poisson_ratio: float
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict."""
-        d = dict(self.__dict__)
-        d["frequency_hz"] = [float(x) for x in self.frequency_hz]
-        return d
-
-
-def static_estimate(
-    frequency_hz,
-    stiffness,
-    lines: int = 2,
-    length_m: float = DEFAULT_LENGTH_M,
-    diameter_m: float = DEFAULT_DIAMETER_M,
-    area_m2: float | None = None,
-    poisson_ratio: float = DEFAULT_POISSON,
-) -> StaticEstimate:
-    """Quasi-static G and E from the ``lines`` lowest test frequencies.
-
-    Parameters
-    ----------
-    frequency_hz : array_like, shape (F,)
-        Test frequencies, Hz.
-    stiffness : array_like, shape (F,), complex
-        K21 per joint, N/m.
-    lines : int
-        Number of lowest lines averaged.
-    length_m : float
-        Elastomer length L, m (default 2.54 cm).
-    diameter_m : float
-        Elastomer diameter, m (default 2.54 cm); gives A = pi d^2 / 4.
-    area_m2 : float, optional
-        Shear area A, m^2; overrides ``diameter_m``.
-    poisson_ratio : float
-        nu for E = 2 G (1 + nu).
-    """
-    f, k = _as_arrays(frequency_hz, stiffness)
-    if not (isinstance(lines, (int, np.integer)) and lines >= 1):
-        raise DataError(f"static lines must be an integer >= 1, got {lines!r}")
-    idx = np.argsort(f)[: int(lines)]
-    if np.any(k[idx].real <= 0):
-        i = idx[int(np.argmax(k[idx].real <= 0))]
-        raise DataError(f"line {f[i]:g} Hz: storage stiffness {k[i].real:g} N/m is not positive; check the force sign")
-    ks = float(np.mean(k[idx].real))
-    eta = float(np.mean(k[idx].imag / k[idx].real))
-    A = math.pi * diameter_m**2 / 4.0 if area_m2 is None else float(area_m2)
-    if not (A > 0 and length_m > 0):
-        raise ModelError(f"length ({length_m!r} m) and area ({A!r} m^2) must be positive")
-    G = ks * length_m / A
-    E = 2.0 * G * (1.0 + poisson_ratio)
-    d_eq = math.sqrt(4.0 * A / math.pi)
-    ratio = ElastomerJoint(1e6, 0.0, 1000.0, length_m, d_eq, poisson_ratio, elements=2, cap=None).guided_ratio
-    return StaticEstimate(ks, eta, G, E, ratio, G / ratio, E / ratio, tuple(float(x) for x in f[idx]), float(length_m), A, float(poisson_ratio))
-
 
 # ---------------------------------------------------------------- constant E, eta, rho
+#: Physically plausible ranges for an elastomer: E' in Pa, loss factor (upper end exclusive), density in kg/m^3.
+PHYSICAL_BOUNDS = {"elastic_modulus_pa": (0.1e6, 500e6), "loss_factor": (0.0, 2.0), "density_kg_m3": (800.0, 2000.0)}
+#: Density held when the data cannot determine it (mid-range rubber), kg/m^3.
+DEFAULT_DENSITY = 1100.0
+#: The density is identified only if inertia changes the model's K21 by at least this fraction
+#: somewhere in the band (see :func:`inertia_fraction`).
+MIN_INERTIA_FRACTION = 0.25
+
+_UNITS = {"elastic_modulus_pa": "Pa", "loss_factor": "-", "density_kg_m3": "kg/m^3"}
+_NAMES = ("elastic_modulus_pa", "loss_factor", "density_kg_m3")
+
+
 @dataclass(frozen=True, eq=False)
 class MaterialFit:
-    """Constant complex modulus and density fitted to K21 over a band.
+    """Constant complex modulus and density fitted to K21 over a band, with standard errors and status.
+
+    ``elastic_modulus_pa``, ``loss_factor`` and ``density_kg_m3`` are the
+    values the fitted model (:attr:`joint`) uses; whether each is a result
+    is in :attr:`parameters` (status ``identified``, ``held_at_default``,
+    ``fixed`` or ``not_identified``, with the reason). Report a value only
+    when its status is ``identified``.
 
     Parameters
     ----------
@@ -163,28 +103,34 @@ class MaterialFit:
     loss_factor : float
         eta.
     density_kg_m3 : float
-        rho, kg/m^3.
-    relative_std : tuple of float
-        Relative standard errors of (E, eta, rho) from the Jacobian and the residual.
+        rho, kg/m^3 (the held value when it is not identified).
+    parameters : tuple of ParameterEstimate
+        (E', eta, rho) with standard errors in Pa, -, kg/m^3 and status.
+    correlation : ndarray, shape (3, 3)
+        Correlation of (E', eta, rho) of the final fit; NaN for a held parameter.
     residual_rms : float
         rms of the relative complex residual ``|K_model - K| / |K|``.
+    inertia_fraction : float
+        Largest ``|K21(rho) / K21(rho -> 0) - 1|`` over the band (see :func:`inertia_fraction`).
     frequency_hz : ndarray, shape (F,)
         Lines fitted, Hz.
     measured, fitted : ndarray, shape (F,), complex
         Measured and model K21 per joint, N/m.
     joint : ElastomerJoint
-        The joint model with the fitted material.
+        The joint model with the fitted (or held) material.
     success : bool
         Optimizer convergence flag.
     nfev : int
-        Model evaluations.
+        Model evaluations (all fits).
     """
 
     elastic_modulus_pa: float
     loss_factor: float
     density_kg_m3: float
-    relative_std: tuple
+    parameters: tuple
+    correlation: np.ndarray
     residual_rms: float
+    inertia_fraction: float
     frequency_hz: np.ndarray
     measured: np.ndarray
     fitted: np.ndarray
@@ -197,31 +143,111 @@ class MaterialFit:
         """G' = E' / (2 (1 + nu)), Pa."""
         return self.elastic_modulus_pa / (2.0 * (1.0 + self.joint.poisson_ratio))
 
+    def parameter(self, name: str) -> ParameterEstimate:
+        """The estimate of ``"elastic_modulus_pa"``, ``"loss_factor"`` or ``"density_kg_m3"``."""
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    @property
+    def relative_std(self) -> tuple:
+        """Relative standard errors of (E', eta, rho); NaN for a held parameter, inf if unconstrained."""
+        return tuple(p.relative_std_error for p in self.parameters)
+
+    @property
+    def identified(self) -> bool:
+        """True when no parameter is ``not_identified`` (held ones are allowed)."""
+        return all(p.identified or p.held for p in self.parameters)
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """One line per parameter that is not a result of the data (held or not identified), with the reason."""
+        out = []
+        for p in self.parameters:
+            if p.identified:
+                continue
+            held = f"; held at {p.value:g} {p.unit}" if p.held else "; its value is not reported"
+            out.append(f"{p.title} {p.status.replace('_', ' ')}: {p.reason}{held}")
+        return tuple(out)
+
     def to_dict(self) -> dict:
-        """JSON-ready dict of the fitted parameters and fit quality."""
+        """JSON-ready dict: every parameter with standard error and status (value null unless identified)."""
+        par = {p.name: p.to_dict() for p in self.parameters}
+        g = self.parameter("elastic_modulus_pa").to_dict()
+        scale = 1.0 / (2.0 * (1.0 + self.joint.poisson_ratio))
+        shear = {k: (v * scale if isinstance(v, float) and k in ("value", "std_error", "held_value") else v) for k, v in g.items()}
+        corr = [[float(c) if math.isfinite(c) else None for c in row] for row in self.correlation]
+        mode = float(self.joint.modes("blocked", 1).frequency_hz[0])
         return {
-            "elastic_modulus_pa": self.elastic_modulus_pa,
-            "shear_modulus_pa": self.shear_modulus_pa,
-            "loss_factor": self.loss_factor,
-            "density_kg_m3": self.density_kg_m3,
-            "relative_std": {"elastic_modulus": self.relative_std[0], "loss_factor": self.relative_std[1], "density": self.relative_std[2]},
+            "parameters": par,
+            "shear_modulus_pa": shear,
+            "correlation": {"order": list(_NAMES), "matrix": corr},
             "residual_rms": self.residual_rms,
+            "inertia_fraction": self.inertia_fraction,
             "lines": int(self.frequency_hz.size),
             "band_hz": [float(self.frequency_hz.min()), float(self.frequency_hz.max())],
-            "blocked_internal_mode_hz": float(self.joint.modes("blocked", 1).frequency_hz[0]),
+            "blocked_internal_mode_hz": mode if self.parameter("density_kg_m3").identified and self.parameter("elastic_modulus_pa").identified else None,
             "poisson_ratio": self.joint.poisson_ratio,
             "length_m": self.joint.length_m,
             "diameter_m": self.joint.diameter_m,
             "elements": int(self.joint.elements),
             "success": bool(self.success),
             "nfev": int(self.nfev),
+            "warnings": list(self.warnings),
+            "standard_errors": "s^2 (J^T J)^-1 with s^2 = RSS / (2F - p) on the relative complex residuals, "
+            "propagated from the log-parameters to Pa, -, kg/m^3 (first order; assumes the constant-modulus model is right)",
         }
 
 
-def _template(joint: ElastomerJoint | None, length_m: float, diameter_m: float, poisson_ratio: float) -> ElastomerJoint:
-    if joint is not None:
-        return joint
-    return ElastomerJoint(10e6, 0.1, 1100.0, length_m, diameter_m, poisson_ratio)
+def inertia_fraction(joint: ElastomerJoint, frequency_hz, elastic_modulus_pa: float, loss_factor: float, density_kg_m3: float) -> float:
+    """How much the elastomer's inertia changes K21 over the band: ``max_f |K21(rho) / K21(rho -> 0) - 1|``.
+
+    The blocked transfer stiffness of a massless cylinder is the static one at
+    every line; the mass raises it as about ``(pi^2 / 6) (f / f_mode)^2``
+    below the first blocked internal mode ``f_mode`` (6 % at 0.17 f_mode,
+    74 % at 0.52 f_mode for Material A). A storage modulus that rises with
+    frequency (rubber: 1.2-2x from 10 Hz to 1 kHz) raises K21 the same way,
+    so the density is only separable from it when inertia is a large part of
+    K21 somewhere in the band.
+
+    Parameters
+    ----------
+    joint : ElastomerJoint
+        Template (geometry, nu, mesh).
+    frequency_hz : array_like, shape (F,)
+        Band, Hz.
+    elastic_modulus_pa, loss_factor, density_kg_m3 : float
+        Material of the evaluation.
+    """
+    f = np.asarray(frequency_hz, dtype=float).reshape(-1)
+    Ec = elastic_modulus_pa * (1.0 + 1j * loss_factor)
+    _, S, _ = joint._blocked(f, modulus=Ec, density=density_kg_m3)
+    _, S0, _ = joint._blocked(f, modulus=Ec, density=density_kg_m3 * 1e-9)
+    return float(np.max(np.abs(S[:, 2, 0] / S0[:, 2, 0] - 1.0)))
+
+
+def _fit(tpl: ElastomerJoint, f: np.ndarray, k: np.ndarray, x0: np.ndarray, density: float | None):
+    """Least squares on log(E, eta[, rho]); returns (values (3,), cov (3, 3) in own units, solution)."""
+    scale = np.abs(k)
+
+    def values(x):
+        v = np.exp(x)
+        return (v[0], v[1], v[2] if density is None else density)
+
+    def resid(x):
+        E, eta, rho = values(x)
+        _, S, _ = tpl._blocked(f, modulus=E * (1.0 + 1j * eta), density=rho)
+        r = (-S[:, 2, 0] - k) / scale
+        return np.concatenate([r.real, r.imag])
+
+    sol = least_squares(resid, x0, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=2000)
+    vals = np.array(values(sol.x), dtype=float)
+    m = sol.x.size
+    cov = np.full((3, 3), np.nan)
+    # p = exp(x): dp/dx = diag(p) (delta method), in Pa, -, kg/m^3
+    cov[:m, :m] = propagate_covariance(jacobian_covariance(sol.jac, sol.fun), np.diag(vals[:m]))
+    return vals, cov, sol
 
 
 def fit_material(
@@ -233,8 +259,26 @@ def fit_material(
     diameter_m: float = DEFAULT_DIAMETER_M,
     poisson_ratio: float = DEFAULT_POISSON,
     static_lines: int = 2,
+    density_kg_m3: float | None = None,
+    default_density_kg_m3: float = DEFAULT_DENSITY,
+    bounds: dict | None = None,
+    max_relative_std: float = MAX_RELATIVE_STD,
+    min_inertia_fraction: float = MIN_INERTIA_FRACTION,
 ) -> MaterialFit:
-    """Fit constant E', eta and rho so the FE joint model reproduces K21 (per joint).
+    """Fit constant E', eta and rho so the FE joint model reproduces K21 (per joint), with standard errors.
+
+    Procedure: (1) least squares of E', eta, rho (log-parameters, relative
+    complex residuals); (2) each parameter is ``identified`` if it lies in
+    its physical range (``bounds``: E' 0.1-500 MPa, 0 <= eta < 2, rho
+    800-2000 kg/m^3) with a relative standard error <= ``max_relative_std``;
+    the density also needs inertia to change K21 by >= ``min_inertia_fraction``
+    somewhere in the band (:func:`inertia_fraction`, evaluated with the
+    smaller of the fitted and the default density, so an inflated density
+    cannot vouch for itself); (3) if the density fails, it is held at
+    ``default_density_kg_m3`` and E', eta are refitted (status
+    ``held_at_default``); E' or eta that fail are ``not_identified``.
+    Standard errors: ``s^2 (J^T J)^-1``, ``s^2 = RSS / (2F - p)``, propagated
+    from the log-parameters (:mod:`jointid.methods.fit_statistics`).
 
     Parameters
     ----------
@@ -247,273 +291,74 @@ def fit_material(
         default: a cylinder ``length_m`` x ``diameter_m`` with ``poisson_ratio``.
     initial : (E Pa, eta, rho kg/m^3), optional
         Starting point; default: E from the static limit of the model, eta the
-        mean loss factor of the lowest lines, rho = 1100 kg/m^3.
+        mean loss factor of the lowest lines, rho = the default density.
     length_m, diameter_m, poisson_ratio : float
         Geometry of the default template.
     static_lines : int
         Lowest lines used for the default starting point.
+    density_kg_m3 : float, optional
+        Known density, kg/m^3: held (status ``fixed``), only E' and eta are fitted.
+    default_density_kg_m3 : float
+        Density held when the data cannot determine it, kg/m^3.
+    bounds : dict, optional
+        Overrides of :data:`PHYSICAL_BOUNDS` (name -> (low, high)).
+    max_relative_std : float
+        Largest relative standard error of an identified parameter.
+    min_inertia_fraction : float
+        Smallest inertia share of K21 in the band for the density to be identified.
 
     Returns
     -------
     MaterialFit
     """
-    f, k = _as_arrays(frequency_hz, stiffness)
+    f, k = as_band_arrays(frequency_hz, stiffness)
     if f.size < 2:
         raise DataError(f"fitting E, eta and rho needs at least 2 lines, got {f.size}")
-    tpl = _template(joint, length_m, diameter_m, poisson_ratio)
+    bnd = {**PHYSICAL_BOUNDS, **(bounds or {})}
+    tpl = joint_template(joint, length_m, diameter_m, poisson_ratio)
     if initial is None:
         st = static_estimate(f, k, lines=min(static_lines, f.size), length_m=tpl.length_m, diameter_m=tpl.diameter_m, poisson_ratio=tpl.poisson_ratio)
         k_unit = tpl.static_guided_stiffness().real / tpl._static_modulus().real  # N/m per Pa
-        initial = (st.stiffness_n_m / k_unit, max(st.loss_factor, 1e-3), 1100.0)
+        initial = (st.stiffness_n_m / k_unit, max(st.loss_factor, 1e-3), default_density_kg_m3)
     E0, eta0, rho0 = (float(v) for v in initial)
     if not (E0 > 0 and eta0 > 0 and rho0 > 0):
         raise ModelError(f"initial (E, eta, rho) must be positive, got {initial!r}")
-    scale = np.abs(k)
-
-    def model(p: np.ndarray) -> np.ndarray:
-        E, eta, rho = np.exp(p)
-        _, S, _ = tpl._blocked(f, modulus=E * (1.0 + 1j * eta), density=rho)
-        return -S[:, 2, 0]
-
-    def resid(p: np.ndarray) -> np.ndarray:
-        r = (model(p) - k) / scale
-        return np.concatenate([r.real, r.imag])
-
-    sol = least_squares(resid, np.log([E0, eta0, rho0]), method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=2000)
-    E, eta, rho = (float(v) for v in np.exp(sol.x))
-    r = sol.fun
-    dof = max(r.size - 3, 1)
-    s2 = float(r @ r) / dof
-    try:
-        cov = s2 * np.linalg.inv(sol.jac.T @ sol.jac)
-        rel_std = tuple(float(math.sqrt(max(c, 0.0))) for c in np.diag(cov))
-    except np.linalg.LinAlgError:
-        rel_std = (float("inf"),) * 3
-    fitted_joint = tpl.with_material(E, eta, rho)
-    kf = model(sol.x)
-    return MaterialFit(
-        E, eta, rho, rel_std, float(np.sqrt(np.mean(np.abs((kf - k) / k) ** 2))), f, k, kf, fitted_joint, bool(sol.success), int(sol.nfev)
-    )
-
-
-# ---------------------------------------------------------------- E*(f) per line
-@dataclass(frozen=True, eq=False)
-class ComplexModulus:
-    """Complex Young's modulus per line that makes the joint model reproduce K21 exactly.
-
-    Parameters
-    ----------
-    frequency_hz : ndarray, shape (F,)
-        Lines, Hz.
-    modulus_pa : ndarray, shape (F,), complex
-        E*(f), Pa.
-    density_kg_m3 : float
-        Density held fixed, kg/m^3.
-    converged : ndarray of bool, shape (F,)
-        Newton converged on the line.
-    poisson_ratio : float
-        nu (for G* = E* / (2 (1 + nu))).
-    """
-
-    frequency_hz: np.ndarray
-    modulus_pa: np.ndarray
-    density_kg_m3: float
-    converged: np.ndarray
-    poisson_ratio: float = DEFAULT_POISSON
-
-    @property
-    def storage_modulus_pa(self) -> np.ndarray:
-        """E'(f), Pa."""
-        return self.modulus_pa.real
-
-    @property
-    def loss_factor(self) -> np.ndarray:
-        """eta(f) = E'' / E'."""
-        return self.modulus_pa.imag / self.modulus_pa.real
-
-    @property
-    def shear_modulus_pa(self) -> np.ndarray:
-        """G*(f), Pa, complex."""
-        return self.modulus_pa / (2.0 * (1.0 + self.poisson_ratio))
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict (lists per line)."""
-        return {
-            "frequency_hz": self.frequency_hz.tolist(),
-            "storage_modulus_pa": self.storage_modulus_pa.tolist(),
-            "loss_factor": self.loss_factor.tolist(),
-            "density_kg_m3": self.density_kg_m3,
-            "converged": self.converged.tolist(),
-        }
-
-
-def _newton_modulus(tpl: ElastomerJoint, f, k, rho, E, max_iterations, rtol):
-    """Vectorized complex Newton on ``K21(E*) = k`` from ``E`` (F,); returns (E*, converged)."""
-    n = tpl._K.shape[0]
-    Kn = tpl._K / tpl.elastic_modulus
-    interior = np.arange(2, n - 2)
-    done = np.zeros(f.shape, dtype=bool)
-    for _ in range(int(max_iterations)):
-        _, S, X = tpl._blocked(f, modulus=E, density=rho)
-        # every DOF's displacement for a unit w at x = 0 (u) and at x = L (v), other boundary DOFs held
-        u = np.zeros((f.size, n), dtype=complex)
-        u[:, 0] = 1.0
-        u[:, interior] = -X[:, :, 0]
-        v = np.zeros((f.size, n), dtype=complex)
-        v[:, n - 2] = 1.0
-        v[:, interior] = -X[:, :, 2]
-        g = -S[:, 2, 0] - k
-        dg = -np.einsum("fi,ij,fj->f", v, Kn, u)  # d(-S_20)/dE* = -v^T (K_ref / E_ref) u
-        step = g / dg
-        # at most a factor 2 change of |E*| per step
-        big = np.abs(step) > 0.5 * np.abs(E)
-        step[big] *= 0.5 * np.abs(E[big]) / np.abs(step[big])
-        E = E - step
-        done = np.abs(step) <= rtol * np.abs(E)
-        if done.all():
-            break
-    _, S, _ = tpl._blocked(f, modulus=E, density=rho)
-    ok = done & (np.abs(-S[:, 2, 0] - k) <= 1e-8 * np.abs(k)) & (E.real > 0)
-    return E, ok
-
-
-def complex_modulus_per_line(
-    frequency_hz,
-    stiffness,
-    density_kg_m3: float,
-    joint: ElastomerJoint | None = None,
-    initial_modulus=None,
-    max_iterations: int = 50,
-    rtol: float = 1e-12,
-) -> ComplexModulus:
-    """Solve ``K21_model(E*, rho; f) = K21_measured`` for E* on every line (vectorized Newton).
-
-    Parameters
-    ----------
-    frequency_hz : array_like, shape (F,)
-        Lines, Hz.
-    stiffness : array_like, shape (F,), complex
-        Measured K21 per joint, N/m.
-    density_kg_m3 : float
-        Elastomer density held fixed (e.g. from :func:`fit_material`), kg/m^3.
-    joint : ElastomerJoint, optional
-        Template (geometry, nu, mesh); default 2.54 cm x 2.54 cm, nu = 0.49.
-    initial_modulus : complex or array_like (F,), optional
-        Starting E*, Pa, for one vectorized Newton solve of all lines. Default:
-        continuation in frequency (each line starts from the solution of the
-        line below, the lowest from the static limit), which follows the
-        physical root through the internal modes, where K21(E*) = K has
-        several roots.
-    max_iterations : int
-        Newton iterations at most.
-    rtol : float
-        Relative step size below which a line has converged.
-    """
-    f, k = _as_arrays(frequency_hz, stiffness)
-    tpl = _template(joint, DEFAULT_LENGTH_M, DEFAULT_DIAMETER_M, DEFAULT_POISSON)
-    rho = float(density_kg_m3)
-    if not rho > 0:
+    if density_kg_m3 is not None and not density_kg_m3 > 0:
         raise ModelError(f"density must be positive (kg/m^3), got {density_kg_m3!r}")
-    if initial_modulus is not None:
-        E0 = np.broadcast_to(np.asarray(initial_modulus, dtype=complex), f.shape).copy()
-        E, ok = _newton_modulus(tpl, f, k, rho, E0, max_iterations, rtol)
-    else:
-        # continuation in frequency: each line starts from the solution of the line below it,
-        # the lowest from the static limit; this follows the physical root through internal modes
-        k_unit = tpl.static_guided_stiffness() / tpl._static_modulus()
-        order = np.argsort(f)
-        E = np.empty(f.shape, dtype=complex)
-        ok = np.zeros(f.shape, dtype=bool)
-        guess = k[order[0]] / k_unit
-        for i in order:
-            e, c = _newton_modulus(tpl, f[i : i + 1], k[i : i + 1], rho, np.array([guess]), max_iterations, rtol)
-            E[i], ok[i] = e[0], c[0]
-            if c[0]:
-                guess = e[0]
-    return ComplexModulus(f, E, rho, ok, tpl.poisson_ratio)
-
-
-# ---------------------------------------------------------------- Zener
-def zener_modulus(f_hz, E0: float, Einf: float, tau_s: float, alpha: float) -> np.ndarray:
-    """Fractional-derivative Zener modulus ``(E0 + Einf (j w tau)^alpha) / (1 + (j w tau)^alpha)``, Pa, shape (F,)."""
-    s = (1j * 2.0 * np.pi * np.asarray(f_hz, dtype=float) * tau_s) ** alpha
-    return (E0 + Einf * s) / (1.0 + s)
-
-
-@dataclass(frozen=True)
-class ZenerFit:
-    """Fractional-derivative Zener model of the complex modulus.
-
-    Parameters
-    ----------
-    E0 : float
-        Relaxed (static) modulus, Pa.
-    Einf : float
-        Unrelaxed (high-frequency) modulus, Pa.
-    tau_s : float
-        Relaxation time, s.
-    alpha : float
-        Fractional order, 0 < alpha < 1.
-    residual_rms : float
-        rms relative complex residual of the fit.
-    """
-
-    E0: float
-    Einf: float
-    tau_s: float
-    alpha: float
-    residual_rms: float
-
-    def modulus(self, f_hz) -> np.ndarray:
-        """E*(f), Pa, complex, shape (F,) (usable as ``ElastomerJoint(modulus=...)``)."""
-        return zener_modulus(f_hz, self.E0, self.Einf, self.tau_s, self.alpha)
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict."""
-        return {"E0_pa": self.E0, "Einf_pa": self.Einf, "tau_s": self.tau_s, "alpha": self.alpha, "residual_rms": self.residual_rms}
-
-
-def fit_zener(frequency_hz, modulus_pa, initial: tuple[float, float, float, float] | None = None) -> ZenerFit:
-    """Least-squares fit of a fractional Zener model to E*(f) (relative complex residuals).
-
-    Parameters
-    ----------
-    frequency_hz : array_like, shape (F,)
-        Lines, Hz (F >= 2).
-    modulus_pa : array_like, shape (F,), complex
-        E*(f), Pa.
-    initial : (E0, Einf, tau, alpha), optional
-        Starting point; default: several starts spread over the band, best kept.
-    """
-    f, E = _as_arrays(frequency_hz, modulus_pa)
-    if f.size < 2:
-        raise DataError(f"a Zener fit needs at least 2 lines, got {f.size}")
-    w = np.abs(E)
-
-    def unpack(p):
-        E0 = math.exp(p[0])
-        return E0, E0 * (1.0 + math.exp(p[1])), math.exp(p[2]), 1.0 / (1.0 + math.exp(-p[3]))
-
-    def resid(p):
-        r = (zener_modulus(f, *unpack(p)) - E) / w
-        return np.concatenate([r.real, r.imag])
-
-    if initial is not None:
-        E0, Einf, tau, a = initial
-        starts = [np.array([math.log(E0), math.log(max(Einf / E0 - 1.0, 1e-6)), math.log(tau), math.log(a / (1 - a))])]
-    else:
-        e_lo = float(np.abs(E[np.argmin(f)]))
-        fpos = f[f > 0] if np.any(f > 0) else np.array([1.0])
-        starts = []
-        for ratio in (0.5, 2.0, 5.0):
-            for fc in (fpos.min(), math.sqrt(fpos.min() * fpos.max()), fpos.max()):
-                for a in (0.3, 0.6):
-                    starts.append(np.array([math.log(0.8 * e_lo), math.log(ratio), math.log(1.0 / (2 * math.pi * fc)), math.log(a / (1 - a))]))
-    best = None
-    for p0 in starts:
-        sol = least_squares(resid, p0, method="lm", xtol=1e-12, ftol=1e-12, max_nfev=4000)
-        if best is None or sol.cost < best.cost:
-            best = sol
-    E0, Einf, tau, a = unpack(best.x)
-    rr = np.abs(zener_modulus(f, E0, Einf, tau, a) - E) / w
-    return ZenerFit(E0, Einf, tau, a, float(np.sqrt(np.mean(rr**2))))
+    nfev = 0
+    rho_param = None
+    if density_kg_m3 is None and f.size >= 2:
+        with np.errstate(over="ignore", invalid="ignore"):
+            vals, cov, sol = _fit(tpl, f, k, np.log([E0, eta0, rho0]), None)
+        nfev += sol.nfev
+        rho_param = classify("density_kg_m3", "kg/m^3", vals[2], math.sqrt(cov[2, 2]), bnd["density_kg_m3"], max_relative_std, label="density")
+        if rho_param.identified:
+            rho_check = min(vals[2], default_density_kg_m3)
+            frac = inertia_fraction(tpl, f, vals[0], vals[1], rho_check)
+            if frac < min_inertia_fraction:
+                rho_param = replace(rho_param, status=NOT_IDENTIFIED, reason=(
+                    f"inertia changes K21 by only {frac:.0%} over the band (< {min_inertia_fraction:.0%}): the band lies far below "
+                    "the joint's internal mode, where a storage modulus rising with frequency mimics the mass"))
+    if rho_param is None or not rho_param.identified:
+        held = default_density_kg_m3 if density_kg_m3 is None else float(density_kg_m3)
+        with np.errstate(over="ignore", invalid="ignore"):
+            vals, cov, sol = _fit(tpl, f, k, np.log([E0, eta0]), held)
+        nfev += sol.nfev
+        if density_kg_m3 is None:
+            rho_param = ParameterEstimate("density_kg_m3", "kg/m^3", held, math.nan, HELD_AT_DEFAULT, rho_param.reason, "density")
+        else:
+            rho_param = ParameterEstimate("density_kg_m3", "kg/m^3", held, math.nan, FIXED, "given by the caller", "density")
+    E, eta, rho = (float(v) for v in vals)
+    params = (
+        classify("elastic_modulus_pa", "Pa", E, math.sqrt(cov[0, 0]), bnd["elastic_modulus_pa"], max_relative_std, label="E"),
+        classify("loss_factor", "-", eta, math.sqrt(cov[1, 1]), bnd["loss_factor"], max_relative_std, upper_inclusive=False, label="loss factor"),
+        rho_param,
+    )
+    fitted_joint = tpl.with_material(E, eta, rho)
+    _, S, _ = tpl._blocked(f, modulus=E * (1.0 + 1j * eta), density=rho)
+    kf = -S[:, 2, 0]
+    frac = inertia_fraction(tpl, f, E, eta, rho)
+    return MaterialFit(
+        E, eta, rho, params, correlation_matrix(cov), float(np.sqrt(np.mean(np.abs((kf - k) / k) ** 2))), frac,
+        f, k, kf, fitted_joint, bool(sol.success), int(nfev),
+    )

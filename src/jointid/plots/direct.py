@@ -12,8 +12,29 @@ from .style import new_figure
 __all__ = ["plot_direct_stiffness", "plot_deformed_shapes"]
 
 
+def _fit_label(fit) -> str:
+    """Legend text of the fitted model: identified values, held ones marked, none that is not identified."""
+    parts = []
+    for p, scale, unit, fmt in zip(fit.parameters, (1e6, 1.0, 1.0), ("MPa", "", "kg/m^3"), (".3g", ".3g", ".4g")):
+        name = {"elastic_modulus_pa": "E", "loss_factor": "eta", "density_kg_m3": "rho"}.get(p.name, p.title)
+        u = f" {unit}" if unit else ""
+        if p.identified:
+            parts.append(f"{name} = {p.value / scale:{fmt}}{u}")
+        elif p.held:
+            parts.append(f"{name} held at {p.value / scale:{fmt}}{u}")
+        else:
+            parts.append(f"{name} not identified")
+    return "FE joint model: " + ", ".join(parts)
+
+
 def plot_direct_stiffness(result, fit=None, title: str | None = None, points: int = 300) -> Figure:
-    """|K21| (log axis) and loss factor vs frequency: measured (markers) and fitted (line).
+    """|K21| (log axis) and loss factor (or phase) vs frequency: measured (markers) and fitted (line).
+
+    The lower panel shows the loss factor ``Im K21 / Re K21`` while the
+    storage stiffness ``Re K21`` stays positive over the band. Past the
+    joint's internal mode ``Re K21`` changes sign and the loss factor runs to
+    +-infinity, so the panel then shows the phase of K21 in degrees instead
+    (``atan(eta)`` below the mode), as the y label and title say.
 
     Parameters
     ----------
@@ -21,7 +42,9 @@ def plot_direct_stiffness(result, fit=None, title: str | None = None, points: in
         Measured stiffness per joint (lines with ``amplitude_ok`` False are
         drawn as red crosses and labelled "flagged").
     fit : MaterialFit, optional
-        Fitted joint model; its K21 is drawn as a line over the measured band.
+        Fitted joint model; its K21 is drawn as a line over the measured band,
+        above the markers. The legend gives only identified parameters'
+        values (held ones are marked "held").
     title : str, optional
         Figure title.
     points : int
@@ -33,25 +56,41 @@ def plot_direct_stiffness(result, fit=None, title: str | None = None, points: in
     """
     fig, (ax_m, ax_e) = new_figure(2, 1, figsize=(7.5, 6.0))
     f = result.frequency_hz
+    k = np.asarray(result.stiffness, dtype=complex)
     ok = np.asarray(result.amplitude_ok, dtype=bool)
-    ax_m.plot(f[ok], result.magnitude[ok], "o", ms=5, color="C0", label="measured")
-    ax_e.plot(f[ok], result.loss_factor[ok], "o", ms=5, color="C0", label="measured")
-    if (~ok).any():
-        lab = f"flagged (amplitude off by > {result.tolerance:.0%})"
-        ax_m.plot(f[~ok], result.magnitude[~ok], "x", ms=8, mew=2, color="C3", label=lab)
-        ax_e.plot(f[~ok], result.loss_factor[~ok], "x", ms=8, mew=2, color="C3", label=lab)
+    kf = ff = None
     if fit is not None:
         ff = np.linspace(f.min(), f.max(), int(points))
         kf = fit.joint.blocked_transfer_stiffness(ff)
-        lab = (
-            f"FE joint model: E = {fit.elastic_modulus_pa / 1e6:.3g} MPa, "
-            f"eta = {fit.loss_factor:.3g}, rho = {fit.density_kg_m3:.4g} kg/m^3"
-        )
-        ax_m.plot(ff, np.abs(kf), "-", color="C1", label=lab)
-        ax_e.plot(ff, kf.imag / kf.real, "-", color="C1", label="FE joint model")
+    use_phase = bool(np.any(k.real <= 0) or (kf is not None and np.any(kf.real <= 0)))
+
+    def lower(freq, z):
+        """Loss factor, or the phase in degrees unwrapped along frequency."""
+        if not use_phase:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return z.imag / z.real
+        order = np.argsort(freq)
+        out = np.empty(z.shape)
+        out[order] = np.degrees(np.unwrap(np.angle(z[order])))
+        return out
+
+    low = lower(f, k)
+    ax_m.plot(f[ok], np.abs(k[ok]), "o", ms=5, color="C0", label="measured", zorder=2)
+    ax_e.plot(f[ok], low[ok], "o", ms=5, color="C0", label="measured", zorder=2)
+    if (~ok).any():
+        lab = f"flagged (amplitude off by > {result.tolerance:.0%})"
+        ax_m.plot(f[~ok], np.abs(k[~ok]), "x", ms=8, mew=2, color="C3", label=lab, zorder=2)
+        ax_e.plot(f[~ok], low[~ok], "x", ms=8, mew=2, color="C3", label=lab, zorder=2)
+    if kf is not None:
+        ax_m.plot(ff, np.abs(kf), "-", color="C1", lw=2, label=_fit_label(fit), zorder=3)
+        ax_e.plot(ff, lower(ff, kf), "-", color="C1", lw=2, label="FE joint model", zorder=3)
     ax_m.set_yscale("log")
     ax_m.set_ylabel("|K21| per joint (N/m)")
-    ax_e.set_ylabel("loss factor (-)")
+    if use_phase:
+        ax_e.set_ylabel("phase of K21 (deg)")
+        ax_e.set_title("phase shown: Re K21 changes sign in the band (internal mode), the loss factor would run to +-infinity", fontsize=8)
+    else:
+        ax_e.set_ylabel("loss factor (-)")
     ax_e.set_xlabel("frequency (Hz)")
     for ax in (ax_m, ax_e):
         ax.grid(True, which="both", alpha=0.3)

@@ -38,7 +38,7 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
         rows.append([
             f"Material {name}", fmt(m.elastic_modulus / 1e6, 4), fmt(m.loss_factor, 3), fmt(m.density, 4),
             fmt(static.shear_modulus_pa / 1e6, 4), fmt(static.elastic_modulus_pa / 1e6, 4), fmt(static.corrected_elastic_modulus_pa / 1e6, 4),
-            fmt(fit.elastic_modulus_pa / 1e6, 4), fmt(fit.loss_factor, 4), fmt(fit.density_kg_m3, 4),
+            *(_fitted(p, scale) for p, scale in zip(fit.parameters, (1e6, 1.0, 1.0))),
             pct(max(abs(fit.elastic_modulus_pa / m.elastic_modulus - 1), abs(fit.loss_factor / m.loss_factor - 1), abs(fit.density_kg_m3 / m.density - 1))),
             str(int(np.sum(~result.amplitude_ok))),
         ])
@@ -88,6 +88,13 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
         summary=tuple(summary),
         findings=tuple(findings),
     )
+
+
+def _fitted(p, scale: float) -> str:
+    """A fitted parameter for the table: the value if identified, else its status (never a held value as a result)."""
+    if p.identified:
+        return fmt(p.value / scale, 4)
+    return f"held at {fmt(p.value / scale, 4)}" if p.held else "not identified"
 
 
 def characterize(config, material: str):
