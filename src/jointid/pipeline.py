@@ -14,24 +14,29 @@ import numpy as np
 from .errors import DataError
 from .frequency import Frequency
 from .frf import FRF
+from .methods.coupling import CouplingOptions, CouplingResult, identify_joint_coupling
 from .methods.inverse import InverseOptions, InverseResult, check_layout, identify_joint
 from .physics.joints import joint_from_spec
 from .physics.structure import ComplexStiffness, Structure
 from .physics.synthesis import synthesize_frf
 from .study import Study
 
-__all__ = ["free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "identify"]
+__all__ = ["free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "identify", "inverse_options", "coupling_options"]
 
 
-def free_model(study: Study, with_accelerometers: bool | None = None) -> Structure:
+def free_model(study: Study, with_accelerometers: bool | None = None, refined: bool = True) -> Structure:
     """The free beam ``Do`` of the study, with the ``[accelerometers]`` added when asked.
 
     Parameters
     ----------
     with_accelerometers : bool, optional
         Default: ``[identification].model_accelerometers``.
+    refined : bool
+        Mesh the beam between its grid nodes for FRFs converged up to ``[frequency].stop``
+        (``[beam].elements_per_segment``, or :mod:`jointid.physics.beam_mesh`'s criterion);
+        False: one element per segment (the paper's model on the measurement grid).
     """
-    beam = study.beam.structure()
+    beam = study.beam.structure(study.frequency.stop if refined else None)
     if with_accelerometers is None:
         with_accelerometers = study.identification.model_accelerometers
     acc = study.accelerometers
@@ -96,15 +101,36 @@ def inverse_options(study: Study) -> InverseOptions:
     """The :class:`InverseOptions` of the study's ``[identification]`` section."""
     spec = study.identification
     return InverseOptions(
-        symmetric=spec.symmetric,
+        symmetric=bool(spec.symmetric),
         regularization=spec.regularization,
         estimation=spec.estimation,
         cond_rtol=spec.cond_rtol,
     )
 
 
-def identify(study: Study, measured: FRF, options: InverseOptions | None = None) -> InverseResult:
+def coupling_options(study: Study) -> CouplingOptions:
+    """The :class:`CouplingOptions` of the study's ``[identification]`` section."""
+    spec = study.identification
+    return CouplingOptions(
+        symmetric=True if spec.symmetric is None else spec.symmetric,
+        smoothing=spec.smoothing,
+        weighting=spec.weighting,
+        averages=spec.averages,
+        max_relative_std=spec.max_relative_std,
+    )
+
+
+def identify(
+    study: Study, measured: FRF, options: InverseOptions | CouplingOptions | None = None
+) -> InverseResult | CouplingResult:
     """Identify the study's joint from measured FRFs, over the study's ``start..stop`` band.
+
+    The method is ``[identification].method`` unless ``options`` says otherwise:
+    "receptance" (default; :func:`~jointid.methods.coupling.identify_joint_coupling`
+    with the free beam meshed for convergence) or "hong-lee"
+    (:func:`~jointid.methods.inverse.identify_joint` on the beam's grid nodes: its
+    estimation step solves for every unobserved DOF, so a refined mesh would
+    multiply its cost; ``[beam].elements_per_segment`` refines it explicitly).
 
     The lines of ``measured`` inside ``[frequency] start..stop`` are used on the
     data's own grid (``step`` is ignored). Responses/references are reordered to
@@ -128,7 +154,10 @@ def identify(study: Study, measured: FRF, options: InverseOptions | None = None)
             )
     # a 0 Hz line carries no information (and the free beam is singular there): skip it
     data = measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
-    return identify_joint(free_model(study), data, study.joint.joint_dofs, options or inverse_options(study))
+    if isinstance(options, CouplingOptions) or (options is None and study.identification.method == "receptance"):
+        return identify_joint_coupling(free_model(study), data, study.joint.joint_dofs, options or coupling_options(study))
+    refined = study.beam.elements_per_segment is not None
+    return identify_joint(free_model(study, refined=refined), data, study.joint.joint_dofs, options or inverse_options(study))
 
 
 @dataclass(frozen=True, eq=False)

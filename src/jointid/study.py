@@ -15,7 +15,9 @@ are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     poisson_ratio = 0.33      # or shear_modulus (Pa)
     shear_coefficient = 0.8333333333333334
     nodes = 19                # equally spaced, numbered 1..nodes from x = 0
-    theory = "timoshenko"     # or "euler-bernoulli"
+    theory = "timoshenko"
+    elements_per_segment = 8  # mesh between grid nodes (default: automatic, 48 elements per bending
+                              #   wavelength at [frequency].stop; see jointid.physics.beam_mesh)     # or "euler-bernoulli"
 
     [joint]
     node = 10                 # beam node where the joint connects the beam to ground
@@ -46,7 +48,13 @@ are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     nodes = [1, 3, 6]         # default: the observed nodes
 
     [identification]
-    symmetric = false         # enforce Du = Du^T
+    method = "receptance"     # "receptance" (weighted FRF coupling, smoothed, with uncertainty) | "hong-lee"
+    smoothing = "gcv"         # receptance: smooth each term over frequency (lambda by GCV) | "none"
+    weighting = "auto"        # receptance: FRF variance from coherence if the file has it, else relative
+                              #   (var ~ |H|^2); "coherence" | "relative" | "none" (unweighted)
+    averages = 5              # averages behind the coherence (optional; the scale is taken from the residuals)
+    max_relative_std = 0.1    # a term is reliable on a line when its predicted relative std is below this
+    symmetric = true          # enforce Du = Du^T (default: true for receptance, false for hong-lee)
     regularization = "none"   # "none" | "gcv" | "lcurve" (Tikhonov, lambda per line)
     model_accelerometers = false  # add the [accelerometers] to Do
     estimation = "qr"         # "qr" (fast) | "svd" (one SVD per line): same least-squares solution
@@ -199,6 +207,7 @@ class BeamSpec:
     shear_modulus: float | None = None
     shear_coefficient: float = 5.0 / 6.0
     theory: str = "timoshenko"
+    elements_per_segment: int | None = None
 
     def section(self):
         """The cross-section (:class:`~jointid.physics.elements.Section`)."""
@@ -214,8 +223,30 @@ class BeamSpec:
 
         return Material(self.elastic_modulus, self.density, self.loss_factor, self.poisson_ratio, self.shear_modulus)
 
-    def structure(self):
-        """The free-free beam (:class:`~jointid.physics.structure.Structure`), nodes 1..N from x = 0."""
+    def mesh_refinement(self, max_frequency_hz: float | None = None) -> int:
+        """Elements per segment between grid nodes: ``elements_per_segment``, or automatic.
+
+        Automatic (key absent) with ``max_frequency_hz``: the convergence criterion of
+        :func:`jointid.physics.beam_mesh.elements_per_segment` at that frequency;
+        without it: 1 (the grid itself).
+        """
+        if self.elements_per_segment is not None:
+            return self.elements_per_segment
+        if max_frequency_hz is None:
+            return 1
+        from .physics.beam_mesh import elements_per_segment
+
+        return elements_per_segment(self.length, self.nodes, self.section(), self.material(), max_frequency_hz)
+
+    def structure(self, max_frequency_hz: float | None = None):
+        """The free-free beam (:class:`~jointid.physics.structure.Structure`), grid nodes 1..N from x = 0.
+
+        Parameters
+        ----------
+        max_frequency_hz : float, optional
+            Refine the mesh between grid nodes for FRFs converged up to this
+            frequency (:meth:`mesh_refinement`); internal nodes are numbered N+1, ...
+        """
         from .physics.structure import beam_structure
 
         return beam_structure(
@@ -225,6 +256,7 @@ class BeamSpec:
             self.nodes,
             self.shear_coefficient,
             euler_bernoulli=self.theory == "euler-bernoulli",
+            elements_per_segment=self.mesh_refinement(max_frequency_hz),
         )
 
 
@@ -279,9 +311,20 @@ class AccelerometerSpec:
 
 @dataclass(frozen=True)
 class IdentificationSpec:
-    """Options of the inverse identification (all off by default: the plain method)."""
+    """Options of the inverse identification: the method and its options.
 
-    symmetric: bool = False
+    ``method = "receptance"`` (default): weighted receptance-coupling estimator with
+    smoothing over frequency and per-term uncertainty (:mod:`jointid.methods.coupling`);
+    ``"hong-lee"``: the paper's per-line method (:mod:`jointid.methods.inverse`).
+    ``symmetric`` defaults to true for "receptance" and false for "hong-lee".
+    """
+
+    method: str = "receptance"
+    smoothing: str = "gcv"
+    weighting: str = "auto"
+    averages: int | None = None
+    max_relative_std: float = 0.1
+    symmetric: bool | None = None
     regularization: str = "none"
     model_accelerometers: bool = False
     estimation: str = "qr"
@@ -348,6 +391,7 @@ _BEAM = {
     "shear_coefficient": _Field("number", False, 5.0 / 6.0, check=_positive),
     "nodes": _Field("int", True, check=lambda v: None if v >= 2 else "an integer >= 2"),
     "theory": _Field("str", False, "timoshenko", check=_choices("timoshenko", "euler-bernoulli")),
+    "elements_per_segment": _Field("int", False, None, check=lambda v: None if 1 <= v <= 64 else "an integer in 1..64"),
 }
 _JOINT = {
     "node": _Field("int", True),
@@ -388,7 +432,12 @@ _ACCELEROMETERS = {
     "nodes": _Field("int_list", False, None),
 }
 _IDENTIFICATION = {
-    "symmetric": _Field("bool", False, False),
+    "method": _Field("str", False, "receptance", check=_choices("receptance", "hong-lee")),
+    "smoothing": _Field("str", False, "gcv", check=_choices("gcv", "none")),
+    "weighting": _Field("str", False, "auto", check=_choices("auto", "coherence", "relative", "none")),
+    "averages": _Field("int", False, None, check=lambda v: None if v >= 1 else "an integer >= 1"),
+    "max_relative_std": _Field("number", False, 0.1, check=_positive),
+    "symmetric": _Field("bool", False, None),
     "regularization": _Field("str", False, "none", check=_choices("none", "gcv", "lcurve")),
     "model_accelerometers": _Field("bool", False, False),
     "estimation": _Field("str", False, "qr", check=_choices("qr", "svd")),

@@ -288,8 +288,15 @@ def beam_structure(
     shear_coefficient: float = 5.0 / 6.0,
     euler_bernoulli: bool = False,
     first_node: int = 1,
+    elements_per_segment: int = 1,
 ) -> Structure:
     """A free-free uniform beam of ``nodes`` equally spaced nodes numbered from ``first_node`` at x = 0.
+
+    With ``elements_per_segment = r > 1`` every segment between two of these
+    nodes is meshed with ``r`` elements: the ``nodes`` keep their numbers
+    (``first_node .. first_node + nodes - 1``, the measurement grid) and the
+    ``(nodes - 1)(r - 1)`` internal nodes are numbered after them, in x order
+    (``first_node + nodes, ...``). They are ordinary (unobserved) DOFs.
 
     Parameters
     ----------
@@ -307,6 +314,9 @@ def beam_structure(
         Use Euler-Bernoulli elements (no shear deformation, no rotary inertia).
     first_node : int
         Number of the node at x = 0.
+    elements_per_segment : int
+        Elements between two consecutive grid nodes (>= 1); see
+        :func:`jointid.physics.beam_mesh.elements_per_segment` for the convergence criterion.
 
     Returns
     -------
@@ -315,16 +325,24 @@ def beam_structure(
     """
     if not isinstance(nodes, (int, np.integer)) or isinstance(nodes, bool) or nodes < 2:
         raise ModelError(f"a beam needs an integer number of nodes >= 2, got {nodes!r}")
-    nodes = int(nodes)
-    ne = nodes - 1
+    r = elements_per_segment
+    if not isinstance(r, (int, np.integer)) or isinstance(r, bool) or r < 1:
+        raise ModelError(f"elements_per_segment must be an integer >= 1, got {r!r}")
+    nodes, r = int(nodes), int(r)
+    ne = (nodes - 1) * r
     Ke, Me = timoshenko_element(length / ne, section, material, shear_coefficient, euler_bernoulli)
-    n = 2 * nodes
+    n = 2 * (ne + 1)
     K = np.zeros((n, n))
     M = np.zeros((n, n))
     # element e spans global DOFs 2e .. 2e+3: add all blocks with one fancy-index scatter
     rows = (2 * np.arange(ne))[:, None] + np.arange(4)[None, :]
     np.add.at(K, (rows[:, :, None], rows[:, None, :]), Ke)
     np.add.at(M, (rows[:, :, None], rows[:, None, :]), Me)
-    dofs = tuple(Dof(first_node + i, d) for i in range(nodes) for d in DIRECTIONS)
-    coords = {first_node + i: length * i / ne for i in range(nodes)}
+    # mesh point p (x = length p / ne): grid node if p % r == 0, else an internal node numbered after the grid
+    p = np.arange(ne + 1)
+    internal = p % r != 0
+    ids = np.where(internal, 0, first_node + p // r)
+    ids[internal] = first_node + nodes + np.arange(int(internal.sum()))
+    dofs = tuple(Dof(int(i), d) for i in ids for d in DIRECTIONS)
+    coords = {int(i): length * int(k) / ne for k, i in enumerate(ids)}
     return Structure(dofs, coords, M, K * (1.0 + 1j * material.loss_factor))
