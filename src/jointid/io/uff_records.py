@@ -270,10 +270,11 @@ def units_line(records: list[Record]) -> str | None:
         groups.setdefault((r.units, r.factor), []).append(r.index)
     parts = []
     for (text, factor), idx in groups.items():
-        if factor == 1.0 and text.endswith("(labels)"):
+        unlabelled = text.endswith("(default SI)")  # no labels, no dataset 164: an assumption worth a line
+        if factor == 1.0 and not unlabelled:  # SI already (or an exactly neutral pair like mm over mN)
             continue
         n = f"{len(idx)} FRF record{'s' if len(idx) != 1 else ''}"
-        if "default SI" in text:
+        if unlabelled:
             parts.append(f"{n} without units labels (and no units dataset 164) read as SI {text.split(' (')[0]}")
         else:
             parts.append(f"{n} in {text} x {factor:.12g}")

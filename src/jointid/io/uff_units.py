@@ -157,10 +157,10 @@ def _force(label: str) -> float | None:
 
 
 def _motion(label: str) -> tuple[str, float, str | None] | None:
-    s = _norm(label).lower()
+    s = label.strip()
     if s.startswith("(") and s.endswith(")"):
         s = s[1:-1]
-    return _MOTION.get(s)
+    return _MOTION.get(_norm(s).lower())
 
 
 @dataclass(frozen=True)
