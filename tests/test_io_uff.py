@@ -228,7 +228,8 @@ def test_no_record_along_the_axis_says_what_was_skipped(tmp_path):
     with pytest.raises(DataError) as e:
         read_uff_frf(p)
     assert str(e.value) == (
-        f"{p} holds no FRF record to read (UFF dataset 58, function type 4, along Z); skipped 2 records: 2 in Y"
+        f"{p} holds no FRF record to read (UFF dataset 58, function type 4, along Z); skipped 2 records: 2 in Y; "
+        "if the beam was measured along another direction, give that axis (the study's [measurement].axis)"
     )
     assert read_uff_frf(p, axis="+Y").shape == (X.size, 2, 1)
 

@@ -154,9 +154,12 @@ def read_uff_frf(
     frf_records, coh_records = read_records(path, sel)
     if not frf_records:
         skipped = sel.skipped_line()
+        hint = ""
+        if any(k.startswith("in ") for k in sel.skipped):
+            hint = "; if the beam was measured along another direction, give that axis (the study's [measurement].axis)"
         raise DataError(
             f"{path} holds no FRF record to read (UFF dataset 58, function type 4, along {axis[1]})"
-            + (f"; {skipped}" if skipped else "")
+            + (f"; {skipped}" if skipped else "") + hint
         )
     base = frf_records[0].kind
     assert base is not None

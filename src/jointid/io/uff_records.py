@@ -85,7 +85,11 @@ class Selection:
         n = sum(self.skipped.values())
         if not n:
             return None
-        parts = [f"{c} {what}" for what, c in sorted(self.skipped.items(), key=lambda kv: (-kv[1], kv[0]))]
+        counts = Counter({k: v for k, v in self.skipped.items() if not k.startswith("in ")})
+        dirs = sorted({d for k in self.skipped if k.startswith("in ") for d in k[3:].split("/")})
+        if dirs:  # one entry for every other direction: "42 in X/Z"
+            counts["in " + "/".join(dirs)] = sum(v for k, v in self.skipped.items() if k.startswith("in "))
+        parts = [f"{c} {what}" for what, c in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))]
         return f"skipped {n} record{'s' if n != 1 else ''}: " + ", ".join(parts)
 
 
