@@ -169,7 +169,7 @@ def test_time_records_units_and_other_datasets_are_skipped(tmp_path):
     assert frf.notes == ("skipped 1 record: 1 time",)  # blank labels under an SI dataset 164: nothing to say
     q = _write(tmp_path / "q.uff", [_rec(H, X)])
     assert read_uff_frf(q).notes == (
-        "units converted to SI (m, N): 1 FRF record without units labels (and no units dataset 164) read as SI m/N",
+        "units: 1 FRF record without units labels (and no units dataset 164) read as SI m/N",
     )
 
 

@@ -98,13 +98,13 @@ def _rel(a, b):
 @pytest.mark.parametrize(
     "name, scale, num_lab, den_lab, units, note",
     [
-        ("g", 1 / G0, "g", "N", None, "21 FRF records in g/N (labels) x 9.80665"),
-        ("g_over_n", 1 / G0, "g/N", None, None, "21 FRF records in g/N (labels) x 9.80665"),
-        ("mm", 1e3, "mm/s^2", "N", None, "21 FRF records in (mm/s^2)/N (labels) x 0.001"),
-        ("in_lbf", LBF / INCH, "(in/s2)/lbf", "NONE", None, "21 FRF records in (in/s2)/lbf (labels) x 0.00571014715473"),
-        ("kN", 1e3, "m/s^2", "kN", None, "21 FRF records in (m/s^2)/kN (labels) x 0.001"),
-        ("164_user_mm", 1e3, None, None, (9, 1000.0, 1.0), "21 FRF records in (0.001 m/s^2)/1 N (dataset 164) x 0.001"),
-        ("164_inch", LBF / INCH, None, None, (7, 1 / INCH, 1 / LBF), "21 FRF records in (in/s^2)/lbf (dataset 164) x 0.00571014715473"),
+        ("g", 1 / G0, "g", "N", None, "21 FRF records in g/N (labels) converted to SI: x 9.80665"),
+        ("g_over_n", 1 / G0, "g/N", None, None, "21 FRF records in g/N (labels) converted to SI: x 9.80665"),
+        ("mm", 1e3, "mm/s^2", "N", None, "21 FRF records in (mm/s^2)/N (labels) converted to SI: x 0.001"),
+        ("in_lbf", LBF / INCH, "(in/s2)/lbf", "NONE", None, "21 FRF records in (in/s2)/lbf (labels) converted to SI: x 0.00571014715473"),
+        ("kN", 1e3, "m/s^2", "kN", None, "21 FRF records in (m/s^2)/kN (labels) converted to SI: x 0.001"),
+        ("164_user_mm", 1e3, None, None, (9, 1000.0, 1.0), "21 FRF records in (0.001 m/s^2)/1 N (dataset 164) converted to SI: x 0.001"),
+        ("164_inch", LBF / INCH, None, None, (7, 1 / INCH, 1 / LBF), "21 FRF records in (in/s^2)/lbf (dataset 164) converted to SI: x 0.00571014715473"),
         ("164_mm_labelled", 1.0, "mm/s^2", "mN", (5, 1000.0, 1000.0), None),
         ("164_user_si", 1.0, None, None, (9, 1.0, 1.0), None),
     ],
@@ -117,7 +117,7 @@ def test_non_si_files_identify_the_same_joint(case, name, scale, num_lab, den_la
     if note is None:
         assert measured.notes == ()
     else:
-        assert measured.notes == (f"units converted to SI (m, N): {note}",)
+        assert measured.notes == (f"units: {note}",)
     got = identify(study, measured)
     assert _rel(got.stiffness, ref.stiffness) < 1e-9
 
@@ -126,7 +126,9 @@ def test_g_read_as_si_would_be_wrong(case):
     """The defect this guards against: g/N data taken as (m/s^2)/N give a joint ~G0 times off."""
     d, study, sim, ref = case
     p = _write(d / "g_unlabelled.uff", _records(sim.frf, 1 / G0))
-    wrong = identify(study, read_measured(study, p))
+    measured = read_measured(study, p)
+    assert measured.notes == ("units: 21 FRF records without units labels (and no units dataset 164) read as SI (m/s^2)/N",)
+    wrong = identify(study, measured)
     k = np.median(np.abs(wrong.term("w", "w")) / np.abs(ref.term("w", "w")))
     assert k > 2 or k < 0.5
 
@@ -192,7 +194,7 @@ def test_khz_abscissa_and_skipped_records_are_not_decoded(tmp_path):
     frf = read_uff_frf(p)  # the X record's unknown label does not matter: it is skipped
     np.testing.assert_allclose(frf.frequency.hz, X, rtol=1e-12)
     np.testing.assert_allclose(frf("1w", "2w"), H * G0, rtol=1e-11)
-    assert frf.notes == ("units converted to SI (m, N): 1 FRF record in g/N (labels and default SI) x 9.80665", "skipped 1 record: 1 in X")
+    assert frf.notes == ("units: 1 FRF record in g/N (labels and default SI) converted to SI: x 9.80665", "skipped 1 record: 1 in X")
 
 
 def test_cli_unknown_label_and_nan_are_one_line_exit_2(case, capsys):
@@ -223,5 +225,5 @@ def test_cli_prints_the_conversion_line(case, capsys):
     p = _write(d / "cli_g.uff", _records(sim.frf, 1 / G0, "g", "N"))
     assert main(["identify", str(d / "study.toml"), "--frf", str(p), "--out", str(d / "out_g"), "--no-plots"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0] == f"{p}: units converted to SI (m, N): 21 FRF records in g/N (labels) x 9.80665"
+    assert out[0] == f"{p}: units: 21 FRF records in g/N (labels) converted to SI: x 9.80665"
     assert out[1].startswith("identified 2x2 joint stiffness on 200 lines")

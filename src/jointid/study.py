@@ -577,13 +577,14 @@ def load_study(path: str | os.PathLike) -> Study:
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        raw = p.read_bytes()
     except OSError as exc:
         raise StudyError(f"{p}: cannot read the study file ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise StudyError(
-            f"{p}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at offset {exc.start}); save the study file as UTF-8"
-        ) from None
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise StudyError(f"{p} line {line}: not UTF-8 text (byte {raw[exc.start]:#04x}); save the study file as UTF-8") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

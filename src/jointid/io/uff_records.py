@@ -268,7 +268,10 @@ def assemble(records: list[Record], path: Path, what: str) -> tuple[Frequency, n
 
 
 def units_line(records: list[Record]) -> str | None:
-    """One line saying which records were converted to SI and how (None: all labelled SI)."""
+    """One line saying which records were converted to SI and how (None: nothing to say, all SI).
+
+    e.g. ``units: 21 FRF records in g/N (labels) converted to SI: x 9.80665``.
+    """
     groups: dict[tuple[str, float], list[int]] = {}
     for r in records:
         groups.setdefault((r.units, r.factor), []).append(r.index)
@@ -281,10 +284,10 @@ def units_line(records: list[Record]) -> str | None:
         if unlabelled:
             parts.append(f"{n} without units labels (and no units dataset 164) read as SI {text.split(' (')[0]}")
         else:
-            parts.append(f"{n} in {text} x {factor:.12g}")
+            parts.append(f"{n} in {text} converted to SI: x {factor:.12g}")
     if not parts:
         return None
-    return "units converted to SI (m, N): " + "; ".join(parts)
+    return "units: " + "; ".join(parts)
 
 
 def coherence_matrix(
