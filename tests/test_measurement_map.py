@@ -138,3 +138,20 @@ def test_bad_point_map_names_the_key(edit, message):
     with pytest.raises(StudyError) as e:
         parse_study(tomllib.loads(MAPPED.replace(*edit)), "s.toml")
     assert str(e.value) == f"s.toml: {message}"
+
+
+def test_unusable_coherence_is_a_note_not_an_error(tmp_path, files):
+    d, study, mapped, clean, export, coh = files
+    sim = simulate(study)
+    bad = coh.copy()
+    bad[4, 2, 1] = 1.5  # (pyuff writes NaN as a number)
+    sets = [s for s in _export(sim.frf, bad)]
+    p = tmp_path / "nan_coherence.uff"
+    pyuff.UFF(str(p)).write_sets(sets, mode="add")
+    measured = read_measured(mapped, p)
+    assert measured.coherence is None
+    assert measured.notes[0] == SKIPPED
+    assert measured.notes[1] == f"coherence not used: {p} holds coherence values outside [0, 1] ({bad.min():.6g}..1.5)"
+    got = identify(mapped, measured)
+    ref = identify(study, read_measured(study, clean))
+    assert np.max(np.abs(got.stiffness - ref.stiffness)) <= 1e-9 * np.max(np.abs(ref.stiffness))

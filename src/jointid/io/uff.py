@@ -173,9 +173,11 @@ def read_uff_frf(
                 raise DataError(f"{r.name()} in {path}: cannot convert {r.kind} to {base}: {exc}") from exc
         r.data = np.asarray(r.data, dtype=complex) * factor
     frequency, data, resp, refs = assemble(frf_records, path, "FRF")
-    coh, coh_note = (None, None)
-    if coherence and coh_records:
+    coh, coh_note = (None, sel.coherence_problem)
+    if coherence and coh_records and coh_note is None:
         coh, coh_note = coherence_matrix(coh_records, path, frequency, resp, refs, sel)
+    elif coh_records:
+        sel.skipped["coherence"] += len(coh_records)
     notes = tuple(n for n in (units_line(frf_records), sel.skipped_line(), coh_note) if n)
     frf = FRF(frequency, data, resp, refs, base, coh if attach else None, notes)
     if kind is not None:

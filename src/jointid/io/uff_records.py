@@ -79,6 +79,7 @@ class Selection:
     references: Collection[Dof] | None = None
     coherence: bool = False
     skipped: Counter = field(default_factory=Counter)
+    coherence_problem: str | None = None  # why the coherence records cannot be used (they are not needed)
 
     def skipped_line(self) -> str | None:
         """``skipped 42 records: 20 in X/Z, 19 coherence, 3 at points not in the study`` (or None)."""
@@ -163,6 +164,17 @@ def _abscissa(d: dict, where: str) -> np.ndarray:
     return x
 
 
+def _values(d: dict, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """The record's abscissa (Hz) and values, checked finite."""
+    x = _abscissa(d, where)
+    data = np.asarray(d["data"]).reshape(-1)
+    bad = ~np.isfinite(data) | ~np.isfinite(x)
+    if bad.any():
+        j = int(np.flatnonzero(bad)[0])
+        raise DataError(f"{where}: non-finite value at line {j + 1} ({x[j]:g} Hz)")
+    return x, data
+
+
 def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]]:
     """The FRF and the coherence records ``sel`` keeps, in file order; skipped ones are counted in ``sel.skipped``."""
     import pyuff
@@ -201,17 +213,16 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
             sel.skipped["coherence" if ft == FUNC_COHERENCE else mapped] += 1
             continue
         response, reference, sign = mapped
-        x = _abscissa(d, where)
-        data = np.asarray(d["data"]).reshape(-1)
         if ft == FUNC_COHERENCE:
-            data = np.real(data).astype(float)
-        bad = ~np.isfinite(data) | ~np.isfinite(x)
-        if bad.any():
-            j = int(np.flatnonzero(bad)[0])
-            raise DataError(f"{where}: non-finite value at line {j + 1} ({x[j]:g} Hz)")
-        if ft == FUNC_COHERENCE:
-            cohs.append(Record(index, FUNC_COHERENCE, response, reference, 1.0, None, x, data))
+            try:
+                x, data = _values(d, where)
+            except DataError as exc:  # coherence is not needed: note it, do not stop
+                sel.coherence_problem = sel.coherence_problem or f"coherence not used: {exc}"
+                sel.skipped["coherence"] += 1
+                continue
+            cohs.append(Record(index, FUNC_COHERENCE, response, reference, 1.0, None, x, np.real(data).astype(float)))
             continue
+        x, data = _values(d, where)
         kind = _kind(d, where)
         units = ordinate_units(d, d["ordinate_spec_data_type"], system, where)
         text = f"{units.text} ({units.source})"
