@@ -7,6 +7,7 @@ they only translate study settings into calls of :mod:`jointid.physics` and
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +21,7 @@ from .physics.structure import ComplexStiffness, Structure
 from .physics.synthesis import synthesize_frf
 from .study import Study
 
-__all__ = ["free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "identify"]
+__all__ = ["free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "read_measured", "identify"]
 
 
 def free_model(study: Study, with_accelerometers: bool | None = None) -> Structure:
@@ -100,6 +101,35 @@ def inverse_options(study: Study) -> InverseOptions:
         regularization=spec.regularization,
         estimation=spec.estimation,
         cond_rtol=spec.cond_rtol,
+    )
+
+
+def read_measured(study: Study, path: str | os.PathLike) -> FRF:
+    """Read a measured FRF file as the study describes it: only the FRFs the study uses, in SI.
+
+    ``[measurement].points`` maps the file's point ids to beam nodes and
+    ``[measurement].axis`` names the file's direction that is ``w`` (see
+    :func:`jointid.io.frf_files.read_frf`). Only the observed x excited FRFs
+    (and their coherence, when the file has it, in ``FRF.coherence``) are
+    read; every other record is skipped. ``FRF.notes`` says in one line each
+    what was converted to SI and what was skipped.
+
+    Raises
+    ------
+    DataError
+        A record the study needs cannot be read (naming the file and the record).
+    """
+    from .io.frf_files import read_frf
+
+    m = study.measurement
+    return read_frf(
+        path,
+        n_nodes=study.beam.nodes,
+        points=m.point_map,
+        axis=m.axis,
+        responses=m.observed_dofs,
+        references=m.excited_dofs,
+        coherence=True,
     )
 
 
