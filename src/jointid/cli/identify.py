@@ -12,6 +12,8 @@ from ..io.output_dir import OutputSet
 from ..pipeline import identify, read_measured
 from .common import add_out_argument, add_study_argument, study_from_args
 
+__all__ = ["add_parser", "run", "summary", "write_identification"]
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
