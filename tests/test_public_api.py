@@ -24,7 +24,6 @@ MODULES = sorted(m.name for m in pkgutil.walk_packages(jointid.__path__, "jointi
 #: (the test fails on a stale entry).
 KNOWN_MISSING = {
     "jointid.methods.inverse": {"stiffness_columns"},
-    "jointid.pipeline": {"inverse_options", "ExperimentResult", "experiment"},
 }
 
 

@@ -21,7 +21,10 @@ from .physics.structure import ComplexStiffness, Structure
 from .physics.synthesis import synthesize_frf
 from .study import Study
 
-__all__ = ["free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "read_measured", "identify"]
+__all__ = [
+    "free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "read_measured", "identify",
+    "inverse_options", "ExperimentResult", "experiment", "virtual_hits",
+]
 
 
 def free_model(study: Study, with_accelerometers: bool | None = None) -> Structure:
@@ -219,7 +222,25 @@ def experiment(study: Study, seed: int | None = None, *, periodic: bool = False)
         exponential window, which is then not applied): noise-free, H1 equals
         the model's FRF to ~3e-7 median, 3e-6 max (benchmark).
     """
-    from .methods.impact import ImpactOptions, ImpactRecord, estimate_frfs
+    from .methods.impact import estimate_frfs
+
+    records, options = virtual_hits(study, seed, periodic=periodic)
+    impact = estimate_frfs(records, options)
+    frf = impact.to_frf("h1")
+    return ExperimentResult(impact, frf, true_joint(study)(frf.frequency.hz))
+
+
+def virtual_hits(study: Study, seed: int | None = None, *, periodic: bool = False):
+    """The hits of the study's virtual roving-hammer test and the processing options :func:`experiment` uses.
+
+    Returns
+    -------
+    records : list of ImpactRecord
+        One per excited node (``[experiment].averages`` hits each), with noise.
+    options : ImpactOptions
+        Force window, exponential window (transient test only) and band.
+    """
+    from .methods.impact import ImpactOptions, ImpactRecord
     from .methods.virtual_hammer import HammerSettings, simulate_hits
 
     x = study.experiment
@@ -249,6 +270,4 @@ def experiment(study: Study, seed: int | None = None, *, periodic: bool = False)
         exp_tau_s=None if periodic else (x.exponential_window or None),
         band_hz=(max(study.frequency.start, 1.0 / x.duration), study.frequency.stop),
     )
-    impact = estimate_frfs(records, options)
-    frf = impact.to_frf("h1")
-    return ExperimentResult(impact, frf, true_joint(study)(frf.frequency.hz))
+    return records, options

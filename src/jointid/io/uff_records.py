@@ -30,7 +30,7 @@ from ..errors import DataError, FrequencyError
 from ..frequency import Frequency
 from .uff_units import SI, UnitSystem, abscissa_factor, ordinate_units, units_from_164
 
-__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text"]
+__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line"]
 
 FUNC_TIME = 1
 FUNC_FRF = 4

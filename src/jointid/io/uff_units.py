@@ -40,7 +40,7 @@ import math
 import re
 from dataclasses import dataclass
 
-__all__ = ["G0", "INCH", "FOOT", "LBF", "KGF", "UnitSystem", "SI", "units_from_164", "ordinate_units", "abscissa_factor"]
+__all__ = ["G0", "INCH", "FOOT", "LBF", "KGF", "UnitSystem", "SI", "units_from_164", "ordinate_units", "abscissa_factor", "OrdinateUnits"]
 
 G0 = 9.80665  # m/s^2, standard gravity (exact)
 INCH = 0.0254  # m (exact)
