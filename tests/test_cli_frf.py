@@ -18,7 +18,7 @@ from jointid.io.frf_files import read_frf
 from jointid.io.uff import read_uff_frf, write_uff_frf
 from jointid.methods.impact import ImpactOptions, ImpactRecord, check_hits, estimate_frfs, rejected_hits_table
 from jointid.methods.virtual_hammer import HammerSettings, simulate_hits
-from jointid.pipeline import constrained_model, experiment
+from jointid.pipeline import experiment, virtual_hits
 from jointid.study import parse_study
 
 SEED = 3
@@ -38,23 +38,18 @@ def virtual():
     """The study, ``experiment()``'s result and the very hits it processed (same seed, same draws)."""
     study = _small_study()
     ex = experiment(study, seed=SEED)
-    x = study.experiment
-    shared = ("sample_rate", "duration", "averages", "force_noise", "response_noise", "pulse_duration", "pulse_amplitude")
-    settings = HammerSettings(**{k: getattr(x, k) for k in shared})
-    hits = simulate_hits(constrained_model(study), study.measurement.observed_dofs, study.measurement.excited_dofs,
-                         settings, np.random.default_rng(SEED))
-    records = [ImpactRecord(h.force, h.responses, h.sample_rate, h.response_dofs, h.reference) for h in hits]
+    records, _ = virtual_hits(study, seed=SEED)
     return study, ex, records
 
 
 def _window_flags(study) -> list[str]:
     """The command-line form of the ImpactOptions that ``experiment()`` uses."""
-    x = study.experiment
-    ms = 1e3 * x.pulse_duration
+    _, o = virtual_hits(study, seed=SEED)
+    ms = 1e3
     return [
-        "--force-window-ms", f"{2 * ms:g}", "--pretrigger-ms", f"{0.5 * ms:g}", "--force-taper-ms", f"{0.5 * ms:g}",
-        "--exp-tau-ms", f"{1e3 * x.exponential_window:g}",
-        "--band-hz", f"{max(study.frequency.start, 1 / x.duration):g}", f"{study.frequency.stop:g}",
+        "--force-window-ms", f"{ms * o.force_window_s!r}", "--pretrigger-ms", f"{ms * o.force_pretrigger_s!r}",
+        "--force-taper-ms", f"{ms * o.force_taper_s!r}", "--exp-tau-ms", f"{ms * (o.exp_tau_s or 0.0)!r}",
+        "--band-hz", f"{o.band_hz[0]!r}", f"{o.band_hz[1]!r}",
     ]
 
 
@@ -122,10 +117,7 @@ def test_double_hit_is_rejected_and_listed(virtual, tmp_path, capsys):
     assert not (out / "frf.png").exists()
     # the 9w column is the average of hits 0 and 2 only, the 3w column is untouched
     frf = read_frf(out / "frf.uff")
-    x = study.experiment
-    opts = ImpactOptions(force_window_s=2 * x.pulse_duration, force_pretrigger_s=0.5 * x.pulse_duration,
-                         force_taper_s=0.5 * x.pulse_duration, exp_tau_s=x.exponential_window,
-                         band_hz=(max(study.frequency.start, 1 / x.duration), study.frequency.stop))
+    _, opts = virtual_hits(study, seed=SEED)
     kept = ImpactRecord(rec.force[[0, 2]], rec.responses[[0, 2]], fs, rec.response_dofs, rec.reference)
     expect = estimate_frfs([records[0], kept], opts).h1
     assert np.abs(frf.data - expect).max() / np.abs(expect).max() < 1e-9

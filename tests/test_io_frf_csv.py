@@ -93,11 +93,11 @@ def test_non_finite_names_the_row(tmp_path, bad):
 def test_node_outside_the_beam_and_bad_cells_name_the_row(tmp_path):
     p = _csv(tmp_path, HEAD + _rows(pairs=(("1w", "2w"), ("12w", "2w"))))
     assert read_frf_csv(p).shape == (2, 2, 1)
-    with pytest.raises(DataError, match=r"row 4: response 12w is outside the beam \(nodes 1..11\)"):
+    with pytest.raises(DataError, match=r"row 4 of .*f.csv: response 12w is outside the beam \(nodes 1..11\)"):
         read_frf_csv(p, n_nodes=11)
-    with pytest.raises(DataError, match=r"row 3: cannot read the reference DOF '2x'"):
+    with pytest.raises(DataError, match=r"row 3 of .*: cannot read the reference DOF '2x'"):
         read_frf_csv(_csv(tmp_path, HEAD + "1,1w,2x,1,1\n"))
-    with pytest.raises(DataError, match=r"row 4: column 'real' holds 'abc'"):
+    with pytest.raises(DataError, match=r"row 4 of .*: column 'real' holds 'abc'"):
         read_frf_csv(_csv(tmp_path, HEAD + "1,1w,2w,1,1\n2,1w,2w,abc,1\n"))
     with pytest.raises(DataError, match=r"row 3 .* has 4 cells"):
         read_frf_csv(_csv(tmp_path, HEAD + "1,1w,2w,1\n"))

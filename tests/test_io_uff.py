@@ -166,6 +166,11 @@ def test_time_records_units_and_other_datasets_are_skipped(tmp_path):
     p = _write(tmp_path / "t.uff", [units, time, _rec(H, X)])
     frf = read_uff_frf(p)
     assert frf.shape == (X.size, 1, 1)
+    assert frf.notes == ("skipped 1 record: 1 time",)  # blank labels under an SI dataset 164: nothing to say
+    q = _write(tmp_path / "q.uff", [_rec(H, X)])
+    assert read_uff_frf(q).notes == (
+        "units: 1 FRF record without units labels (and no units dataset 164) read as SI m/N",
+    )
 
 
 # ------------------------------------------------------------------ bad input
@@ -197,22 +202,36 @@ def test_nan_value_names_the_record(tmp_path):
     token = "%20.11e" % 0.25
     assert text.count(token) == 1
     p.write_text(text.replace(token, "%20s" % "nan"))
-    with pytest.raises(DataError, match=r"record 2 .*non-finite value at line 4"):
+    with pytest.raises(DataError, match=r"record 2 of .*n\.uff \(.*\): non-finite value at line 4 \(4 Hz\)"):
         read_uff_frf(p)
 
 
 def test_node_outside_the_beam_names_the_record(tmp_path):
     p = _write(tmp_path / "o.uff", [_rec(H, X, 1, 2), _rec(H, X, 1, 12)])
     assert read_uff_frf(p).shape == (X.size, 1, 2)  # fine without n_nodes
-    with pytest.raises(DataError, match=r"record 2 .*reference node 12 is outside the beam \(nodes 1..11\)"):
+    with pytest.raises(DataError, match=r"record 2 of .*o\.uff .*reference node 12 is outside the beam \(nodes 1..11\)"):
         read_uff_frf(p, n_nodes=11)
 
 
-@pytest.mark.parametrize("rsp_dir, ref_dir", [(1, 3), (3, 2), (5, 3), (3, -6), (0, 3)])
-def test_non_z_directions_name_the_record(tmp_path, rsp_dir, ref_dir):
+@pytest.mark.parametrize(
+    "rsp_dir, ref_dir, letters", [(1, 3, "X"), (3, 2, "Y"), (5, 3, "RY"), (3, -6, "RZ"), (0, 3, "scalar"), (2, -1, "X/Y")]
+)
+def test_other_directions_are_skipped_and_counted(tmp_path, rsp_dir, ref_dir, letters):
     p = _write(tmp_path / "x.uff", [_rec(H, X, 1, 2), _rec(H, X, 3, 2, rsp_dir=rsp_dir, ref_dir=ref_dir)])
-    with pytest.raises(DataError, match=r"record 2 .*direction .* not supported"):
+    frf = read_uff_frf(p)
+    assert frf.shape == (X.size, 1, 1)
+    assert frf.notes[-1] == f"skipped 1 record: 1 in {letters}"
+
+
+def test_no_record_along_the_axis_says_what_was_skipped(tmp_path):
+    p = _write(tmp_path / "y.uff", [_rec(H, X, 1, 2, rsp_dir=2, ref_dir=2), _rec(H, X, 3, 2, rsp_dir=-2, ref_dir=2)])
+    with pytest.raises(DataError) as e:
         read_uff_frf(p)
+    assert str(e.value) == (
+        f"{p} holds no FRF record to read (UFF dataset 58, function type 4, along Z); skipped 2 records: 2 in Y; "
+        "if the beam was measured along another direction, give that axis (the study's [measurement].axis)"
+    )
+    assert read_uff_frf(p, axis="+Y").shape == (X.size, 2, 1)
 
 
 @pytest.mark.parametrize("num, den", [(0, 13), (1, 13), (12, 0), (12, 9), (13, 8)])
@@ -222,13 +241,13 @@ def test_unknown_characteristics_name_the_record(tmp_path, num, den):
         read_uff_frf(p)
 
 
-def test_non_si_units_and_no_frf_and_missing_file(tmp_path):
+def test_contradictory_units_dataset_no_frf_and_missing_file(tmp_path):
     units = pyuff.prepare_164(units_code=2, units_description="BG", temp_mode=1, length=3.28, force=0.2248, temp=1.8, temp_offset=459.67)
     p = _write(tmp_path / "bg.uff", [units, _rec(H, X)])
-    with pytest.raises(DataError, match=r"record 1 .*units code 2"):
+    with pytest.raises(DataError, match=r"record 1 of .*bg.uff: units dataset 164 declares code 2 \(BG: ft, lbf\) but a length factor 3.28"):
         read_uff_frf(p)
     q = _write(tmp_path / "t.uff", [_rec(H.real, X, func_type=1)])
-    with pytest.raises(DataError, match="no FRF record"):
+    with pytest.raises(DataError, match=r"no FRF record to read .*; skipped 1 record: 1 time"):
         read_uff_frf(q)
     with pytest.raises(DataError, match="does not exist"):
         read_uff_frf(tmp_path / "nope.uff")

@@ -61,6 +61,13 @@ class FRF:
     references : tuple of Dof, length c
         Reference (excitation) DOFs (columns).
     kind : {"receptance", "mobility", "accelerance"}
+    coherence : ndarray, shape (F, r, c), real, optional
+        Ordinary coherence of each FRF in [0, 1], aligned with ``data``
+        (``None``: not measured). Kept by :meth:`to`, :meth:`select` and
+        :meth:`band`.
+    notes : tuple of str
+        How the data were read, one line each (unit conversions, skipped
+        records); empty when there is nothing to say.
     """
 
     frequency: Frequency
@@ -68,6 +75,8 @@ class FRF:
     responses: tuple[Dof, ...]
     references: tuple[Dof, ...]
     kind: str = "receptance"
+    coherence: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.frequency, Frequency):
@@ -85,6 +94,16 @@ class FRF:
                 raise DataError(f"duplicated {what} DOF in FRF labels {[str(d) for d in dofs]}")
         data.setflags(write=False)
         object.__setattr__(self, "data", data)
+        if self.coherence is not None:
+            coh = np.array(self.coherence)
+            if coh.shape != shape:
+                raise DataError(f"FRF coherence has shape {coh.shape}, expected the data's shape {shape}")
+            if np.iscomplexobj(coh) or not np.all(np.isfinite(coh)) or np.any(coh < 0) or np.any(coh > 1):
+                raise DataError("FRF coherence must be real, finite and within [0, 1]")
+            coh = coh.astype(float)
+            coh.setflags(write=False)
+            object.__setattr__(self, "coherence", coh)
+        object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -108,6 +127,8 @@ class FRF:
             tuple(self.responses[i] for i in ri),
             tuple(self.references[i] for i in ci),
             self.kind,
+            None if self.coherence is None else self.coherence[:, ri][:, :, ci],
+            self.notes,
         )
 
     def band(self, start_hz: float | None = None, stop_hz: float | None = None) -> "FRF":
@@ -117,7 +138,8 @@ class FRF:
             raise FrequencyError(
                 f"no FRF line in {start_hz}..{stop_hz} Hz (data cover {self.frequency.hz[0]:g}..{self.frequency.hz[-1]:g} Hz)"
             )
-        return replace(self, frequency=self.frequency[m], data=self.data[m])
+        coh = None if self.coherence is None else self.coherence[m]
+        return replace(self, frequency=self.frequency[m], data=self.data[m], coherence=coh)
 
     def __call__(self, response, reference) -> np.ndarray:
         """One FRF vs frequency, shape (F,), by labels, e.g. ``frf("3w", "9w")``."""

@@ -7,6 +7,7 @@ they only translate study settings into calls of :mod:`jointid.physics` and
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +22,10 @@ from .physics.structure import ComplexStiffness, Structure
 from .physics.synthesis import synthesize_frf
 from .study import Study
 
-__all__ = ["free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "identify", "inverse_options", "coupling_options"]
+__all__ = [
+    "free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "read_measured", "identify",
+    "inverse_options", "ExperimentResult", "experiment", "virtual_hits", "coupling_options",
+]
 
 
 def free_model(study: Study, with_accelerometers: bool | None = None, refined: bool = True) -> Structure:
@@ -117,6 +121,35 @@ def coupling_options(study: Study) -> CouplingOptions:
         weighting=spec.weighting,
         averages=spec.averages,
         max_relative_std=spec.max_relative_std,
+    )
+
+
+def read_measured(study: Study, path: str | os.PathLike) -> FRF:
+    """Read a measured FRF file as the study describes it: only the FRFs the study uses, in SI.
+
+    ``[measurement].points`` maps the file's point ids to beam nodes and
+    ``[measurement].axis`` names the file's direction that is ``w`` (see
+    :func:`jointid.io.frf_files.read_frf`). Only the observed x excited FRFs
+    (and their coherence, when the file has it, in ``FRF.coherence``) are
+    read; every other record is skipped. ``FRF.notes`` says in one line each
+    what was converted to SI and what was skipped.
+
+    Raises
+    ------
+    DataError
+        A record the study needs cannot be read (naming the file and the record).
+    """
+    from .io.frf_files import read_frf
+
+    m = study.measurement
+    return read_frf(
+        path,
+        n_nodes=study.beam.nodes,
+        points=m.point_map,
+        axis=m.axis,
+        responses=m.observed_dofs,
+        references=m.excited_dofs,
+        coherence=True,
     )
 
 
@@ -218,7 +251,25 @@ def experiment(study: Study, seed: int | None = None, *, periodic: bool = False)
         exponential window, which is then not applied): noise-free, H1 equals
         the model's FRF to ~3e-7 median, 3e-6 max (benchmark).
     """
-    from .methods.impact import ImpactOptions, ImpactRecord, estimate_frfs
+    from .methods.impact import estimate_frfs
+
+    records, options = virtual_hits(study, seed, periodic=periodic)
+    impact = estimate_frfs(records, options)
+    frf = impact.to_frf("h1")
+    return ExperimentResult(impact, frf, true_joint(study)(frf.frequency.hz))
+
+
+def virtual_hits(study: Study, seed: int | None = None, *, periodic: bool = False):
+    """The hits of the study's virtual roving-hammer test and the processing options :func:`experiment` uses.
+
+    Returns
+    -------
+    records : list of ImpactRecord
+        One per excited node (``[experiment].averages`` hits each), with noise.
+    options : ImpactOptions
+        Force window, exponential window (transient test only) and band.
+    """
+    from .methods.impact import ImpactOptions, ImpactRecord
     from .methods.virtual_hammer import HammerSettings, simulate_hits
 
     x = study.experiment
@@ -248,6 +299,4 @@ def experiment(study: Study, seed: int | None = None, *, periodic: bool = False)
         exp_tau_s=None if periodic else (x.exponential_window or None),
         band_hz=(max(study.frequency.start, 1.0 / x.duration), study.frequency.stop),
     )
-    impact = estimate_frfs(records, options)
-    frf = impact.to_frf("h1")
-    return ExperimentResult(impact, frf, true_joint(study)(frf.frequency.hz))
+    return records, options

@@ -41,6 +41,13 @@ are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     [measurement]
     observed = [1, 3, 6, 9, 12, 15, 19]   # beam nodes, transverse w
     excited = [3, 9, 15]                  # beam nodes, transverse force
+    axis = "+Z"               # the FRF file's direction that is the model's w:
+                              # "+X" "-X" "+Y" "-Y" "+Z" "-Z" (records along the
+                              # opposite direction are sign-flipped, others skipped)
+
+    [measurement.points]      # FRF file point id = beam node; without this table the
+    1001 = 1                  # file's point ids are the node numbers; with it, points
+    1003 = 3                  # not listed are skipped (every observed/excited node needs one)
 
     [accelerometers]          # sensors on the test article (simulate / experiment)
     mass = 0.005              # kg each
@@ -77,6 +84,10 @@ are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     seed = 0
 
 Only ``[beam]``, ``[joint]``, ``[measurement]`` and ``[frequency]`` are required.
+
+Limits (so that a typo cannot exhaust the memory): ``[beam].nodes`` at most
+:data:`MAX_NODES` (10 000), the ``[frequency]`` grid at most
+:data:`MAX_LINES` (1 000 000) lines.
 """
 
 from __future__ import annotations
@@ -104,7 +115,14 @@ __all__ = [
     "ExperimentSpec",
     "load_study",
     "parse_study",
+    "MAX_NODES",
+    "MAX_LINES",
 ]
+
+#: Largest ``[beam].nodes`` accepted (the FE model is dense per frequency line).
+MAX_NODES = 10_000
+#: Largest number of ``[frequency]`` lines (``(stop - start) / step + 1``) accepted.
+MAX_LINES = 1_000_000
 
 
 # --------------------------------------------------------------------------- validation helpers
@@ -284,10 +302,22 @@ class JointSpec:
 
 @dataclass(frozen=True)
 class MeasurementSpec:
-    """Observed (response, w) and excited (force, w) beam nodes."""
+    """Observed (response, w) and excited (force, w) beam nodes; how the FRF file names them.
+
+    ``axis`` is the FRF file's direction that is the model's ``w``;
+    ``points`` pairs (file point id, beam node), empty: the file's point ids
+    are node numbers.
+    """
 
     observed: tuple[int, ...]
     excited: tuple[int, ...]
+    axis: str = "+Z"
+    points: tuple[tuple[int, int], ...] = ()
+
+    @property
+    def point_map(self) -> dict[int, int] | None:
+        """File point id -> beam node, or None (point ids are node numbers)."""
+        return dict(self.points) if self.points else None
 
     @property
     def observed_dofs(self) -> tuple[Dof, ...]:
@@ -389,7 +419,7 @@ _BEAM = {
     "poisson_ratio": _Field("number", False, None, check=lambda v: None if -1 < v < 0.5 else "a number in (-1, 0.5)"),
     "shear_modulus": _Field("number", unit="Pa", check=_positive),
     "shear_coefficient": _Field("number", False, 5.0 / 6.0, check=_positive),
-    "nodes": _Field("int", True, check=lambda v: None if v >= 2 else "an integer >= 2"),
+    "nodes": _Field("int", True, check=lambda v: None if 2 <= v <= MAX_NODES else f"an integer in 2..{MAX_NODES}"),
     "theory": _Field("str", False, "timoshenko", check=_choices("timoshenko", "euler-bernoulli")),
     "elements_per_segment": _Field("int", False, None, check=lambda v: None if 1 <= v <= 64 else "an integer in 1..64"),
 }
@@ -422,9 +452,11 @@ _ELASTOMER = {
     "cap_thickness": _Field("number", unit="m", check=_positive),
     "cap_density": _Field("number", unit="kg/m^3", check=_positive),
 }
+_AXES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
 _MEASUREMENT = {
     "observed": _Field("int_list", True),
     "excited": _Field("int_list", True),
+    "axis": _Field("str", False, "+Z", check=_choices(*_AXES)),
 }
 _ACCELEROMETERS = {
     "mass": _Field("number", False, 0.005, unit="kg", check=_nonneg),
@@ -520,16 +552,24 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
         model = JointModelSpec(mtype, {k: v for k, v in params.items() if v is not None})
     joint = JointSpec(j["node"], dofs, model)
 
-    m = _section(data["measurement"], "measurement", _MEASUREMENT)
+    mdata = data["measurement"]
+    m = _section(mdata, "measurement", _MEASUREMENT, sub=("points",))
     for key in ("observed", "excited"):
         if not m[key]:
             raise StudyError(f"[measurement].{key}: expected at least one node")
         _nodes_in_range("measurement", key, m[key], nn)
-    measurement = MeasurementSpec(m["observed"], m["excited"])
+    points = _points(mdata.get("points"), nn, m["observed"] + m["excited"]) if "points" in mdata else ()
+    measurement = MeasurementSpec(m["observed"], m["excited"], m["axis"], points)
 
     fr = _section(data["frequency"], "frequency", _FREQUENCY)
     if fr["start"] >= fr["stop"]:
         raise StudyError(f"[frequency]: start ({fr['start']:g} Hz) must be below stop ({fr['stop']:g} Hz)")
+    lines = (fr["stop"] - fr["start"]) / fr["step"] + 1.0  # may be inf for a tiny step
+    if not lines < MAX_LINES + 1:
+        raise StudyError(
+            f"[frequency].step: {fr['step']:g} Hz gives {lines:.3g} lines from {fr['start']:g} to {fr['stop']:g} Hz; "
+            f"at most {MAX_LINES} lines are allowed: raise step"
+        )
     frequency = FrequencySpec(**fr)
 
     acc = None
@@ -546,6 +586,36 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
     return Study(beam, joint, measurement, frequency, acc, ident, exp, source)
 
 
+def _points(table: Any, n_nodes: int, used: tuple[int, ...]) -> tuple[tuple[int, int], ...]:
+    """``[measurement.points]`` as sorted (file point id, beam node) pairs."""
+    if not isinstance(table, Mapping) or not table:
+        raise StudyError("[measurement.points] must be a table of file point id = beam node, e.g. 1001 = 1")
+    pairs: dict[int, int] = {}
+    for key, node in table.items():
+        k = str(key).strip()
+        if not k.isdigit() or int(k) < 1:
+            raise StudyError(f"[measurement.points]: key {key!r} is not a point id (an integer >= 1)")
+        if isinstance(node, bool) or not isinstance(node, int) or not 1 <= node <= n_nodes:
+            raise StudyError(
+                f"[measurement.points].{k}: expected a beam node in 1..{n_nodes}, got {node!r}"
+            )
+        pairs[int(k)] = node
+    by_node: dict[int, int] = {}
+    for point, node in pairs.items():
+        if node in by_node:
+            raise StudyError(
+                f"[measurement.points]: points {by_node[node]} and {point} both map to node {node}; map each node once"
+            )
+        by_node[node] = point
+    missing = [n for n in dict.fromkeys(used) if n not in by_node]
+    if missing:
+        raise StudyError(
+            f"[measurement.points]: node {missing[0]} is observed or excited but no file point maps to it; "
+            f"add '<point id> = {missing[0]}'"
+        )
+    return tuple(sorted(pairs.items()))
+
+
 def load_study(path: str | os.PathLike) -> Study:
     """Read and validate a TOML study file.
 
@@ -556,9 +626,14 @@ def load_study(path: str | os.PathLike) -> Study:
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        raw = p.read_bytes()
     except OSError as exc:
         raise StudyError(f"{p}: cannot read the study file ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise StudyError(f"{p} line {line}: not UTF-8 text (byte {raw[exc.start]:#04x}); save the study file as UTF-8") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -15,7 +15,7 @@ from ..errors import DataError
 from ..io.output_dir import OutputSet
 from .common import OUT_HELP
 
-__all__ = ["add_parser", "run", "direct_summary", "strict_json"]
+__all__ = ["add_parser", "run", "direct_summary", "summary_text", "strict_json"]
 
 
 def _pairs(items, what: str, number: bool) -> dict:

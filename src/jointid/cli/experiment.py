@@ -13,6 +13,8 @@ from ..pipeline import experiment, identify
 from .common import add_out_argument, add_study_argument, study_from_args
 from .identify import write_identification
 
+__all__ = ["add_parser", "run"]
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser(

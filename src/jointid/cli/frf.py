@@ -9,6 +9,8 @@ from ..errors import DataError
 from ..frf import KINDS
 from .common import add_out_argument
 
+__all__ = ["add_parser", "run", "impact_options_from_args"]
+
 #: (flag, ImpactOptions field, must be > 0 (else >= 0)) of the window options given in ms (converted x / 1000).
 _MS_OPTIONS = (
     ("force_window_ms", "force_window_s", True),

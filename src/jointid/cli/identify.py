@@ -9,8 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from ..io.output_dir import OutputSet
-from ..pipeline import identify
+from ..pipeline import identify, read_measured
 from .common import add_out_argument, add_study_argument, study_from_args
+
+__all__ = ["add_parser", "run", "summary", "write_identification"]
 
 
 def add_parser(sub) -> None:
@@ -84,11 +86,11 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..io.frf_files import read_frf
-
     study = study_from_args(args)
+    measured = read_measured(study, args.frf)
+    for note in measured.notes:  # unit conversion, skipped records
+        print(f"{args.frf}: {note}")
     with OutputSet(args.out, command="identify") as out:
-        measured = read_frf(args.frf, n_nodes=study.beam.nodes)
         result = identify(study, measured)
         write_identification(out, result, study, args.frf, plots=not args.no_plots)
     f = result.frequency.hz

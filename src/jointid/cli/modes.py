@@ -10,6 +10,8 @@ from ..physics.synthesis import synthesize_frf
 from ..plots.frf import plot_frf
 from .common import add_out_argument, add_study_argument, study_from_args
 
+__all__ = ["add_parser", "run"]
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser(

@@ -9,6 +9,8 @@ from ..studies.config import STUDY_NAMES, load_config
 from ..studies.runner import parse_only, run_reproduce
 from .common import add_out_argument
 
+__all__ = ["add_parser", "run"]
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser(

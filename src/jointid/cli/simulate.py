@@ -9,6 +9,8 @@ from ..methods.inverse import stiffness_columns
 from ..pipeline import simulate
 from .common import add_out_argument, add_study_argument, study_from_args
 
+__all__ = ["add_parser", "run"]
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser(

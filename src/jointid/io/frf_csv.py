@@ -37,15 +37,18 @@ import csv
 import io
 import os
 import re
+from collections import Counter
 from pathlib import Path
+from typing import Iterable, Mapping
 
 import numpy as np
 
-from ..dofs import Dof, parse_dof
+from ..dofs import Dof, parse_dof, parse_dofs
 from ..errors import DataError, JointIdError
 from ..frequency import Frequency
 from ..frf import FRF, KINDS
 from .atomic import atomic_path
+from .text import check_separator, read_utf8
 
 __all__ = ["read_frf_csv", "write_frf_csv", "CSV_COLUMNS"]
 
@@ -53,21 +56,52 @@ CSV_COLUMNS: tuple[str, ...] = ("frequency_hz", "response", "reference", "real",
 _KIND_LINE = re.compile(r"^#\s*kind\s*[=:]\s*(\S+)\s*$", re.IGNORECASE)
 
 
-def _label(text: str, lineno: int, column: str, n_nodes: int | None, cache: dict[str, Dof]) -> Dof:
+def _label(text: str, lineno: int, column: str, cache: dict[str, Dof], path: Path) -> Dof:
     dof = cache.get(text)
     if dof is None:
         t = text.strip()
         try:
             dof = parse_dof(int(t)) if t.isdigit() else parse_dof(t)
         except JointIdError as exc:
-            raise DataError(f"row {lineno}: cannot read the {column} DOF {text!r}: {exc}") from exc
+            raise DataError(f"row {lineno} of {path}: cannot read the {column} DOF {text!r}: {exc}") from exc
         cache[text] = dof
-    if n_nodes is not None and dof.node > n_nodes:
-        raise DataError(f"row {lineno}: {column} {dof} is outside the beam (nodes 1..{n_nodes})")
     return dof
 
 
-def _floats(values: list[str], linenos: list[int], column: str) -> np.ndarray:
+def _select_rows(
+    path: Path,
+    resp: list[Dof],
+    ref: list[Dof],
+    linenos: list[int],
+    n_nodes: int | None,
+    points: Mapping[int, int] | None,
+    responses: set[Dof] | None,
+    references: set[Dof] | None,
+) -> tuple[list[int], list[Dof], list[Dof], Counter]:
+    """Rows to keep (indices), their mapped DOFs, and the count of skipped rows by reason."""
+    keep: list[int] = []
+    out_r: list[Dof] = []
+    out_c: list[Dof] = []
+    skipped: Counter = Counter()
+    for i, (a, b, ln) in enumerate(zip(resp, ref, linenos)):
+        if points is not None:
+            if a.node not in points or b.node not in points:
+                skipped["at points not in the point map"] += 1
+                continue
+            a, b = Dof(points[a.node], a.direction), Dof(points[b.node], b.direction)
+        for d, column in ((a, "response"), (b, "reference")):
+            if n_nodes is not None and d.node > n_nodes:
+                raise DataError(f"row {ln} of {path}: {column} {d} is outside the beam (nodes 1..{n_nodes})")
+        if (responses is not None and a not in responses) or (references is not None and b not in references):
+            skipped["at points not in the study"] += 1
+            continue
+        keep.append(i)
+        out_r.append(a)
+        out_c.append(b)
+    return keep, out_r, out_c, skipped
+
+
+def _floats(values: list[str], linenos: list[int], column: str, path: Path) -> np.ndarray:
     try:
         return np.array(values, dtype=float)
     except ValueError:
@@ -75,11 +109,19 @@ def _floats(values: list[str], linenos: list[int], column: str) -> np.ndarray:
             try:
                 float(v)
             except ValueError:
-                raise DataError(f"row {ln}: column {column!r} holds {v!r}, not a number") from None
+                raise DataError(f"row {ln} of {path}: column {column!r} holds {v!r}, not a number") from None
         raise  # pragma: no cover
 
 
-def read_frf_csv(path: str | os.PathLike, n_nodes: int | None = None, kind: str | None = None) -> FRF:
+def read_frf_csv(
+    path: str | os.PathLike,
+    n_nodes: int | None = None,
+    kind: str | None = None,
+    *,
+    points: Mapping[int, int] | None = None,
+    responses: Iterable | None = None,
+    references: Iterable | None = None,
+) -> FRF:
     """Read FRFs from the CSV layout documented in :mod:`jointid.io.frf_csv`.
 
     Parameters
@@ -90,11 +132,16 @@ def read_frf_csv(path: str | os.PathLike, n_nodes: int | None = None, kind: str 
         Number of beam nodes; DOFs on nodes above it are an error.
     kind : {"receptance", "mobility", "accelerance"}, optional
         Convert the result exactly to this kind (default: the file's kind).
+    points : mapping of int to int, optional
+        The file's node numbers -> model nodes; rows at nodes it does not
+        list are skipped (``FRF.notes`` counts them).
+    responses, references : iterables of DOF labels, optional
+        Keep only rows between these (model) DOFs; the others are skipped.
 
     Raises
     ------
     DataError
-        Missing kind, bad header, unreadable cell, non-finite value, node
+        Not UTF-8, separated by semicolons, missing kind, bad header, unreadable cell, non-finite value, node
         outside the beam (naming the row); duplicated row for a pair and line
         (naming both rows); missing pair or different frequency lines (naming
         the pair).
@@ -104,7 +151,7 @@ def read_frf_csv(path: str | os.PathLike, n_nodes: int | None = None, kind: str 
         raise DataError(f"FRF file {path} does not exist")
     if kind is not None and kind not in KINDS:
         raise DataError(f"unknown FRF kind {kind!r}; expected one of {KINDS}")
-    text = path.read_text(encoding="utf-8-sig")
+    text = read_utf8(path, "FRF CSV file")
     lines = text.splitlines()
     file_kind: str | None = None
     header: list[str] | None = None
@@ -126,6 +173,7 @@ def read_frf_csv(path: str | os.PathLike, n_nodes: int | None = None, kind: str 
         if header is None:
             header = [c.strip() for c in row]
             header_line = lineno
+            check_separator(path, header, lineno)
             continue
         body.append(row)
         linenos.append(lineno)
@@ -158,11 +206,28 @@ def read_frf_csv(path: str | os.PathLike, n_nodes: int | None = None, kind: str 
         raise DataError(f"{path} holds no FRF rows")
 
     cache: dict[str, Dof] = {}
-    resp = [_label(row[col["response"]], ln, "response", n_nodes, cache) for row, ln in zip(body, linenos)]
-    ref = [_label(row[col["reference"]], ln, "reference", n_nodes, cache) for row, ln in zip(body, linenos)]
-    freq = _floats([row[col["frequency_hz"]] for row in body], linenos, "frequency_hz")
-    re_ = _floats([row[col["real"]] for row in body], linenos, "real")
-    im_ = _floats([row[col["imag"]] for row in body], linenos, "imag")
+    resp = [_label(row[col["response"]], ln, "response", cache, path) for row, ln in zip(body, linenos)]
+    ref = [_label(row[col["reference"]], ln, "reference", cache, path) for row, ln in zip(body, linenos)]
+    keep, resp, ref, skipped = _select_rows(
+        path, resp, ref, linenos, n_nodes,
+        None if points is None else {int(k): int(v) for k, v in points.items()},
+        None if responses is None else set(parse_dofs(responses)),
+        None if references is None else set(parse_dofs(references)),
+    )
+    n_skip = sum(skipped.values())
+    note = (
+        f"skipped {n_skip} row{'s' if n_skip != 1 else ''}: "
+        + ", ".join(f"{c} {w}" for w, c in sorted(skipped.items(), key=lambda kv: (-kv[1], kv[0])))
+        if n_skip else None
+    )
+    if not keep:
+        raise DataError(f"{path} holds no FRF row to read; {note}")
+    if n_skip:
+        body = [body[i] for i in keep]
+        linenos = [linenos[i] for i in keep]
+    freq = _floats([row[col["frequency_hz"]] for row in body], linenos, "frequency_hz", path)
+    re_ = _floats([row[col["real"]] for row in body], linenos, "real", path)
+    im_ = _floats([row[col["imag"]] for row in body], linenos, "imag", path)
     ln_arr = np.asarray(linenos)
     bad = ~(np.isfinite(freq) & np.isfinite(re_) & np.isfinite(im_))
     if bad.any():
@@ -213,7 +278,7 @@ def read_frf_csv(path: str | os.PathLike, n_nodes: int | None = None, kind: str 
             )
     values = (re_ + 1j * im_)[order].reshape(n_pairs, axis.size)
     data = values.T.reshape(axis.size, len(responses), len(references))
-    frf = FRF(Frequency(axis), data, tuple(responses), tuple(references), file_kind)
+    frf = FRF(Frequency(axis), data, tuple(responses), tuple(references), file_kind, notes=(note,) if note else ())
     return frf.to(kind) if kind is not None else frf
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Iterable, Mapping
 
 from ..errors import DataError
 from ..frf import FRF
@@ -29,9 +30,19 @@ def _format(path: Path) -> str:
     )
 
 
-def read_frf(path: str | os.PathLike, n_nodes: int | None = None, kind: str | None = None) -> FRF:
+def read_frf(
+    path: str | os.PathLike,
+    n_nodes: int | None = None,
+    kind: str | None = None,
+    *,
+    points: Mapping[int, int] | None = None,
+    axis: str = "+Z",
+    responses: Iterable | None = None,
+    references: Iterable | None = None,
+    coherence: bool = False,
+) -> FRF:
     """Read an FRF file: ``.uff``/``.unv``/``.58`` → :func:`~jointid.io.uff.read_uff_frf`,
-    ``.csv`` → :func:`~jointid.io.frf_csv.read_frf_csv`.
+    ``.csv`` → :func:`~jointid.io.frf_csv.read_frf_csv`. Values come back in SI.
 
     Parameters
     ----------
@@ -40,6 +51,23 @@ def read_frf(path: str | os.PathLike, n_nodes: int | None = None, kind: str | No
         Number of beam nodes; DOFs outside ``1..n_nodes`` are an error.
     kind : str, optional
         Convert exactly to this kind (default: the file's own kind).
+    points : mapping of int to int, optional
+        File point id -> model node; points it does not list are skipped.
+        Default: the file's point ids are node numbers.
+    axis : {"+Z", "-Z", "+X", "-X", "+Y", "-Y"}
+        UFF only: the file's direction that is the model's ``w`` (the
+        opposite one is sign-flipped, others are skipped). CSV files name
+        the model's DOFs (``3w``): the axis does not apply to them.
+    responses, references : iterables of DOF labels, optional
+        Keep only FRFs between these model DOFs (others are skipped, not read).
+    coherence : bool
+        UFF only: also read the coherence records of the kept FRFs into
+        ``FRF.coherence`` (``None`` if the file has none).
+
+    Returns
+    -------
+    FRF
+        ``notes`` holds one line per unit conversion / skipped records / unused coherence.
 
     Raises
     ------
@@ -49,8 +77,11 @@ def read_frf(path: str | os.PathLike, n_nodes: int | None = None, kind: str | No
     """
     path = Path(path)
     if _format(path) == "uff":
-        return read_uff_frf(path, n_nodes=n_nodes, kind=kind)  # type: ignore[return-value]
-    return read_frf_csv(path, n_nodes=n_nodes, kind=kind)
+        return read_uff_frf(  # type: ignore[return-value]
+            path, n_nodes=n_nodes, kind=kind, points=points, axis=axis,
+            responses=responses, references=references, coherence=coherence, attach=True,
+        )
+    return read_frf_csv(path, n_nodes=n_nodes, kind=kind, points=points, responses=responses, references=references)
 
 
 def write_frf(path: str | os.PathLike, frf: FRF, kind: str | None = None, **uff_options) -> Path:

@@ -172,22 +172,23 @@ def read_impact_csv(path: str | Path, kind: str = "accelerance") -> tuple[Impact
     Raises
     ------
     DataError
-        Missing columns, unreadable numbers, a non-uniform time column or a
+        Not UTF-8 or not comma-separated, missing columns, unreadable numbers, a non-uniform time column or a
         sample rate that differs between hits (naming the excited node and hit),
         or any :class:`ImpactRecord` check.
     """
     import csv
 
+    import io
+
+    from .text import check_separator, read_utf8
+
     path = Path(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = list(csv.reader(fh))
-    except OSError as e:
-        raise DataError(f"{path}: cannot read ({e})") from None
+    rows = list(csv.reader(io.StringIO(read_utf8(path, "impact CSV file"), newline="")))
     rows = [r for r in rows if r]
     if not rows:
         raise DataError(f"{path}: empty file")
     header = [h.strip() for h in rows[0]]
+    check_separator(path, header)
     need = ["excited_node", "hit", "time_s", "force_n"]
     missing = [h for h in need if h not in header]
     labels = [h for h in header if h not in need]

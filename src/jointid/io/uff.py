@@ -2,28 +2,43 @@
 
 Conventions
 -----------
-* **Nodes** are beam node numbers (1..n_nodes).
-* **Direction**: the transverse beam displacement ``w`` is +Z, direction code
-  ``3``. A record measured in -Z (code ``-3``) is sign-flipped, on the
-  response and on the reference side independently (two flips cancel). Any
-  other direction (X, Y, rotations, scalar) is rejected: rotational DOFs are
-  not measured, and this module never guesses how they map onto ``theta``.
+* **Points** are beam node numbers (1..n_nodes), or file point ids mapped to
+  nodes by ``points`` (e.g. the test geometry's 1001, 1002, ... -> 1, 2, ...;
+  records at points the map does not list are skipped).
+* **Direction**: the transverse beam displacement ``w`` is the file's
+  ``axis`` (default +Z, direction code ``3``; any of ``+X .. -Z``). A record
+  measured along the opposite direction (e.g. -Z, code ``-3``) is
+  sign-flipped, on the response and on the reference side independently
+  (two flips cancel). Records in any other direction (triaxial X/Y channels,
+  rotations, scalar) are skipped and counted: rotational DOFs are not
+  measured, and this module never guesses how they map onto ``theta``.
 * **Kind** comes from record 9 (ordinate numerator) and record 10 (ordinate
   denominator) *specific data type*: numerator 8 = displacement
   (receptance), 11 = velocity (mobility), 12 = acceleration (accelerance);
   denominator 13 = excitation force. Anything else is an error naming the
   record. Records of different kinds in one file are converted exactly to
   the kind of the first FRF record.
-* **Units** are SI (m, N, s, Hz). A units dataset 164 that is not SI
-  (units code 1) is rejected; files without one are read as SI.
+* **Units** come from the records' units labels (``g``, ``mm/s^2``,
+  ``in/s``, ``lbf``, ``g/N``, ...), or, where a label is blank or ``NONE``,
+  from the units dataset 164 (SI, BG, MG, BA, MM, CM, IN, GM, user
+  defined), or SI when the file has none; values are converted exactly to
+  SI (m, N, s, Hz). An unknown label, or one that contradicts the record's
+  data type or a non-SI dataset 164, is an error naming the record
+  (:mod:`jointid.io.uff_units` has the table and the rules). The FRF's
+  ``notes`` say in one line what was converted.
 * **Abscissa** is frequency in Hz (record 8 specific data type 18, or units
   label ``Hz``), evenly or unevenly spaced.
 * **Records** are numbered 1, 2, ... in the order of the datasets in the file
-  (every dataset counts, whatever its type); error messages name them so.
+  (every dataset counts, whatever its type); error messages name the file
+  and the record so.
 * Only FRF records (function type 4) build the FRF matrix; coherence records
   (function type 6, "Coherence" in the UFF58 specification) are read on
-  request; every other record (time histories, type 1; spectra; ...) and
-  every other dataset (geometry, units, ...) is skipped.
+  request; every other record (time histories, type 1; auto-/cross-spectra;
+  ...), and FRFs the caller does not want (``responses``/``references``) are
+  skipped, and the FRF's ``notes`` count them in one line ("skipped 42
+  records: 20 in X/Y, 19 coherence, 3 at points not in the study"). Only a
+  record that is kept and cannot be read is an error. Other datasets
+  (geometry, ...) are ignored.
 
 Precision and pyuff 2.5.8
 -------------------------
@@ -46,193 +61,25 @@ Precision and pyuff 2.5.8
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterable, Mapping
 
 import numpy as np
 
-from ..dofs import Dof
-from ..errors import DataError, FrequencyError, JointIdError
-from ..frequency import Frequency
+from ..dofs import parse_dofs
+from ..errors import DataError, JointIdError
 from ..frf import FRF, KINDS, kind_factor
 from .atomic import atomic_path
+from .uff_records import FUNC_COHERENCE, FUNC_FRF, FUNC_TIME, Selection, assemble, axis_text, coherence_matrix, read_records, units_line
 
-__all__ = ["read_uff_frf", "write_uff_frf", "UFF_KIND_CODES", "FUNC_FRF", "FUNC_COHERENCE"]
+__all__ = ["read_uff_frf", "write_uff_frf", "UFF_KIND_CODES", "FUNC_TIME", "FUNC_FRF", "FUNC_COHERENCE"]
 
-#: UFF58 function types used here.
-FUNC_TIME = 1
-FUNC_FRF = 4
-FUNC_COHERENCE = 6
 #: Record 9 (ordinate numerator) specific data type of each FRF kind; denominator is 13.
 UFF_KIND_CODES: dict[str, int] = {"receptance": 8, "mobility": 11, "accelerance": 12}
-_CODE_KIND = {v: k for k, v in UFF_KIND_CODES.items()}
 _FORCE = 13
 _FREQUENCY = 18
 _Z = 3
 _NUM_LABELS = {"receptance": ("Displacement", "m"), "mobility": ("Velocity", "m/s"), "accelerance": ("Acceleration", "m/s^2")}
-_DATA_TYPES = {8: "displacement", 9: "reaction force", 11: "velocity", 12: "acceleration", 13: "excitation force", 0: "unknown", 1: "general"}
-_DIRS = {0: "scalar", 1: "+X", -1: "-X", 2: "+Y", -2: "-Y", 3: "+Z", -3: "-Z", 4: "+RX", -4: "-RX", 5: "+RY", -5: "-RY", 6: "+RZ", -6: "-RZ"}
-
-
-@dataclass
-class _Record:
-    index: int  # 1-based position of the dataset in the file
-    func_type: int
-    response: Dof
-    reference: Dof
-    sign: float
-    kind: str | None
-    x: np.ndarray
-    data: np.ndarray
-
-    def name(self) -> str:
-        return f"record {self.index} (response {self.response}, reference {self.reference})"
-
-
-def _describe(index: int, d: dict) -> str:
-    return (
-        f"record {index} (function type {d.get('func_type')}, response node {d.get('rsp_node')} "
-        f"dir {d.get('rsp_dir')}, reference node {d.get('ref_node')} dir {d.get('ref_dir')})"
-    )
-
-
-def _dof(d: dict, side: str, index: int, n_nodes: int | None) -> tuple[Dof, float]:
-    node, direction = d.get(f"{side}_node"), d.get(f"{side}_dir")
-    what = "response" if side == "rsp" else "reference"
-    if direction not in (_Z, -_Z):
-        raise DataError(
-            f"{_describe(index, d)}: {what} direction {direction} ({_DIRS.get(direction, 'unknown')}) is not supported; "
-            "only transverse translation +Z (3) or -Z (-3) can be read"
-        )
-    if not isinstance(node, (int, np.integer)) or node < 1 or (n_nodes is not None and node > n_nodes):
-        rng = f"1..{n_nodes}" if n_nodes is not None else ">= 1"
-        raise DataError(f"{_describe(index, d)}: {what} node {node} is outside the beam (nodes {rng})")
-    return Dof(int(node), "w"), (1.0 if direction > 0 else -1.0)
-
-
-def _kind(d: dict, index: int) -> str:
-    num, den = d.get("ordinate_spec_data_type"), d.get("orddenom_spec_data_type")
-    if num not in _CODE_KIND or den != _FORCE:
-        raise DataError(
-            f"{_describe(index, d)}: cannot tell the FRF kind from the ordinate data characteristics "
-            f"(numerator {num} = {_DATA_TYPES.get(num, 'unsupported')}, denominator {den} = "
-            f"{_DATA_TYPES.get(den, 'unsupported')}); expected numerator 8 (displacement), 11 (velocity) "
-            "or 12 (acceleration) over denominator 13 (excitation force)"
-        )
-    return _CODE_KIND[num]
-
-
-def _check_abscissa(d: dict, index: int) -> np.ndarray:
-    spec = d.get("abscissa_spec_data_type")
-    label = str(d.get("abscissa_axis_units_lab", "")).strip().lower()
-    if spec != _FREQUENCY and label != "hz":
-        raise DataError(
-            f"{_describe(index, d)}: abscissa specific data type is {spec}, expected 18 (frequency, Hz)"
-        )
-    x = np.asarray(d.get("x"), dtype=float).reshape(-1)
-    data = np.asarray(d.get("data")).reshape(-1)
-    n = d.get("num_pts")
-    if n is not None and (x.size != n or data.size != n):
-        raise DataError(f"{_describe(index, d)}: header announces {n} points but the record holds {data.size}")
-    if x.size == 0:
-        raise DataError(f"{_describe(index, d)}: the record holds no data")
-    return x
-
-
-def _read_records(path: Path, n_nodes: int | None, coherence: bool) -> list[_Record]:
-    import pyuff
-
-    try:
-        uff = pyuff.UFF(str(path))
-        types = [int(t) for t in uff.get_set_types()]
-    except Exception as exc:  # pyuff raises bare Exception
-        raise DataError(f"cannot read UFF file {path}: {exc}") from exc
-    wanted = (FUNC_FRF, FUNC_COHERENCE) if coherence else (FUNC_FRF,)
-    records: list[_Record] = []
-    for i, t in enumerate(types):
-        index = i + 1
-        if t not in (58, 164):
-            continue
-        try:
-            d = uff.read_sets(i)
-        except Exception as exc:
-            raise DataError(f"record {index} of {path}: pyuff cannot read dataset {t}: {exc}") from exc
-        if t == 164:
-            if d.get("units_code") != 1:
-                raise DataError(
-                    f"record {index} of {path}: units dataset 164 declares units code {d.get('units_code')} "
-                    f"({str(d.get('units_description', '')).strip()!r}); only SI (code 1: meter, newton) is supported"
-                )
-            continue
-        ft = d.get("func_type")
-        if ft not in wanted:
-            continue
-        response, s_r = _dof(d, "rsp", index, n_nodes)
-        reference, s_c = _dof(d, "ref", index, n_nodes)
-        kind = _kind(d, index) if ft == FUNC_FRF else None
-        x = _check_abscissa(d, index)
-        data = np.asarray(d["data"]).reshape(-1)
-        if ft == FUNC_COHERENCE:
-            data = np.real(data).astype(float)
-        if not np.all(np.isfinite(data)) or not np.all(np.isfinite(x)):
-            bad = int(np.flatnonzero(~np.isfinite(data) | ~np.isfinite(x))[0])
-            raise DataError(f"{_describe(index, d)}: non-finite value at line {bad + 1} ({x[bad]:g} Hz)")
-        sign = s_r * s_c if ft == FUNC_FRF else 1.0
-        records.append(_Record(index, int(ft), response, reference, sign, kind, x, data))
-    return records
-
-
-def _assemble(records: list[_Record], path: Path, what: str) -> tuple[Frequency, np.ndarray, tuple[Dof, ...], tuple[Dof, ...], list[_Record]]:
-    responses: list[Dof] = []
-    references: list[Dof] = []
-    for r in records:
-        if r.response not in responses:
-            responses.append(r.response)
-        if r.reference not in references:
-            references.append(r.reference)
-    first = records[0]
-    x0 = first.x
-    tol = 1e-12 * max(1.0, float(np.max(np.abs(x0))))
-    for r in records[1:]:
-        if r.x.size != x0.size or not np.all(np.abs(r.x - x0) <= tol):
-            raise DataError(
-                f"{r.name()} in {path} is on a different frequency axis ({_axis(r.x)}) than "
-                f"{first.name()} ({_axis(x0)}); all {what} records must share one axis"
-            )
-    try:
-        frequency = Frequency(x0)
-    except FrequencyError as exc:
-        raise DataError(f"{first.name()} in {path}: invalid frequency axis: {exc}") from exc
-    seen: dict[tuple[Dof, Dof], _Record] = {}
-    for r in records:
-        key = (r.response, r.reference)
-        if key in seen:
-            raise DataError(
-                f"{r.name()} in {path} duplicates the {what} pair ({r.response}, {r.reference}) "
-                f"already given by record {seen[key].index}"
-            )
-        seen[key] = r
-    for a in responses:
-        for b in references:
-            if (a, b) not in seen:
-                raise DataError(
-                    f"{path}: the {what} pair (response {a}, reference {b}) is missing; the file has responses "
-                    f"{[str(d) for d in responses]} and references {[str(d) for d in references]}, and needs "
-                    "every (response, reference) pair exactly once"
-                )
-    ri = {d: i for i, d in enumerate(responses)}
-    ci = {d: i for i, d in enumerate(references)}
-    dtype = complex if what == "FRF" else float
-    data = np.empty((frequency.size, len(responses), len(references)), dtype=dtype)
-    for r in records:
-        data[:, ri[r.response], ci[r.reference]] = r.data
-    return frequency, data, tuple(responses), tuple(references), list(seen.values())
-
-
-def _axis(x: np.ndarray) -> str:
-    if x.size == 1:
-        return f"1 line at {x[0]:.10g} Hz"
-    return f"{x.size} lines, {x[0]:.10g}..{x[-1]:.10g} Hz, first step {x[1] - x[0]:.10g} Hz"
 
 
 def read_uff_frf(
@@ -240,8 +87,14 @@ def read_uff_frf(
     n_nodes: int | None = None,
     coherence: bool = False,
     kind: str | None = None,
+    *,
+    points: Mapping[int, int] | None = None,
+    axis: str = "+Z",
+    responses: Iterable | None = None,
+    references: Iterable | None = None,
+    attach: bool = False,
 ) -> "FRF | tuple[FRF, np.ndarray | None]":
-    """Read FRFs from a UFF dataset 58 file (ASCII or binary).
+    """Read FRFs from a UFF dataset 58 file (ASCII or binary), in SI.
 
     Parameters
     ----------
@@ -250,65 +103,88 @@ def read_uff_frf(
     n_nodes : int, optional
         Number of beam nodes; nodes outside ``1..n_nodes`` are an error.
     coherence : bool
-        Also read coherence records (function type 6) and return them.
+        Also read the coherence records (function type 6) of the kept FRFs.
     kind : {"receptance", "mobility", "accelerance"}, optional
         Convert the result exactly to this kind (default: the kind of the file).
+    points : mapping of int to int, optional
+        File point id -> model node. Records at points it does not list are
+        skipped. Default: point ids are node numbers.
+    axis : {"+Z", "-Z", "+X", "-X", "+Y", "-Y"}
+        The file's direction that is the model's ``w``; records along the
+        opposite direction are sign-flipped, records in other directions skipped.
+    responses, references : iterables of DOF labels, optional
+        Keep only FRFs between these (model) DOFs; default: every mapped record.
+    attach : bool
+        With ``coherence``: return only the FRF, its ``coherence`` attribute
+        holding the coherence (instead of the pair ``(FRF, coherence)``).
 
     Returns
     -------
     FRF
         Responses and references in order of first appearance; ``kind`` from
-        the records' ordinate characteristics (or ``kind`` if given).
+        the records' ordinate characteristics (or ``kind`` if given); values
+        in SI whatever the file's units. ``FRF.notes``: one line on the unit
+        conversion (if any), one on the skipped records (if any), one on
+        coherence that could not be used (if any).
     (FRF, ndarray or None)
-        If ``coherence``: also the coherence, real, shape (F, r, c) aligned
-        with the FRF, or ``None`` when the file has no coherence records.
+        If ``coherence`` and not ``attach``: also the coherence, real, shape
+        (F, r, c) aligned with the FRF, or ``None`` when there is none.
 
     Raises
     ------
     DataError
-        Naming the record: unsupported direction, node outside the beam,
-        unknown ordinate characteristics, non-finite value, different
-        frequency axis, duplicated pair; or naming the missing pair.
+        Naming the file and record: node outside the beam, unknown or
+        contradictory units label or ordinate characteristics, non-finite
+        value, different frequency axis, duplicated pair; or naming the
+        missing pair; or no FRF record to keep (with what was skipped).
     """
     path = Path(path)
     if not path.is_file():
         raise DataError(f"FRF file {path} does not exist")
     if kind is not None and kind not in KINDS:
         raise DataError(f"unknown FRF kind {kind!r}; expected one of {KINDS}")
-    records = _read_records(path, n_nodes, coherence)
-    frf_records = [r for r in records if r.func_type == FUNC_FRF]
+    sel = Selection(
+        n_nodes=n_nodes,
+        points=None if points is None else {int(k): int(v) for k, v in points.items()},
+        axis=axis,
+        responses=None if responses is None else set(parse_dofs(responses)),
+        references=None if references is None else set(parse_dofs(references)),
+        coherence=coherence,
+    )
+    frf_records, coh_records = read_records(path, sel)
     if not frf_records:
-        raise DataError(f"{path} holds no FRF record (UFF dataset 58 with function type 4)")
+        skipped = sel.skipped_line()
+        hint = ""
+        if any(k.startswith("in ") for k in sel.skipped):
+            hint = "; if the beam was measured along another direction, give that axis (the study's [measurement].axis)"
+        raise DataError(
+            f"{path} holds no FRF record to read (UFF dataset 58, function type 4, along {axis[1]})"
+            + (f"; {skipped}" if skipped else "") + hint
+        )
     base = frf_records[0].kind
     assert base is not None
     omega = 2.0 * np.pi * frf_records[0].x
     for r in frf_records:
-        factor = r.sign
+        factor = r.sign * r.factor
         if r.kind != base:
             try:
                 factor = factor * kind_factor(omega, r.kind, base)  # type: ignore[arg-type]
             except JointIdError as exc:
                 raise DataError(f"{r.name()} in {path}: cannot convert {r.kind} to {base}: {exc}") from exc
         r.data = np.asarray(r.data, dtype=complex) * factor
-    frequency, data, responses, references, _ = _assemble(frf_records, path, "FRF")
-    frf = FRF(frequency, data, responses, references, base)
+    frequency, data, resp, refs = assemble(frf_records, path, "FRF")
+    coh, coh_note = (None, sel.coherence_problem)
+    if coherence and coh_records and coh_note is None:
+        coh, coh_note = coherence_matrix(coh_records, path, frequency, resp, refs, sel)
+    elif coh_records:
+        sel.skipped["coherence"] += len(coh_records)
+    notes = tuple(n for n in (units_line(frf_records), sel.skipped_line(), coh_note) if n)
+    frf = FRF(frequency, data, resp, refs, base, coh if attach else None, notes)
     if kind is not None:
         frf = frf.to(kind)
-    if not coherence:
+    if not coherence or attach:
         return frf
-    coh_records = [r for r in records if r.func_type == FUNC_COHERENCE]
-    if not coh_records:
-        return frf, None
-    cf, coh, c_resp, c_ref, _ = _assemble(coh_records, path, "coherence")
-    if cf != frequency or set(c_resp) != set(responses) or set(c_ref) != set(references):
-        raise DataError(
-            f"{path}: coherence records (first: record {coh_records[0].index}) do not match the FRF records "
-            f"(responses {[str(d) for d in c_resp]} vs {[str(d) for d in responses]}, references "
-            f"{[str(d) for d in c_ref]} vs {[str(d) for d in references]}, axis {cf!r} vs {frequency!r})"
-        )
-    coh = coh[:, [c_resp.index(d) for d in responses]][:, :, [c_ref.index(d) for d in references]]
     return frf, coh
-
 
 def _even_axis(hz: np.ndarray) -> tuple[bool, float, float]:
     """Whether ``hz`` is reproduced by pyuff's ``%13.5e`` min/increment header; and those two values."""
@@ -396,7 +272,7 @@ def write_uff_frf(
         binary = not even
     if not even and not binary:
         raise DataError(
-            f"the frequency axis ({_axis(hz)}) cannot be written to an ASCII UFF58 file exactly: "
+            f"the frequency axis ({axis_text(hz)}) cannot be written to an ASCII UFF58 file exactly: "
             "its header stores the first line and the step with 6 significant digits (%13.5e) and "
             "pyuff writes uneven abscissae with 6 digits too; use binary=True, the CSV layout, "
             "or a grid whose start and step have at most 6 significant digits"

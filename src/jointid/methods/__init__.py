@@ -1,1 +1,69 @@
-"""jointid.methods"""
+"""Methods: the inverse (Hong & Lee) and direct (step-sine) identifications and the test data behind them.
+
+The main API, re-exported here (imported on first use)::
+
+    from jointid.methods import InverseOptions, identify_joint, fit_material, process_stepsine
+
+* inverse method -- :mod:`.inverse`: ``identify_joint``, ``InverseOptions``,
+  ``InverseResult``, ``Reliability``, ``check_layout``; :mod:`.condition`:
+  ``pencil_condition``, ``ConditionNumbers``;
+* direct method -- :mod:`.stepsine`: ``process_stepsine``, ``read_stepsine_csv``,
+  ``write_stepsine_csv``, ``StepSineBlock``, ``StepSineResult``; :mod:`.stepsine_synth`:
+  ``synthesize_stepsine``, ``example_stepsine``; :mod:`.joint_model`: ``ElastomerJoint``,
+  ``ElastomerMaterial``, ``EndCap``, ``MATERIALS``; :mod:`.material_fit`: ``fit_material``,
+  ``static_estimate``, ``complex_modulus_per_line``, ``fit_zener`` and their results;
+  :mod:`.fit_statistics`: ``ParameterEstimate``;
+* impact tests -- :mod:`.impact`: ``estimate_frfs``, ``estimate_frf``, ``ImpactRecord``,
+  ``ImpactOptions``, ``ImpactFRF``, ``RejectedHit``; :mod:`.virtual_hammer`:
+  ``simulate_hits``, ``HammerSettings``, ``ImpactHits``; :mod:`.sensor_correction`:
+  ``roving_sensor_correction``.
+
+This layer imports :mod:`jointid.physics` and the labels, never studies, report, plots
+(except inside ``plot()`` methods) or the CLI.
+"""
+
+from .._lazy import attach
+
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        ".inverse": ("identify_joint", "InverseOptions", "InverseResult", "Reliability", "check_layout"),
+        ".condition": ("pencil_condition", "ConditionNumbers"),
+        ".stepsine": ("process_stepsine", "read_stepsine_csv", "write_stepsine_csv", "StepSineBlock", "StepSineResult"),
+        ".stepsine_synth": ("synthesize_stepsine", "example_stepsine"),
+        ".joint_model": ("ElastomerJoint", "ElastomerMaterial", "EndCap", "JointModes", "MATERIALS"),
+        ".material_fit": (
+            "fit_material",
+            "MaterialFit",
+            "static_estimate",
+            "StaticEstimate",
+            "complex_modulus_per_line",
+            "ComplexModulus",
+            "fit_zener",
+            "ZenerFit",
+        ),
+        ".fit_statistics": ("ParameterEstimate",),
+        ".impact": ("estimate_frfs", "estimate_frf", "ImpactRecord", "ImpactOptions", "ImpactFRF", "RejectedHit"),
+        ".virtual_hammer": ("simulate_hits", "HammerSettings", "ImpactHits"),
+        ".sensor_correction": ("roving_sensor_correction",),
+    },
+    submodules=(
+        "inverse",
+        "condition",
+        "estimation",
+        "stepsine",
+        "stepsine_synth",
+        "joint_model",
+        "material_fit",
+        "material_static",
+        "modulus_per_line",
+        "zener_fit",
+        "fit_statistics",
+        "impact",
+        "impact_checks",
+        "impact_records",
+        "impact_windows",
+        "virtual_hammer",
+        "sensor_correction",
+    ),
+)

@@ -522,15 +522,18 @@ def read_stepsine_csv(
     Raises
     ------
     DataError
-        Missing column (naming it and the columns present), a value that is not
-        a number, or a bad block (naming its frequency).
+        Not UTF-8 or not comma-separated, missing column (naming it and the
+        columns present), a value that is not a number, or a bad block (naming
+        its frequency).
     """
+    from ..io.text import check_separator, read_utf8
+
     cols, sc = _mapping(columns, scale)
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        rows = list(csv.reader(fh))
+    rows = list(csv.reader(io.StringIO(read_utf8(path, "step-sine CSV file"), newline="")))
     if not rows:
         raise DataError(f"{path}: empty file; expected a header row with {', '.join(DEFAULT_COLUMNS.values())}")
     header = [h.strip() for h in rows[0]]
+    check_separator(path, header)
     missing = [c for c in cols.values() if c not in header]
     if missing:
         raise DataError(

@@ -1,1 +1,31 @@
-"""Physics: beam elements, assembled structures, natural modes and FRF synthesis."""
+"""Physics: beam elements, assembled structures, natural modes and FRF synthesis.
+
+The main API, re-exported here (imported on first use)::
+
+    from jointid.physics import beam_structure, natural_modes, synthesize_frf
+
+* :mod:`.elements` -- ``Section``, ``Material``, ``timoshenko_element``;
+* :mod:`.structure` -- ``Structure`` (immutable assembled model), ``ComplexStiffness``,
+  ``beam_structure``, ``constant_stiffness``;
+* :mod:`.joints` -- ``parametric_joint``, ``joint_from_spec``;
+* :mod:`.modes` -- ``Modes``, ``natural_modes``;
+* :mod:`.synthesis` -- ``synthesize_frf`` (batched direct solve or modal superposition),
+  ``receptance_direct``, ``receptance_modal``, ``choose_method``.
+
+This layer imports only the labels and axes (:mod:`jointid.dofs`, :mod:`jointid.frequency`,
+:mod:`jointid.frf`), never :mod:`jointid.methods` or anything above.
+"""
+
+from .._lazy import attach
+
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        ".elements": ("Section", "Material", "timoshenko_element"),
+        ".structure": ("Structure", "ComplexStiffness", "beam_structure", "constant_stiffness"),
+        ".joints": ("parametric_joint", "joint_from_spec"),
+        ".modes": ("Modes", "natural_modes"),
+        ".synthesis": ("synthesize_frf", "receptance_direct", "receptance_modal", "choose_method"),
+    },
+    submodules=("elements", "structure", "joints", "modes", "synthesis"),
+)

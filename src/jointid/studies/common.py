@@ -12,7 +12,22 @@ from ..frf import FRF
 from ..physics.structure import ComplexStiffness
 from ..report.html import Table
 
-__all__ = ["StudyOutput", "Progress", "band_errors", "material_joint", "add_noise", "SUMMARY_BAND_HZ"]
+__all__ = [
+    "StudyOutput",
+    "Progress",
+    "band_errors",
+    "relative_error",
+    "elastomer_joint",
+    "material_joint",
+    "study_beam",
+    "add_noise",
+    "fmt",
+    "pct",
+    "terms_of",
+    "percentiles",
+    "layout_table",
+    "SUMMARY_BAND_HZ",
+]
 
 #: Band of the summary error figures, Hz.
 SUMMARY_BAND_HZ = (100.0, 1000.0)

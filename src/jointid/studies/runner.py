@@ -29,7 +29,7 @@ from ..report.html import Section, Table, render_report
 from .common import SUMMARY_BAND_HZ, Progress, StudyOutput
 from .config import STUDY_NAMES, ReproduceConfig
 
-__all__ = ["StudyFailed", "ReproduceResult", "run_reproduce", "parse_only", "STUDY_MODULES"]
+__all__ = ["StudyFailed", "ReproduceResult", "run_reproduce", "parse_only", "load_study_module", "STUDY_MODULES"]
 
 #: Study name -> module under :mod:`jointid.studies` with ``run(config, progress) -> StudyOutput``.
 STUDY_MODULES = {

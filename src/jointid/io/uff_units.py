@@ -1,0 +1,284 @@
+"""Units of UFF dataset 58 FRF records: the units dataset 164 and the axis units labels.
+
+Rules (what :mod:`jointid.io.uff` applies to every FRF record it keeps)
+----------------------------------------------------------------------
+* **Labels first.** The ordinate numerator (record 9) and denominator
+  (record 10) units labels say what the numbers are in. Known labels
+  (case-insensitive, spaces ignored; ``s2`` = ``s^2``):
+
+  ============  =====================================================
+  acceleration  ``g`` (9.80665 m/s^2), ``m/s^2``, ``cm/s^2``, ``mm/s^2``, ``in/s^2``, ``ft/s^2``
+  velocity      ``m/s``, ``cm/s``, ``mm/s``, ``in/s``, ``ft/s``
+  displacement  ``m``, ``cm``, ``mm``, ``um`` (``µm``), ``in``, ``ft``
+  force         ``N``, ``kN``, ``mN`` (exactly so: ``MN`` is refused), ``lbf``, ``kgf``
+  ============  =====================================================
+
+  with ``in`` = 0.0254 m, ``ft`` = 0.3048 m, ``lbf`` = 4.4482216152605 N,
+  ``kgf`` = 9.80665 N (exact definitions). The numerator label may carry
+  the force too: ``g/N``, ``(m/s^2)/N``, ``m/s^2/N``, ``mm/N``; the
+  denominator label must then be blank or the same force.
+* A label of another quantity than the record's data type (``m/s`` on an
+  acceleration numerator, 12; a motion on the force denominator, 13), or a
+  label not in the table, is a :class:`~jointid.errors.DataError` naming the
+  file and the record: jointid never guesses a unit.
+* **Blank labels** (empty or ``NONE``) take the units of the file's dataset
+  164 (the last one before the record), or SI when the file has none.
+* **Dataset 164** gives a units code and factors *file unit -> SI* (divide
+  by them): codes 1 SI (m, N), 2 BG (ft, lbf), 3 MG (m, kgf), 4 BA (ft,
+  poundal), 5 MM (mm, mN), 6 CM (cm, cN), 7 IN (in, lbf), 8 GM (mm, kgf)
+  use their exact definitions, and factors that contradict the code are an
+  error; 9 (user defined) uses the file's factors (1.0 and 1.0 is SI).
+  A label that names a length or force other than a non-SI dataset 164's is
+  a contradiction and an error; with an SI dataset 164 (which exporters
+  write by default) the labels are taken as they are.
+* The abscissa (record 8) is in Hz: label blank, ``Hz`` or ``kHz``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+__all__ = ["G0", "INCH", "FOOT", "LBF", "KGF", "UnitSystem", "SI", "units_from_164", "ordinate_units", "abscissa_factor", "OrdinateUnits"]
+
+G0 = 9.80665  # m/s^2, standard gravity (exact)
+INCH = 0.0254  # m (exact)
+FOOT = 0.3048  # m (exact)
+LBF = 4.4482216152605  # N (exact: 0.45359237 kg * G0)
+KGF = G0  # N
+POUNDAL = 0.45359237 * FOOT  # N (exact)
+
+# label -> (quantity, SI factor, length unit name or None)
+_ACC, _VEL, _DISP, _FORCE = "acceleration", "velocity", "displacement", "force"
+_LENGTHS = {"m": 1.0, "cm": 0.01, "mm": 1e-3, "um": 1e-6, "in": INCH, "ft": FOOT}
+_MOTION: dict[str, tuple[str, float, str | None]] = {"g": (_ACC, G0, None)}
+for _name, _size in _LENGTHS.items():
+    _MOTION[_name] = (_DISP, _size, _name)
+    if _name != "um":
+        _MOTION[f"{_name}/s"] = (_VEL, _size, _name)
+        _MOTION[f"{_name}/s^2"] = (_ACC, _size, _name)
+_FORCES = {"n": 1.0, "kn": 1e3, "mN": 1e-3, "lbf": LBF, "kgf": KGF}
+_DATA_QUANTITY = {8: _DISP, 11: _VEL, 12: _ACC, 13: _FORCE}
+
+# units code -> (name, length unit size m, force unit size N, length unit name, force unit name)
+_SYSTEMS = {
+    1: ("SI", 1.0, 1.0, "m", "N"),
+    2: ("BG", FOOT, LBF, "ft", "lbf"),
+    3: ("MG", 1.0, KGF, "m", "kgf"),
+    4: ("BA", FOOT, POUNDAL, "ft", "poundal"),
+    5: ("MM", 1e-3, 1e-3, "mm", "mN"),
+    6: ("CM", 1e-2, 1e-2, "cm", "cN"),
+    7: ("IN", INCH, LBF, "in", "lbf"),
+    8: ("GM", 1e-3, KGF, "mm", "kgf"),
+}
+
+
+@dataclass(frozen=True)
+class UnitSystem:
+    """The units of a UFF file (dataset 164): size of its length and force units in SI."""
+
+    name: str
+    length_m: float = 1.0
+    force_n: float = 1.0
+    length_name: str = "m"
+    force_name: str = "N"
+    record: int | None = None  # dataset 164 record number, None: no dataset 164
+
+    @property
+    def is_si(self) -> bool:
+        return self.length_m == 1.0 and self.force_n == 1.0
+
+    def describe(self) -> str:
+        where = "no units dataset 164" if self.record is None else f"units dataset 164 (record {self.record})"
+        return f"{where}: {self.name}, {self.length_name} and {self.force_name}"
+
+
+SI = UnitSystem("SI")
+
+
+def units_from_164(d: dict, where: str, record: int) -> UnitSystem:
+    """The :class:`UnitSystem` of a pyuff dataset 164 dict; ``where`` names the file and record in errors.
+
+    Raises
+    ------
+    DataError
+        Unknown units code, non-positive factors, or factors that contradict a standard code.
+    """
+    from ..errors import DataError
+
+    code = d.get("units_code")
+    desc = str(d.get("units_description", "")).strip()
+    try:
+        lf, ff = float(d.get("length")), float(d.get("force"))
+    except (TypeError, ValueError):
+        raise DataError(f"{where}: units dataset 164 has no readable length/force factors") from None
+    if not (math.isfinite(lf) and math.isfinite(ff) and lf > 0 and ff > 0):
+        raise DataError(f"{where}: units dataset 164 has length factor {lf!r} and force factor {ff!r}; both must be positive")
+    if code == 9:
+        length_m, force_n = 1.0 / lf, 1.0 / ff
+        if abs(lf - 1.0) <= 1e-12 and abs(ff - 1.0) <= 1e-12:
+            return UnitSystem("user defined (SI)", 1.0, 1.0, "m", "N", record)
+        return UnitSystem(f"user defined {desc!r}" if desc else "user defined", length_m, force_n,
+                          f"{length_m:.10g} m", f"{force_n:.10g} N", record)
+    if code not in _SYSTEMS:
+        raise DataError(
+            f"{where}: units dataset 164 declares units code {code!r} ({desc!r}); expected 1 (SI) to 9 (user defined)"
+        )
+    name, length_m, force_n, lname, fname = _SYSTEMS[code]
+    for what, factor, size in (("length", lf, length_m), ("force", ff, force_n)):
+        if abs(factor * size - 1.0) > 1e-5:
+            raise DataError(
+                f"{where}: units dataset 164 declares code {code} ({name}: {lname}, {fname}) but a {what} factor "
+                f"{factor:.10g} (expected {1.0 / size:.10g}); the file contradicts itself: fix the code or the factor"
+            )
+    return UnitSystem(name, length_m, force_n, lname, fname, record)
+
+
+def _norm(label: str) -> str:
+    s = re.sub(r"\s+", "", label).replace("²", "^2").replace("**", "^").replace("µ", "u").replace("μ", "u")
+    s = re.sub(r"/sec", "/s", s, flags=re.IGNORECASE)
+    s = re.sub(r"/s2$", "/s^2", s, flags=re.IGNORECASE)
+    s = re.sub(r"/s/s$", "/s^2", s, flags=re.IGNORECASE)
+    return s
+
+
+def _blank(label) -> bool:
+    return label is None or str(label).strip() == "" or str(label).strip().upper() == "NONE"
+
+
+def _force(label: str) -> float | None:
+    s = _norm(label)
+    if s == "mN":
+        return _FORCES["mN"]
+    if s.lower() == "mn":  # MN, Mn: mega-newton or a typo; never read as milli
+        return None
+    return _FORCES.get(s.lower())
+
+
+def _motion(label: str) -> tuple[str, float, str | None] | None:
+    s = label.strip()
+    if s.startswith("(") and s.endswith(")"):
+        s = s[1:-1]
+    return _MOTION.get(_norm(s).lower())
+
+
+@dataclass(frozen=True)
+class OrdinateUnits:
+    """The units of one FRF record: SI factor and a short text of what the file holds."""
+
+    factor: float
+    text: str  # e.g. "g/N", "mm/s^2 over N"
+    source: str  # "labels", "dataset 164", "default SI"
+
+
+def ordinate_units(d: dict, num_type: int, system: UnitSystem, where: str) -> OrdinateUnits:
+    """SI factor of a dataset 58 FRF record from its units labels (or the file's units).
+
+    Parameters
+    ----------
+    d : dict
+        pyuff dataset 58 dict (``ordinate_axis_units_lab``, ``orddenom_axis_units_lab``).
+    num_type : int
+        Ordinate numerator specific data type (8, 11 or 12; the denominator is force, 13).
+    system : UnitSystem
+        Units in effect (the last dataset 164 before the record, or :data:`SI`).
+    where : str
+        File and record, for error messages.
+
+    Returns
+    -------
+    OrdinateUnits
+        ``factor`` such that ``value_SI = factor * value_file`` (SI: (m/s^n)/N).
+    """
+    from ..errors import DataError
+
+    quantity = _DATA_QUANTITY[num_type]
+    num_lab, den_lab = d.get("ordinate_axis_units_lab"), d.get("orddenom_axis_units_lab")
+    num: tuple[str, float, str | None] | None = None
+    num_text = ""
+    den: float | None = None
+    den_text = None
+    if not _blank(num_lab):
+        lab = str(num_lab).strip()
+        num, num_text = _motion(lab), lab
+        if num is None and "/" in lab:  # composite "g/N", "(m/s^2)/N", "mm/N"
+            left, right = lab.rsplit("/", 1)
+            f = _force(right)
+            m = _motion(left)
+            if f is not None and m is not None:
+                num, den, den_text = m, f, right.strip()
+                num_text = left.strip()
+                if num_text.startswith("(") and num_text.endswith(")"):
+                    num_text = num_text[1:-1].strip()
+        if num is None:
+            if _force(lab) is not None:
+                raise DataError(
+                    f"{where}: ordinate units label {lab!r} is a force, but the ordinate numerator data type is "
+                    f"{num_type} ({quantity}); fix the label or the data type"
+                )
+            raise DataError(
+                f"{where}: unknown ordinate units label {lab!r}; jointid reads g, m/s^2, mm/s^2, in/s^2, m/s, mm/s, "
+                "in/s, m, mm, in (optionally over N, kN, lbf: 'g/N'); fix the label in the file"
+            )
+        if num[0] != quantity:
+            raise DataError(
+                f"{where}: ordinate units label {lab!r} ({num[0]}) contradicts the ordinate numerator data type "
+                f"{num_type} ({quantity}); fix the label or the data type"
+            )
+    if not _blank(den_lab):
+        lab = str(den_lab).strip()
+        f = _force(lab)
+        if f is None:
+            what = "a motion" if _motion(lab) is not None else "an unknown unit"
+            raise DataError(
+                f"{where}: ordinate denominator units label {lab!r} is {what}, but the denominator data type is "
+                "13 (excitation force); jointid reads N, kN, mN, lbf, kgf"
+            )
+        if den is not None and f != den:
+            raise DataError(
+                f"{where}: ordinate units label {str(num_lab).strip()!r} says force in {den_text!r} but the "
+                f"denominator units label says {lab!r}; fix one of them"
+            )
+        den, den_text = f, lab
+    if not system.is_si:  # a deliberate non-SI dataset 164: labels must agree with it
+        if num is not None and num[2] is not None and abs(_LENGTHS[num[2]] / system.length_m - 1.0) > 1e-9:
+            raise DataError(
+                f"{where}: ordinate units label {str(num_lab).strip()!r} (length in {num[2]}) contradicts the file's "
+                f"{system.describe()}; fix the label or the units dataset"
+            )
+        if den is not None and abs(den / system.force_n - 1.0) > 1e-9:
+            raise DataError(
+                f"{where}: force units label {den_text!r} contradicts the file's {system.describe()}; "
+                "fix the label or the units dataset"
+            )
+    fallback = "dataset 164" if system.record is not None else "default SI"
+    if num is None:
+        num_factor, num_text, num_src = system.length_m, f"{system.length_name}{_SUFFIX[quantity]}", fallback
+    else:
+        num_factor, num_src = num[1], "labels"
+    if den is None:
+        den_factor, den_text, den_src = system.force_n, system.force_name, fallback
+    else:
+        den_factor, den_src = den, "labels"
+    text = f"({num_text})/{den_text}" if "/" in num_text else f"{num_text}/{den_text}"
+    source = num_src if num_src == den_src else f"{num_src} and {den_src}"
+    return OrdinateUnits(num_factor / den_factor, text, source)
+
+
+_SUFFIX = {_DISP: "", _VEL: "/s", _ACC: "/s^2"}
+
+
+def abscissa_factor(d: dict, where: str) -> float:
+    """Factor to Hz of a record's abscissa units label (blank, ``Hz``: 1; ``kHz``: 1000)."""
+    from ..errors import DataError
+
+    lab = d.get("abscissa_axis_units_lab")
+    if _blank(lab):
+        return 1.0
+    s = _norm(str(lab)).lower()
+    if s == "hz":
+        return 1.0
+    if s == "khz":
+        return 1e3
+    raise DataError(f"{where}: abscissa units label {str(lab).strip()!r} is not a frequency; expected Hz")
