@@ -46,6 +46,7 @@ __getattr__, __dir__, __all__ = attach(
         ".physics.synthesis": ("synthesize_frf",),
         # methods: inverse, direct, impact
         ".methods.inverse": ("identify_joint", "InverseOptions", "InverseResult"),
+        ".methods.coupling": ("identify_joint_coupling", "CouplingOptions", "CouplingResult"),
         ".methods.stepsine": ("process_stepsine", "read_stepsine_csv", "StepSineResult"),
         ".methods.stepsine_synth": ("synthesize_stepsine", "example_stepsine"),
         ".methods.joint_model": ("ElastomerJoint", "ElastomerMaterial", "MATERIALS"),

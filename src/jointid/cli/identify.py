@@ -19,7 +19,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser(
         "identify",
         help="identify the joint's 2x2 dynamic stiffness from measured FRFs",
-        description="Identify the joint's complex dynamic stiffness matrix (Hong & Lee) from FRFs of the "
+        description="Identify the joint's complex dynamic stiffness matrix (default: weighted receptance coupling with per-term uncertainty; [identification] method = \"hong-lee\" for the paper's method) from FRFs of the "
         "constrained beam (UFF58 .uff/.unv or the documented CSV layout) and the study's free-beam FE model. "
         "Uses the file's lines inside the study's [frequency] start..stop. Writes DIR/joint_stiffness.csv, "
         "DIR/summary.json and DIR/joint_stiffness.png. Units: K_w_w N/m, K_w_theta N/rad, K_theta_w N*m/m, "
@@ -46,31 +46,53 @@ def summary(result, study, source: Path) -> dict:
                 "median_loss_factor": float(np.median(k.imag[stiff] / k.real[stiff])) if stiff.any() else None,
                 "lines_with_positive_storage": int(stiff.sum()),
             }
-    return {
+    out = {
         "study": study.source,
         "frf_file": str(source),
+        "method": getattr(result, "method", "hong-lee"),
         "joint_dofs": [str(d) for d in result.joint_dofs],
         "observed": [str(d) for d in study.measurement.observed_dofs],
         "excited": [str(d) for d in study.measurement.excited_dofs],
         "lines": int(f.size),
         "frequency_hz": [float(f[0]), float(f[-1])],
-        "options": {
-            "symmetric": result.options.symmetric,
-            "regularization": result.options.regularization,
-            "model_accelerometers": study.identification.model_accelerometers,
-            "estimation": result.options.estimation,
-            "cond_rtol": result.options.cond_rtol,
-        },
         "reliable_fraction": float(np.mean(result.reliable)),
+        "terms": terms,
+        "units": {"K_w_w": "N/m", "K_w_theta": "N/rad", "K_theta_w": "N*m/m", "K_theta_theta": "N*m/rad"},
+        "theta_convention": "theta = dw/dx, rad, positive when the beam rises with increasing x",
+    }
+    if out["method"] == "receptance":
+        o = result.options
+        out["options"] = {
+            "symmetric": o.symmetric, "smoothing": o.smoothing, "weighting": result.weighting,
+            "averages": o.averages, "max_relative_std": o.max_relative_std,
+            "model_accelerometers": study.identification.model_accelerometers,
+            "elements_per_segment": study.beam.mesh_refinement(study.frequency.stop),
+        }
+        rel = result.relative_std
+        for a, b, name in result.term_names():
+            terms[name]["reliable_fraction"] = float(np.mean(result.reliable_terms[:, a, b]))
+            terms[name]["median_predicted_relative_std"] = float(np.nanmedian(rel[:, a, b])) if np.isfinite(rel[:, a, b]).any() else None
+            terms[name]["smoothing_edf"] = result.smoothing_edf.get(name, result.smoothing_edf.get(f"K_{name.split('_', 2)[2]}_{name.split('_')[1]}"))
+        out["findings"] = result.findings()
+        out["max_condition"] = float(np.max(result.condition))
+        out["median_residual_scale"] = float(np.nanmedian(result.residual_scale)) if np.isfinite(result.residual_scale).any() else None
+        out["columns"] = "K_{i}_{j}_real/_imag: estimate; _real_std/_imag_std: 1-sigma; reliable_{i}_{j}: predicted relative std <= max_relative_std, conditioning and passivity checks; reliable: all terms"
+        return out
+    out["options"] = {
+        "symmetric": result.options.symmetric,
+        "regularization": result.options.regularization,
+        "model_accelerometers": study.identification.model_accelerometers,
+        "estimation": result.options.estimation,
+        "cond_rtol": result.options.cond_rtol,
+    }
+    out.update({
         "max_cond_A": float(np.max(result.cond_A)),
         "max_cond_A_relative_error_bound": float(np.max(result.cond_A_bound)),
         "max_cond_B": float(np.max(result.cond_B)),
         "max_cond_H": float(np.max(result.cond_H)),
         "reliability_thresholds": vars(result.options.reliability),
-        "terms": terms,
-        "units": {"K_w_w": "N/m", "K_w_theta": "N/rad", "K_theta_w": "N*m/m", "K_theta_theta": "N*m/rad"},
-        "theta_convention": "theta = dw/dx, rad, positive when the beam rises with increasing x",
-    }
+    })
+    return out
 
 
 def write_identification(out: OutputSet, result, study, source: Path, plots: bool = True, truth=None) -> None:
@@ -99,4 +121,6 @@ def run(args: argparse.Namespace) -> int:
         f"({f[0]:g}-{f[-1]:g} Hz); {100 * np.mean(result.reliable):.0f}% of lines reliable; "
         f"wrote {out.path('joint_stiffness.csv')}"
     )
+    for finding in getattr(result, "findings", lambda: [])():
+        print(finding)
     return 0

@@ -4,6 +4,9 @@ The main API, re-exported here (imported on first use)::
 
     from jointid.methods import InverseOptions, identify_joint, fit_material, process_stepsine
 
+* robust inverse method (default) -- :mod:`.coupling`: ``identify_joint_coupling``,
+  ``CouplingOptions``, ``CouplingResult``; :mod:`.coupling_lines`, :mod:`.frf_variance`,
+  :mod:`.smoothing`;
 * inverse method -- :mod:`.inverse`: ``identify_joint``, ``InverseOptions``,
   ``InverseResult``, ``Reliability``, ``check_layout``; :mod:`.condition`:
   ``pencil_condition``, ``ConditionNumbers``;
@@ -27,6 +30,10 @@ from .._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
+        ".coupling": ("identify_joint_coupling", "CouplingOptions", "CouplingResult"),
+        ".coupling_lines": ("coupling_per_line", "LineEstimates"),
+        ".frf_variance": ("frf_variance",),
+        ".smoothing": ("smooth_series", "SmoothedSeries"),
         ".inverse": ("identify_joint", "InverseOptions", "InverseResult", "Reliability", "check_layout"),
         ".condition": ("pencil_condition", "ConditionNumbers"),
         ".stepsine": ("process_stepsine", "read_stepsine_csv", "write_stepsine_csv", "StepSineBlock", "StepSineResult"),
@@ -48,6 +55,10 @@ __getattr__, __dir__, __all__ = attach(
         ".sensor_correction": ("roving_sensor_correction",),
     },
     submodules=(
+        "coupling",
+        "coupling_lines",
+        "frf_variance",
+        "smoothing",
         "inverse",
         "condition",
         "estimation",

@@ -110,12 +110,12 @@ class ImpactFRF:
     notes: tuple[str, ...] = field(default=())
 
     def to_frf(self, estimator: str = "h1"):
-        """The estimate as a labelled :class:`jointid.frf.FRF` (``estimator`` "h1" or "h2")."""
+        """The estimate as a labelled :class:`jointid.frf.FRF` (``estimator`` "h1" or "h2"), with its coherence."""
         from ..frf import FRF
 
         if estimator not in ("h1", "h2"):
             raise DataError(f"estimator must be 'h1' or 'h2', got {estimator!r}")
-        return FRF(self.frequency, getattr(self, estimator), self.responses, self.references, self.kind)
+        return FRF(self.frequency, getattr(self, estimator), self.responses, self.references, self.kind, coherence=self.coherence)
 
 
 # --------------------------------------------------------------------------- estimation

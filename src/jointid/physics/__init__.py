@@ -25,7 +25,9 @@ __getattr__, __dir__, __all__ = attach(
         ".structure": ("Structure", "ComplexStiffness", "beam_structure", "constant_stiffness"),
         ".joints": ("parametric_joint", "joint_from_spec"),
         ".modes": ("Modes", "natural_modes"),
+        ".free_model": ("FreeModel", "StructureModel", "as_free_model"),
+        ".beam_mesh": ("elements_per_segment", "bending_wavelength_m"),
         ".synthesis": ("synthesize_frf", "receptance_direct", "receptance_modal", "choose_method"),
     },
-    submodules=("elements", "structure", "joints", "modes", "synthesis"),
+    submodules=("elements", "structure", "joints", "modes", "synthesis", "free_model", "beam_mesh"),
 )

@@ -19,9 +19,10 @@ __getattr__, __dir__, __all__ = attach(
         ".frf": ("plot_frf",),
         ".impact": ("plot_impact_frf",),
         ".inverse": ("plot_identification",),
+        ".joint_stiffness": ("plot_joint_stiffness",),
         ".direct": ("plot_direct_stiffness", "plot_deformed_shapes"),
         ".studies": ("plot_terms", "plot_conditions"),
         ".style": ("new_figure", "save_figure"),
     },
-    submodules=("frf", "impact", "inverse", "direct", "studies", "style"),
+    submodules=("frf", "impact", "inverse", "joint_stiffness", "direct", "studies", "style"),
 )
