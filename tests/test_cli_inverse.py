@@ -62,7 +62,8 @@ def test_simulate_identify_round_trip(tmp_path):
         "frequency_hz",
         "K_w_w_real", "K_w_w_imag", "K_w_theta_real", "K_w_theta_imag",
         "K_theta_w_real", "K_theta_w_imag", "K_theta_theta_real", "K_theta_theta_imag",
-        "cond_A", "cond_B", "cond_H", "reliable",
+        *(f"K_{t}_{p}_std" for t in ("w_w", "w_theta", "theta_w", "theta_theta") for p in ("real", "imag")),
+        "reliable_w_w", "reliable_w_theta", "reliable_theta_w", "reliable_theta_theta", "reliable",
     ]
     _, true = _table(tmp_path / "sim" / "true_joint.csv")
     assert np.array_equal(got["frequency_hz"].astype(float), true["frequency_hz"].astype(float))
@@ -73,6 +74,7 @@ def test_simulate_identify_round_trip(tmp_path):
     assert set(got["reliable"]) <= {"true", "false"}
     summary = json.loads((tmp_path / "id" / "summary.json").read_text())
     assert summary["lines"] == 200 and summary["units"]["K_w_theta"] == "N/rad"
+    assert summary["method"] == "receptance" and summary["findings"] == []  # exact FRFs: every term determined
     assert (tmp_path / "id" / "joint_stiffness.png").stat().st_size > 20000
 
 

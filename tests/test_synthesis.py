@@ -52,10 +52,17 @@ def test_modal_and_direct_agree():
 
 def test_auto_method_choice():
     assert choose_method(BEAM) == "modal"
-    assert choose_method(BEAM.with_joint(_joint())) == "direct"
+    assert choose_method(BEAM.with_joint(_joint())) == "coupled"  # joint-free part modal, joint by Woodbury
     assert choose_method(BEAM.with_spring("1w", None, 1e4 * (1 + 0.5j))) == "direct"  # non-proportional
     with pytest.raises(ModelError, match="proportional"):
         synthesize_frf(BEAM.with_joint(_joint()), FREQ, ["1w"], ["1w"], method="modal")
+
+
+def test_coupled_synthesis_equals_the_direct_solve():
+    s = BEAM.with_joint(_joint())
+    d = synthesize_frf(s, FREQ, ["1w", "10theta"], ["3w", "10w"], method="direct").data
+    c = synthesize_frf(s, FREQ, ["1w", "10theta"], ["3w", "10w"], method="coupled").data
+    assert np.max(np.abs(c - d) / np.abs(d).max(axis=(1, 2), keepdims=True)) < 1e-11
 
 
 def test_kinds_are_exact_conversions():

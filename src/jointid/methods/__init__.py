@@ -32,7 +32,6 @@ __getattr__, __dir__, __all__ = attach(
     {
         ".coupling": ("identify_joint_coupling", "CouplingOptions", "CouplingResult"),
         ".coupling_lines": ("coupling_per_line", "LineEstimates"),
-        ".frf_variance": ("frf_variance",),
         ".smoothing": ("smooth_series", "SmoothedSeries"),
         ".inverse": ("identify_joint", "InverseOptions", "InverseResult", "Reliability", "check_layout"),
         ".condition": ("pencil_condition", "ConditionNumbers"),

@@ -17,17 +17,13 @@ from dataclasses import dataclass
 from typing import Iterable, Protocol, runtime_checkable
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..dofs import Dof, parse_dofs
 from ..errors import ModelError
 from ..frequency import Frequency
 from .modes import DENSE_EIGEN_LIMIT, Modes, natural_modes
 from .structure import Structure
-from .synthesis import _check_zero_frequency, receptance_direct
-
-#: Complex values per chunk of the refined modal sum (16 MB a chunk).
-_CHUNK_ELEMENTS = 2**20
+from .synthesis import _check_zero_frequency, receptance_direct, receptance_modal_refined
 
 __all__ = ["FreeModel", "StructureModel", "as_free_model"]
 
@@ -89,31 +85,8 @@ class StructureModel:
         rows, cols = parse_dofs(rows), parse_dofs(cols)
         _check_zero_frequency(self.structure, frequency)
         if self.modes is not None:
-            return self._refined_modal(frequency, rows, cols)
+            return receptance_modal_refined(self.structure, frequency, rows, cols, self.modes)
         return receptance_direct(self.structure, frequency, rows, cols)
-
-    def _refined_modal(self, frequency: Frequency, rows, cols) -> np.ndarray:
-        """Modal receptance with one step of iterative refinement, in chunks of lines (memory)."""
-        s = self.structure
-        ri, ci = np.array(s.index(rows)), np.array(s.index(cols))
-        Phi = self.modes.shapes
-        lam = self.modes.eigenvalues * (1.0 + 1j * s.proportional_loss_factor)
-        K, M = sp.csr_matrix(s.K), sp.csr_matrix(s.M)
-        N = Phi.shape[0]
-        out = np.empty((frequency.size, ri.size, ci.size), complex)
-        chunk = max(1, _CHUNK_ELEMENTS // (N * max(ci.size, 1)))
-        w2_all = frequency.omega**2
-        for a in range(0, frequency.size, chunk):  # chunks bound memory (F x N x c); vectorized within
-            w2 = w2_all[a : a + chunk]
-            g = 1.0 / (lam[None, :] - w2[:, None])  # (f, r)
-            Y0 = np.einsum("nk,fk,ck->fnc", Phi, g, Phi[ci], optimize=True)  # (f, N, c): all rows
-            KY = (K @ Y0.transpose(1, 0, 2).reshape(N, -1)).reshape(N, w2.size, ci.size).transpose(1, 0, 2)
-            MY = (M @ Y0.transpose(1, 0, 2).reshape(N, -1)).reshape(N, w2.size, ci.size).transpose(1, 0, 2)
-            R = -(KY - w2[:, None, None] * MY)
-            R[:, ci, np.arange(ci.size)] += 1.0  # E - D Y0
-            corr = np.einsum("rk,fk,fkc->frc", Phi[ri], g, np.einsum("nk,fnc->fkc", Phi, R, optimize=True), optimize=True)
-            out[a : a + chunk] = Y0[:, ri, :] + corr
-        return out
 
 
 def as_free_model(model) -> FreeModel:

@@ -26,7 +26,14 @@ Two paths, chosen by ``method="auto"`` and overridable:
     ``R = [(K* + sigma M)^-1]_rc - sum_kept phi phi^T / (w_r^2 (1 + j eta) + sigma)``;
     its relative error is of order ``(f_max / f_cut)^2`` of the truncated part.
 
-``"auto"`` picks ``"modal"`` whenever it is exact (or, for large models,
+``"coupled"``
+    A proportionally damped structure with frequency-dependent joints: the
+    joint-free receptance by refined modal superposition, the joints added by
+    Sherman-Morrison-Woodbury on their DOFs (:func:`receptance_coupled`); exact,
+    and ~100x faster than ``"direct"`` on a 290-DOF beam.
+
+``"auto"`` picks ``"coupled"`` for such structures (up to
+:data:`~jointid.physics.modes.DENSE_EIGEN_LIMIT` DOFs), and ``"modal"`` whenever it is exact (or, for large models,
 residual-compensated) and ``"direct"`` otherwise.
 
 At 0 Hz a structure with rigid-body modes (free-free) has a singular ``D``:
@@ -36,6 +43,7 @@ is raised.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Iterable
 
 import numpy as np
@@ -46,10 +54,16 @@ from ..errors import FrequencyError, ModelError
 from ..frequency import Frequency
 from ..frf import FRF, kind_factor
 from ..dofs import parse_dofs
-from .modes import Modes, natural_modes
+from .modes import DENSE_EIGEN_LIMIT, Modes, natural_modes
 from .structure import Structure
 
-__all__ = ["synthesize_frf", "receptance_direct", "receptance_modal", "DENSE_DIRECT_LIMIT", "choose_method"]
+__all__ = [
+    "synthesize_frf", "receptance_direct", "receptance_modal", "receptance_modal_refined", "receptance_coupled",
+    "DENSE_DIRECT_LIMIT", "choose_method",
+]
+
+#: Complex values per chunk of the refined modal sum (16 MB a chunk).
+_CHUNK_ELEMENTS = 2**20
 
 #: Largest model (DOFs) solved by dense batched LAPACK; larger ones use sparse LU per line.
 DENSE_DIRECT_LIMIT = 600
@@ -82,10 +96,72 @@ def _check_zero_frequency(structure: Structure, frequency: Frequency) -> None:
 
 
 def choose_method(structure: Structure) -> str:
-    """The synthesis path ``"auto"`` takes for ``structure``: ``"modal"`` or ``"direct"``."""
-    if structure.joints or structure.proportional_loss_factor is None:
-        return "direct"
-    return "modal"
+    """The synthesis path ``"auto"`` takes for ``structure``: ``"modal"``, ``"coupled"`` or ``"direct"``."""
+    if structure.proportional_loss_factor is None or len(structure.dofs) > DENSE_EIGEN_LIMIT:
+        return "direct" if structure.joints or structure.proportional_loss_factor is None else "modal"
+    return "coupled" if structure.joints else "modal"
+
+
+def receptance_modal_refined(structure: Structure, frequency: Frequency, responses, references, modes: Modes) -> np.ndarray:
+    """Modal receptance over every mode plus one step of iterative refinement, shape (F, r, c).
+
+    ``Y0 = Phi diag(1 / (w_r^2 (1 + j eta) - w^2)) Phi^T E`` on every row, then
+    ``Y = Y0 + Phi g Phi^T (E - D Y0)`` with ``D = K* - w^2 M`` (sparse products):
+    the plain modal sum loses accuracy to cancellation between modes (1.6e-10
+    relative on the 19-node benchmark beam, 5e-8 on it meshed 8x finer); the
+    refined one agrees with a direct solve to ~2e-12 and ~5e-10 there, at about
+    twice the modal cost and ~1/300 of a dense direct solve's on the refined beam.
+    Needs complete modes of a proportionally damped structure without joints.
+    """
+    ri, ci = np.array(structure.index(responses)), np.array(structure.index(references))
+    Phi = modes.shapes
+    lam = modes.eigenvalues * (1.0 + 1j * structure.proportional_loss_factor)
+    K, M = sp.csr_matrix(structure.K), sp.csr_matrix(structure.M)
+    N = Phi.shape[0]
+    out = np.empty((frequency.size, ri.size, ci.size), complex)
+    chunk = max(1, _CHUNK_ELEMENTS // (N * max(ci.size, 1)))
+    w2_all = frequency.omega**2
+    for a in range(0, frequency.size, chunk):  # chunks bound memory (F x N x c); vectorized within
+        w2 = w2_all[a : a + chunk]
+        g = 1.0 / (lam[None, :] - w2[:, None])  # (f, modes)
+        Y0 = np.einsum("nk,fk,ck->fnc", Phi, g, Phi[ci], optimize=True)  # (f, N, c): every row
+        flat = Y0.transpose(1, 0, 2).reshape(N, -1)
+        KY = (K @ flat).reshape(N, w2.size, ci.size).transpose(1, 0, 2)
+        MY = (M @ flat).reshape(N, w2.size, ci.size).transpose(1, 0, 2)
+        R = w2[:, None, None] * MY - KY
+        R[:, ci, np.arange(ci.size)] += 1.0  # E - D Y0
+        corr = np.einsum("rk,fk,fkc->frc", Phi[ri], g, np.einsum("nk,fnc->fkc", Phi, R, optimize=True), optimize=True)
+        out[a : a + chunk] = Y0[:, ri, :] + corr
+    return out
+
+
+def receptance_coupled(structure: Structure, frequency: Frequency, responses, references) -> np.ndarray:
+    """Receptance of a structure with frequency-dependent joints by coupling them to its joint-free part.
+
+    With ``Y`` the receptance of the structure without its joints
+    (:func:`receptance_modal_refined`) and ``Kj(f)`` the joints' stiffness on their
+    DOFs J (Sherman-Morrison-Woodbury)::
+
+        H[r, c] = Y[r, c] - Y[r, J] (I + Kj Y[J, J])^-1 Kj Y[J, c]
+
+    Exact for any joint model; the cost is that of the modal sum on ``r, J, c``
+    plus a |J| x |J| solve per line (no N x N solve per line).
+    """
+    base = replace(structure, joints=())
+    modes = natural_modes(base)
+    J = tuple(dict.fromkeys(d for joint in structure.joints for d in joint.dofs if d in set(base.dofs)))
+    rows, cols = tuple(responses), tuple(references)
+    Y = receptance_modal_refined(base, frequency, rows + J, cols + J, modes)
+    nr, nc = len(rows), len(cols)
+    Yrc, YrJ, YJc, YJJ = Y[:, :nr, :nc], Y[:, :nr, nc:], Y[:, nr:, :nc], Y[:, nr:, nc:]
+    pos = {d: i for i, d in enumerate(J)}
+    Kj = np.zeros((frequency.size, len(J), len(J)), complex)
+    for joint in structure.joints:
+        keep = [a for a, d in enumerate(joint.dofs) if d in pos]
+        idx = np.array([pos[joint.dofs[a]] for a in keep])
+        Kj[:, idx[:, None], idx[None, :]] += joint(frequency.hz)[:, keep][:, :, keep]
+    S = np.linalg.solve(np.eye(len(J))[None] + Kj @ YJJ, Kj @ YJc)
+    return Yrc - YrJ @ S
 
 
 def receptance_direct(structure: Structure, frequency: Frequency, responses, references) -> np.ndarray:
@@ -208,7 +284,7 @@ def synthesize_frf(
     responses, references : iterable of Dof or labels (``"3w"``)
         Active DOFs; references are unit forces (N) or moments (N*m).
     kind : {"receptance", "mobility", "accelerance"}
-    method : {"auto", "direct", "modal"}
+    method : {"auto", "direct", "modal", "coupled"}
         See the module docstring.
     modes : Modes, optional
         Precomputed modes for the modal path.
@@ -226,13 +302,26 @@ def synthesize_frf(
     frequency = _as_frequency(frequency)
     responses = parse_dofs(responses)
     references = parse_dofs(references)
-    if method not in ("auto", "direct", "modal"):
-        raise ModelError(f"unknown synthesis method {method!r}; expected 'auto', 'direct' or 'modal'")
+    if method not in ("auto", "direct", "modal", "coupled"):
+        raise ModelError(f"unknown synthesis method {method!r}; expected 'auto', 'direct', 'modal' or 'coupled'")
     kind_factor(frequency.omega[-1:], "receptance", kind)  # validates the kind
     _check_zero_frequency(structure, frequency)
-    if method == "auto":
+    auto = method == "auto"
+    if auto:
         method = choose_method(structure)
-    if method == "modal":
+        if method == "coupled" and np.any(frequency.hz == 0.0):  # the joint-free part is singular at 0 Hz
+            method = "direct"
+    H = None
+    if method == "coupled":
+        try:
+            H = receptance_coupled(structure, frequency, responses, references)
+        except np.linalg.LinAlgError:  # M not positive definite (massless DOFs): no modes
+            if not auto:
+                raise
+            method = "direct"
+    if H is not None:
+        pass
+    elif method == "modal":
         H = receptance_modal(structure, frequency, responses, references, modes)
     else:
         H = receptance_direct(structure, frequency, responses, references)
