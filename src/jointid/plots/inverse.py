@@ -39,16 +39,21 @@ def plot_identification(result, truth: np.ndarray | None = None):
         di, dj = dofs[i].direction, dofs[j].direction
         k = result.stiffness[:, i, j]
         ax_m, ax_l, ax_c = axes[:, c]
-        ax_m.semilogy(f, np.abs(k), lw=1.0, label="identified")
-        ax_l.plot(f, k.imag / k.real, lw=1.0, label="identified")
-        if truth is not None:
+        storage = k.real > 0  # Im/Re is a loss factor only where the storage part is positive
+        with np.errstate(divide="ignore", invalid="ignore"):
+            eta = np.where(storage, k.imag / k.real, np.nan)
+        ax_m.semilogy(f, np.abs(k), lw=1.0, label="identified", zorder=2)
+        ax_l.plot(f, eta, lw=1.0, label=f"identified (Re K > 0: {int(storage.sum())}/{f.size} lines)", zorder=2)
+        if truth is not None:  # the reference on top of the noisy estimate
             t = truth[:, i, j]
-            ax_m.semilogy(f, np.abs(t), "k--", lw=1.0, label="true")
-            ax_l.plot(f, t.imag / t.real, "k--", lw=1.0, label="true")
+            ax_m.semilogy(f, np.abs(t), "k--", lw=1.0, label="true", zorder=5)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ax_l.plot(f, np.where(t.real > 0, t.imag / t.real, np.nan), "k--", lw=1.0, label="true", zorder=5)
         ax_m.set_title(f"K_{di}_{dj}")
         ax_m.set_ylabel(f"|K_{di}_{dj}| [{TERM_UNITS[(di, dj)]}]")
-        ax_l.set_ylabel("loss factor [-]")
-        lo, hi = np.nanpercentile((k.imag / k.real), [5, 95]) if np.isfinite(k).all() else (0, 1)
+        ax_l.set_ylabel("loss factor [-] (where Re K > 0)")
+        ax_l.legend(fontsize="x-small")
+        lo, hi = np.nanpercentile(eta, [5, 95]) if np.isfinite(eta).any() else (0, 1)
         ax_l.set_ylim(min(lo, 0) - 0.05, max(hi, 0.2) + 0.05)
         for name in ("cond_A", "cond_B", "cond_H"):
             ax_c.semilogy(f, getattr(result, name), lw=0.9, label=name)
