@@ -23,7 +23,6 @@ MODULES = sorted(m.name for m in pkgutil.walk_packages(jointid.__path__, "jointi
 #: modules are being edited on other branches. Remove an entry when its module is fixed
 #: (the test fails on a stale entry).
 KNOWN_MISSING = {
-    "jointid.methods.inverse": {"stiffness_columns"},
 }
 
 

@@ -41,7 +41,7 @@ from ..frf import FRF
 from ..physics.free_model import as_free_model
 from .coupling_lines import coupling_per_line
 from .frf_variance import WEIGHTINGS, frf_variance
-from .inverse import check_layout, stiffness_columns
+from .inverse import check_layout, joint_term, stiffness_columns
 from .smoothing import smooth_series
 
 __all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD"]
@@ -153,11 +153,7 @@ class CouplingResult:
 
     def term(self, i: str, j: str) -> np.ndarray:
         """Stiffness term ``K_ij`` (directions ``"w"``/``"theta"``) vs frequency, shape (F,)."""
-        dirs = [d.direction for d in self.joint_dofs]
-        try:
-            return self.stiffness[:, dirs.index(i), dirs.index(j)]
-        except ValueError:
-            raise IdentificationError(f"joint term K_{i}_{j} was not identified (joint DOFs: {dirs})") from None
+        return joint_term(self.stiffness, self.joint_dofs, i, j)
 
     def columns(self) -> dict[str, np.ndarray]:
         """Table columns: stiffness, ``_real_std``/``_imag_std`` and ``reliable_{i}_{j}`` per term, ``reliable``."""

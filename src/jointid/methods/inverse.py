@@ -83,6 +83,8 @@ __all__ = [
     "InverseResult",
     "identify_joint",
     "check_layout",
+    "joint_term",
+    "stiffness_columns",
 ]
 
 _CHUNK_LINES = 250
@@ -200,11 +202,7 @@ class InverseResult:
 
     def term(self, i: str, j: str) -> np.ndarray:
         """Stiffness term ``K_ij`` (directions ``"w"``/``"theta"``) vs frequency, shape (F,)."""
-        dirs = [d.direction for d in self.joint_dofs]
-        try:
-            return self.stiffness[:, dirs.index(i), dirs.index(j)]
-        except ValueError:
-            raise IdentificationError(f"joint term K_{i}_{j} was not identified (joint DOFs: {dirs})") from None
+        return joint_term(self.stiffness, self.joint_dofs, i, j)
 
     def columns(self) -> dict[str, np.ndarray]:
         """Table columns: ``frequency_hz``, ``K_{i}_{j}_real/imag`` per ordered pair, ``cond_*``, ``reliable``."""
@@ -220,6 +218,15 @@ class InverseResult:
         from ..plots.inverse import plot_identification
 
         return plot_identification(self, truth=truth)
+
+
+def joint_term(stiffness: np.ndarray, joint_dofs: Sequence[Dof], i: str, j: str) -> np.ndarray:
+    """Term ``K_ij`` of ``stiffness`` (F, n, n) by joint directions (``"w"``/``"theta"``), shape (F,)."""
+    dirs = [d.direction for d in joint_dofs]
+    try:
+        return stiffness[:, dirs.index(i), dirs.index(j)]
+    except ValueError:
+        raise IdentificationError(f"joint term K_{i}_{j} was not identified (joint DOFs: {dirs})") from None
 
 
 def stiffness_columns(frequency: Frequency, joint_dofs: Sequence[Dof], stiffness: np.ndarray) -> dict[str, np.ndarray]:
