@@ -145,3 +145,12 @@ def test_coherence_weighting_needs_coherence():
     frf = synthesize_frf(BEAM.with_joint(_joint(10)), freq, ["8w", "12w"], EXCITED)
     with pytest.raises(IdentificationError, match="weighting = 'coherence' needs coherence records"):
         identify_joint_coupling(BEAM, frf, ["10w", "10theta"], CouplingOptions(weighting="coherence"))
+
+
+def test_unsymmetric_option_smooths_each_entry_on_its_own(noisy_case):
+    st, test, measured = noisy_case
+    r = identify_joint_coupling(free_model(st), measured, st.joint.joint_dofs, CouplingOptions(symmetric=False))
+    assert set(r.smoothing_edf) == {"K_w_w", "K_w_theta", "K_theta_w", "K_theta_theta"}
+    assert all(v is not None for v in r.smoothing_edf.values())
+    assert not np.allclose(r.stiffness[:, 0, 1], r.stiffness[:, 1, 0])  # no symmetry imposed
+    assert np.all(_errors(r.stiffness, test.truth)[[0]] < 0.01)

@@ -44,13 +44,14 @@ from .frf_variance import WEIGHTINGS, frf_variance
 from .inverse import check_layout, joint_term, stiffness_columns
 from .smoothing import smooth_series
 
-__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD"]
+__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90"]
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
 #: Weighted designs above this condition number make a line unreliable.
 MAX_CONDITION = 1e8
-_Z90 = 1.6448536269514722  # two-sided 90 % normal quantile
+#: Two-sided 90 % normal quantile: the bands drawn and the passivity test are +-Z90 sigma.
+Z90 = 1.6448536269514722
 
 
 @dataclass(frozen=True)
@@ -248,31 +249,25 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     var_re = lines.variance / 2.0  # circular errors: half in each part
     var_im = lines.variance / 2.0
     edf: dict = {}
-    for a in range(n):
-        for b in range(a, n):
-            name = f"K_{n_dofs[a].direction}_{n_dofs[b].direction}"
-            y, v = lines.stiffness[:, a, b], lines.variance[:, a, b]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                rel = np.sqrt(v) / np.abs(y)
-            if options.smoothing == "none" or F < 8 or not np.nanmedian(rel) > SMOOTH_MIN_RELATIVE_STD:
-                edf[name] = None
-                continue
-            re = smooth_series(freq.hz, y.real, v / 2.0, options.n_basis)
-            im = smooth_series(freq.hz, y.imag, v / 2.0, options.n_basis)
-            edf[name] = re.edf
-            for i, j in {(a, b), (b, a)}:
-                if options.symmetric or (i, j) == (a, b):
-                    K[:, i, j] = re.value + 1j * im.value
-                    var_re[:, i, j], var_im[:, i, j] = re.variance, im.variance
-            if not options.symmetric and a != b:  # the lower triangle is smoothed on its own
-                lo = (lines.stiffness[:, b, a], lines.variance[:, b, a])
-                re2 = smooth_series(freq.hz, lo[0].real, lo[1] / 2.0, options.n_basis)
-                im2 = smooth_series(freq.hz, lo[0].imag, lo[1] / 2.0, options.n_basis)
-                K[:, b, a] = re2.value + 1j * im2.value
-                var_re[:, b, a], var_im[:, b, a] = re2.variance, im2.variance
+    # symmetric: the upper triangle carries every term (mirrored); otherwise each entry on its own
+    pairs = [(a, b) for a in range(n) for b in range(a if options.symmetric else 0, n)]
+    for a, b in pairs:
+        name = f"K_{n_dofs[a].direction}_{n_dofs[b].direction}"
+        y, v = lines.stiffness[:, a, b], lines.variance[:, a, b]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.sqrt(v) / np.abs(y)
+        if options.smoothing == "none" or F < 8 or not np.nanmedian(rel) > SMOOTH_MIN_RELATIVE_STD:
+            edf[name] = None
+            continue
+        re = smooth_series(freq.hz, y.real, v / 2.0, options.n_basis)
+        im = smooth_series(freq.hz, y.imag, v / 2.0, options.n_basis)
+        edf[name] = re.edf
+        for i, j in {(a, b), (b, a)} if options.symmetric else {(a, b)}:
+            K[:, i, j] = re.value + 1j * im.value
+            var_re[:, i, j], var_im[:, i, j] = re.variance, im.variance
     std_re, std_im = np.sqrt(var_re), np.sqrt(var_im)
     diag = np.arange(n)
-    passive = ~(K[:, diag, diag].imag < -_Z90 * std_im[:, diag, diag])
+    passive = ~(K[:, diag, diag].imag < -Z90 * std_im[:, diag, diag])
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.hypot(std_re, std_im) / np.abs(K)
     reliable = (rel <= options.max_relative_std) & (lines.condition <= MAX_CONDITION)[:, None, None]

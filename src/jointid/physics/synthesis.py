@@ -311,16 +311,13 @@ def synthesize_frf(
         method = choose_method(structure)
         if method == "coupled" and np.any(frequency.hz == 0.0):  # the joint-free part is singular at 0 Hz
             method = "direct"
-    H = None
     if method == "coupled":
         try:
             H = receptance_coupled(structure, frequency, responses, references)
         except np.linalg.LinAlgError:  # M not positive definite (massless DOFs): no modes
             if not auto:
                 raise
-            method = "direct"
-    if H is not None:
-        pass
+            H = receptance_direct(structure, frequency, responses, references)
     elif method == "modal":
         H = receptance_modal(structure, frequency, responses, references, modes)
     else:

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..methods.coupling import Z90 as _Z90
 from .inverse import TERM_UNITS
 from .style import new_figure
 
 __all__ = ["plot_joint_stiffness"]
-
-_Z90 = 1.6448536269514722
 
 
 def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
