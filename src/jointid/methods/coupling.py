@@ -13,6 +13,9 @@ The default inverse method of jointid. Three steps, each documented where it liv
    lowers the variance by about the number of lines in a correlation band. A
    term whose per-line estimates are already exact to 1e-6 (exact data) is left
    as it is: a smoother could only add its approximation error.
+   With ``calibration = "auto"`` (default) a force-calibration error common to each
+   excitation column (:mod:`jointid.methods.column_calibration`) is tested for,
+   and corrected with its uncertainty added to the bands when it is significant.
 3. **Flags**: a term is reliable on a line when its predicted relative standard
    deviation ``sqrt(var Re + var Im) / |K|`` is at most ``max_relative_std``
    (default 10 %), the weighted design is well conditioned, and (diagonal terms)
@@ -39,17 +42,20 @@ from ..errors import IdentificationError
 from ..frequency import Frequency
 from ..frf import FRF
 from ..physics.free_model import as_free_model
+from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration
 from .coupling_lines import coupling_per_line
 from .frf_variance import WEIGHTINGS, frf_variance
 from .inverse import check_layout, joint_term, stiffness_columns
 from .smoothing import smooth_series
 
-__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90"]
+__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS"]
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
 #: Weighted designs above this condition number make a line unreliable.
 MAX_CONDITION = 1e8
+#: Values of ``CouplingOptions.calibration``.
+CALIBRATIONS = ("auto", "columns", "none")
 #: Two-sided 90 % normal quantile: the bands drawn and the passivity test are +-Z90 sigma.
 Z90 = 1.6448536269514722
 
@@ -72,6 +78,11 @@ class CouplingOptions:
         Largest predicted relative standard deviation of a reliable term (default 0.1).
     n_basis : int, optional
         B-spline basis functions of the smoother (default ``min(F // 2, 200)``).
+    calibration : {"auto", "columns", "none"}
+        Force-calibration error per excitation column: corrected when the F test finds it
+        ("auto"), always estimated and corrected ("columns"), or ignored ("none").
+    calibration_basis : int
+        B-spline functions per column for that error over the band.
     """
 
     symmetric: bool = True
@@ -80,6 +91,8 @@ class CouplingOptions:
     averages: int | None = None
     max_relative_std: float = 0.1
     n_basis: int | None = None
+    calibration: str = "auto"
+    calibration_basis: int = CALIBRATION_BASIS
 
     def __post_init__(self) -> None:
         if self.smoothing not in ("gcv", "none"):
@@ -88,6 +101,10 @@ class CouplingOptions:
             raise IdentificationError(f"weighting must be one of {WEIGHTINGS}, got {self.weighting!r}")
         if not (isinstance(self.max_relative_std, (int, float)) and self.max_relative_std > 0):
             raise IdentificationError(f"max_relative_std must be a positive number, got {self.max_relative_std!r}")
+        if self.calibration not in CALIBRATIONS:
+            raise IdentificationError(f"calibration must be one of {CALIBRATIONS}, got {self.calibration!r}")
+        if not (isinstance(self.calibration_basis, int) and self.calibration_basis >= 4):
+            raise IdentificationError(f"calibration_basis must be an integer >= 4, got {self.calibration_basis!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,6 +135,10 @@ class CouplingResult:
     smoothing_edf : dict
         Term name -> effective degrees of freedom of the smoother (real part), or None if not smoothed.
     options : CouplingOptions
+    calibration : ColumnCalibration or None
+        The excitation columns' force-calibration error, if it was estimated.
+    calibration_applied : bool
+        The FRFs were corrected by it (its uncertainty is in the bands).
     """
 
     frequency: Frequency
@@ -134,6 +155,8 @@ class CouplingResult:
     weighting: str
     smoothing_edf: dict
     options: CouplingOptions
+    calibration: ColumnCalibration | None = None
+    calibration_applied: bool = False
 
     method = "receptance"
 
@@ -171,6 +194,13 @@ class CouplingResult:
         """One line per term that the FRFs cannot determine on some lines, naming the bands and the predicted error."""
         f = self.frequency.hz
         out = []
+        cal = self.calibration
+        if cal is not None and self.calibration_applied:
+            eps = 100 * np.median(np.abs(cal.error), axis=0)
+            out.append(
+                "force calibration error of the excitation columns (median " + ", ".join(f"{v:.2g} %" for v in eps)
+                + f"; F test p = {cal.p_value:.2g}): corrected, its uncertainty is in the bands"
+            )
         rel = self.relative_std
         done = set()
         for a, b, name in self.term_names():
@@ -238,11 +268,19 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     Ynn = model.receptance(freq, n_dofs, n_dofs)
     Yme = model.receptance(freq, m_dofs, e_dofs)
     variance, source = frf_variance(H, getattr(measured, "coherence", None), options.weighting, options.averages)
-    lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric)
-    return _finish(freq, n_dofs, lines, source, options)
+    cal, applied = None, False
+    if options.calibration != "none":
+        cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, options.calibration_basis)
+        applied = cal is not None and (options.calibration == "columns" or cal.significant)
+    common = None
+    if applied:
+        H, variance = cal.apply(H, variance)
+        common = cal.x_covariance
+    lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
+    return _finish(freq, n_dofs, lines, source, options, cal, applied)
 
 
-def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions) -> CouplingResult:
+def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False) -> CouplingResult:
     """Smooth each term over frequency, propagate the variance, set the flags."""
     F, n, _ = lines.stiffness.shape
     K = lines.stiffness.copy()
@@ -265,6 +303,9 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
         for i, j in {(a, b), (b, a)} if options.symmetric else {(a, b)}:
             K[:, i, j] = re.value + 1j * im.value
             var_re[:, i, j], var_im[:, i, j] = re.variance, im.variance
+    if lines.common_variance is not None:  # common to all lines: smoothing does not reduce it
+        var_re = var_re + lines.common_variance / 2.0
+        var_im = var_im + lines.common_variance / 2.0
     std_re, std_im = np.sqrt(var_re), np.sqrt(var_im)
     diag = np.arange(n)
     passive = ~(K[:, diag, diag].imag < -Z90 * std_im[:, diag, diag])
@@ -273,6 +314,6 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     reliable = (rel <= options.max_relative_std) & (lines.condition <= MAX_CONDITION)[:, None, None]
     reliable[:, diag, diag] &= passive
     return CouplingResult(
-        freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(lines.variance),
-        reliable, passive, lines.condition, lines.scale, source, edf, options,
+        freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0)),
+        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied,
     )

@@ -58,6 +58,10 @@ class LineEstimates:
         Condition number of the column-equilibrated weighted design.
     dof : int
         Residual degrees of freedom per line (complex).
+    common_variance : ndarray, shape (F, n, n)
+        ``E|dDu_ij|^2`` of an error common to all lines (a column calibration
+        estimated over the band); zero when there is none. Frequency smoothing
+        does not reduce it.
     """
 
     stiffness: np.ndarray
@@ -65,6 +69,7 @@ class LineEstimates:
     scale: np.ndarray
     condition: np.ndarray
     dof: int
+    common_variance: np.ndarray | None = None
 
 
 def symmetric_parametrization(n: int, symmetric: bool) -> np.ndarray:
@@ -87,6 +92,7 @@ def coupling_per_line(
     variance: np.ndarray,
     symmetric: bool = True,
     pool_lines: int | None = None,
+    common_x_covariance: np.ndarray | None = None,
 ) -> LineEstimates:
     """Weighted least-squares ``Du`` per line from the measured change of receptance.
 
@@ -102,6 +108,10 @@ def coupling_per_line(
         Enforce ``Du = Du^T``.
     pool_lines : int, optional
         Lines pooled (running mean) for the residual scale ``s^2`` (default ``max(1, F // 40) | 1``).
+    common_x_covariance : ndarray, shape (F, p, p), optional
+        Covariance of x (upper triangle of X if ``symmetric``) from an error common to all
+        lines (:class:`~jointid.methods.column_calibration.ColumnCalibration`), propagated
+        to ``common_variance``.
     """
     F, m, n = Ymn.shape
     e = Yne.shape[2]
@@ -140,4 +150,7 @@ def coupling_per_line(
     Rr = I[None] + Ynn @ Du
     J = np.einsum("fik,flj->fijkl", L, Rr).reshape(F, n * n, n * n) @ P  # d vec(Du) / d x
     V = np.real(np.einsum("fab,fbc,fac->fa", J, C, J.conj())).reshape(F, n, n) * scale[:, None, None]
-    return LineEstimates(Du, V, scale, cond, dof)
+    common = np.zeros_like(V)
+    if common_x_covariance is not None:
+        common = np.real(np.einsum("fab,fbc,fac->fa", J, common_x_covariance, J.conj())).reshape(F, n, n)
+    return LineEstimates(Du, V, scale, cond, dof, common)

@@ -1,0 +1,86 @@
+"""Force-calibration error per excitation column: detected, estimated, corrected, and its uncertainty carried."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from jointid.benchmark import benchmark_study
+from jointid.errors import IdentificationError
+from jointid.frf import FRF
+from jointid.methods.column_calibration import CALIBRATION_MIN_F
+from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
+from jointid.pipeline import free_model, simulate
+
+TERMS = [(0, 0), (0, 1), (1, 1)]
+
+
+@pytest.fixture(scope="module")
+def case():
+    st = benchmark_study()
+    st = dataclasses.replace(st, frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0, step=2.0))
+    return st, simulate(st), free_model(st)
+
+
+def _measured(test, column_error, noise, seed):
+    """Exact FRFs, each column times (1 + eps_j(f)), plus independent relative noise."""
+    rng = np.random.default_rng(seed)
+    d = test.frf.data * (1.0 + column_error[:, None, :])
+    d = d + noise * np.abs(d) * (rng.standard_normal(d.shape) + 1j * rng.standard_normal(d.shape)) / np.sqrt(2)
+    return FRF(test.frf.frequency, d, test.frf.responses, test.frf.references, test.frf.kind)
+
+
+def _smooth_error(hz, seed, level=0.01):
+    """A smooth complex column error, ~level, varying over a few hundred Hz (like force-window noise)."""
+    rng = np.random.default_rng(seed)
+    x = (hz - hz[0]) / 300.0
+    cols = [level * (rng.standard_normal() + 1j * rng.standard_normal()) * np.cos(x + rng.uniform(0, 6)) for _ in range(3)]
+    return np.stack(cols, axis=1) / np.sqrt(2)
+
+
+def _errors(K, truth):
+    return np.array([np.median(np.abs(K[:, i, j] - truth[:, i, j]) / np.abs(truth[:, i, j])) for i, j in TERMS])
+
+
+def test_a_column_error_is_detected_estimated_and_its_cost_is_flagged(case):
+    st, test, model = case
+    eps = _smooth_error(test.frf.frequency.hz, seed=1)
+    measured = _measured(test, eps, 0.002, seed=2)
+    fixed = identify_joint_coupling(model, measured, st.joint.joint_dofs)
+    ignored = identify_joint_coupling(model, measured, st.joint.joint_dofs, CouplingOptions(calibration="none"))
+    cal = fixed.calibration
+    assert fixed.calibration_applied and cal.f_statistic > 10 * CALIBRATION_MIN_F and cal.p_value < 1e-10
+    assert np.median(np.abs(cal.error - eps)) < 0.1 * np.median(np.abs(eps))  # the column error itself, to 10 %
+    e_fixed, e_ignored = _errors(fixed.stiffness, test.truth), _errors(ignored.stiffness, test.truth)
+    assert np.all(e_fixed[:2] < e_ignored[:2] / 3), (e_fixed, e_ignored)  # translational and coupling terms recovered
+    assert e_fixed[0] < 0.005
+    # the uncertainty of the correction is in the bands: the flags stay honest
+    rel_std = fixed.relative_std
+    for k, (i, j) in enumerate(TERMS):
+        err = np.abs(fixed.stiffness[:, i, j] - test.truth[:, i, j]) / np.abs(test.truth[:, i, j])
+        ok = fixed.reliable_terms[:, i, j]
+        if ok.any() and (~ok).any():
+            assert np.median(err[ok]) < np.median(err[~ok])
+        assert np.median(err / rel_std[:, i, j]) < 2.0  # errors within a couple of predicted sigmas
+    assert fixed.findings()[0].startswith("force calibration error of the excitation columns (median ")
+
+
+def test_no_column_error_is_not_corrected(case):
+    st, test, model = case
+    measured = _measured(test, np.zeros((test.frf.frequency.size, 3)), 0.01, seed=3)
+    r = identify_joint_coupling(model, measured, st.joint.joint_dofs)
+    assert r.calibration is not None and not r.calibration_applied
+    assert r.calibration.f_statistic < CALIBRATION_MIN_F
+    assert not any(line.startswith("force calibration") for line in r.findings())
+    none = identify_joint_coupling(model, measured, st.joint.joint_dofs, CouplingOptions(calibration="none"))
+    assert np.array_equal(none.stiffness, r.stiffness) and none.calibration is None
+
+
+@pytest.mark.parametrize("kwargs, msg", [
+    ({"calibration": "rows"}, "calibration must be one of ('auto', 'columns', 'none'), got 'rows'"),
+    ({"calibration_basis": 3}, "calibration_basis must be an integer >= 4, got 3"),
+])
+def test_bad_calibration_options(kwargs, msg):
+    with pytest.raises(IdentificationError) as err:
+        CouplingOptions(**kwargs)
+    assert str(err.value) == msg
