@@ -29,7 +29,7 @@ def coarse(step: float = 5.0):
 @pytest.fixture(scope="module")
 def design5():
     """Design on the benchmark, 7 observed x 3 excited of nodes 1..19, 5 Hz grid."""
-    return design_study(coarse(5.0), 7, 3, search_lines=60)
+    return design_study(coarse(5.0), 7, 3, search_lines=40)
 
 
 def test_prediction_is_the_identifications_covariance_and_sensors_move_with_the_layout():
