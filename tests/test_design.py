@@ -125,10 +125,12 @@ def test_cli_writes_design_json_and_plot(tmp_path, capsys):
     study = _coarse_study_file(tmp_path)
     out = tmp_path / "out"
     code = main(["design", str(study), "--out", str(out), "--observed", "3", "--excited", "2",
-                 "--candidates", "1..19", "--weights", "K_theta_theta=4", "--search-lines", "16"])
+                 "--candidates", "1,4..7,10,13,16,19", "--weights", "K_theta_theta=4", "--search-lines", "16"])
     assert code == 0
     js = json.loads((out / "design.json").read_text())
     assert len(js["chosen"]["observed"]) == 3 and len(js["chosen"]["excited"]) == 2
+    assert js["candidates"] == [1, 4, 5, 6, 7, 10, 13, 16, 19]
+    assert set(js["chosen"]["observed"] + js["chosen"]["excited"]) <= set(js["candidates"])
     assert js["current"]["observed"] == list(MODEL3[0]) and js["weights"]["K_theta_theta"] == 4.0
     assert js["noise"] == 0.01 and js["band_hz"] == [100.0, 1000.0] and js["lines"] == 46
     assert (out / "design.png").stat().st_size > 0

@@ -65,7 +65,7 @@ def design_band(study: Study, band_hz: tuple[float, float] | None = None) -> Fre
 def design_study(
     study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence[int] | None = None,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
-    search_lines: int = 200, noise_model: str = "relative",
+    search_lines: int = 200,
 ) -> LayoutDesign:
     """Choose ``observed`` and ``excited`` nodes of the study's beam for the best-determined joint.
 
@@ -85,9 +85,6 @@ def design_study(
         Default: ``[frequency] start..stop``.
     search_lines : int
         Lines of the search grid.
-    noise_model : {"relative", "additive"}
-        Relative FRF noise on every line, or white response noise (a fixed fraction
-        of each FRF's rms accelerance over the band, as in a roving-hammer test).
 
     Returns
     -------
@@ -124,5 +121,5 @@ def design_study(
         len(m.excited) if excited is None else excited,
         noise=noise, weights=weights, sensors=study_sensors(study),
         symmetric=True if spec.symmetric is None else bool(spec.symmetric),
-        current=(m.observed, m.excited), search_lines=search_lines, noise_model=noise_model,
+        current=(m.observed, m.excited), search_lines=search_lines,
     )

@@ -31,9 +31,6 @@ def add_parser(sub) -> None:
     p.add_argument("--candidates", default=None, metavar="NODES",
                    help="nodes that may be observed or excited, e.g. 1..19 or 1,3,5..9 (default: every beam node)")
     p.add_argument("--noise", type=float, default=0.01, help="relative 1-sigma FRF noise (default 0.01 = 1 %%)")
-    p.add_argument("--noise-model", choices=("relative", "additive"), default="relative",
-                   help="relative: noise*|H| on every line (default); additive: noise*rms(accelerance) of each FRF "
-                   "(white response noise, as in a hammer test)")
     p.add_argument("--weights", default=None, metavar="TERM=W,...",
                    help="term weights, e.g. K_theta_theta=4 (default 1 each; 0 ignores a term)")
     p.add_argument("--band-hz", type=float, nargs=2, default=None, metavar=("LO", "HI"),
@@ -86,7 +83,6 @@ def run(args: argparse.Namespace) -> int:
         d = design_study(
             study, args.observed, args.excited, candidates=candidates, noise=args.noise, weights=weights,
             band_hz=tuple(args.band_hz) if args.band_hz else None, search_lines=args.search_lines,
-            noise_model=args.noise_model,
         )
         summary = d.to_dict()
         summary["study"] = str(study.source)
@@ -98,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         terms = ", ".join(f"{t} {100 * v:.3g} %" for t, v in med.items())
         return f"{name}: observed {','.join(map(str, obs))}; excited {','.join(map(str, exc))}: {terms}"
 
-    print(f"predicted per-line median relative std, {100 * d.noise:g} % FRF noise ({d.noise_model}), "
+    print(f"predicted per-line median relative std, {100 * d.noise:g} % relative FRF noise, "
           f"{d.frequency.hz[0]:g}-{d.frequency.hz[-1]:g} Hz:")
     print("  " + line("chosen ", d.observed, d.excited, d.median()))
     print("  " + line("current", d.current_observed, d.current_excited, d.median(True)))

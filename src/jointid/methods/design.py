@@ -78,11 +78,9 @@ from ..physics.free_model import as_free_model
 from .coupling_lines import symmetric_parametrization
 
 __all__ = [
-    "Sensors", "LayoutPredictor", "NOISE_MODELS", "LayoutDesign", "design_layout", "term_names", "MAX_SEED_SETS", "MAX_EXCHANGE_PASSES",
+    "Sensors", "LayoutPredictor", "LayoutDesign", "design_layout", "term_names", "MAX_SEED_SETS", "MAX_EXCHANGE_PASSES",
 ]
 
-#: FRF noise models: std proportional to |H| per line, or a fixed fraction of each FRF's rms accelerance.
-NOISE_MODELS = ("relative", "additive")
 #: Largest number of |n|-node seed sets evaluated exhaustively (more: a fixed-seed random sample).
 MAX_SEED_SETS = 2000
 #: Largest number of exchange passes.
@@ -154,17 +152,10 @@ class LayoutPredictor:
     sensors : Sensors, optional
     symmetric : bool
         The identification enforces ``Du = Du^T``.
-    noise_model : {"relative", "additive"}
-        "relative": ``std H = noise |H|`` on every line; "additive": ``std A = noise
-        rms(|A|)`` with ``A = -w^2 H`` the accelerance and the rms over the lines of
-        each FRF (white response noise, as in a roving-hammer test).
     """
 
     def __init__(self, free, joint, joint_dofs, frequency: Frequency, nodes: Sequence[int], noise: float,
-                 sensors: Sensors | None = None, symmetric: bool = True, noise_model: str = "relative"):
-        if noise_model not in NOISE_MODELS:
-            raise IdentificationError(f"noise model: expected one of {', '.join(NOISE_MODELS)}, got {noise_model!r}")
-        self.noise_model = noise_model
+                 sensors: Sensors | None = None, symmetric: bool = True):
         if not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise > 0):
             raise IdentificationError(f"noise: expected a relative FRF noise level > 0 (0.01 = 1 %), got {noise!r}")
         model = as_free_model(free)
@@ -232,12 +223,7 @@ class LayoutPredictor:
         m, e = len(observed), len(excited)
         F = H.shape[0]
         A = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * e, n * n) @ self._P
-        if self.noise_model == "relative":
-            sigma = self.noise * np.abs(H).reshape(F, -1)
-        else:  # a fixed fraction of each FRF's rms accelerance over the band, as receptance
-            w2 = self.frequency.omega[:, None, None] ** 2
-            level = np.sqrt(np.mean((w2 * np.abs(H)) ** 2, axis=0, keepdims=True))
-            sigma = (self.noise * level / w2).reshape(F, -1)
+        sigma = self.noise * np.abs(H).reshape(F, -1)
         with np.errstate(divide="ignore", invalid="ignore"):
             Aw = A / sigma[:, :, None]
         Aw = np.where(np.isfinite(Aw), Aw, 0.0)
@@ -299,8 +285,6 @@ class LayoutDesign:
         Term -> weight.
     noise : float
         Relative FRF noise (1-sigma) assumed.
-    noise_model : str
-        "relative" or "additive" (see :class:`LayoutPredictor`).
     candidates : tuple of int
     search_lines : int
         Lines the search ran on.
@@ -322,7 +306,6 @@ class LayoutDesign:
     current_criterion: float | None
     weights: dict
     noise: float
-    noise_model: str
     candidates: tuple[int, ...]
     search_lines: int
     evaluations: int
@@ -352,7 +335,6 @@ class LayoutDesign:
         f = self.frequency.hz
         out = {
             "noise": self.noise,
-            "noise_model": self.noise_model,
             "band_hz": [float(f[0]), float(f[-1])],
             "lines": int(f.size),
             "weights": dict(self.weights),
@@ -413,7 +395,6 @@ def design_layout(
     free, joint, joint_dofs, frequency: Frequency, candidates: Sequence[int], n_observed: int, n_excited: int, *,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, sensors: Sensors | None = None,
     symmetric: bool = True, current: tuple[Sequence[int], Sequence[int]] | None = None, search_lines: int = 200,
-    noise_model: str = "relative",
 ) -> LayoutDesign:
     """Choose observed and excited nodes that minimize the predicted uncertainty of the joint terms.
 
@@ -443,8 +424,6 @@ def design_layout(
         A layout to compare against (e.g. the study's).
     search_lines : int
         Lines of the search grid (evenly spread over ``frequency``).
-    noise_model : {"relative", "additive"}
-        See :class:`LayoutPredictor`.
 
     Returns
     -------
@@ -467,7 +446,7 @@ def design_layout(
     free = as_free_model(free)  # built once (its modes), used by the search and the final evaluation
     cur_nodes = set(current[0]) | set(current[1]) if current is not None else set()
     grid = _search_grid(frequency, search_lines)
-    pred = LayoutPredictor(free, joint, joint_dofs, grid, sorted(set(cands) | cur_nodes), noise, sensors, symmetric, noise_model)
+    pred = LayoutPredictor(free, joint, joint_dofs, grid, sorted(set(cands) | cur_nodes), noise, sensors, symmetric)
     cache: dict = {}
 
     def cost(obs, exc) -> float:
@@ -517,7 +496,7 @@ def design_layout(
     evaluations = len(cache)
 
     final = LayoutPredictor(
-        free, joint, joint_dofs, frequency, sorted(set(obs) | set(exc) | cur_nodes), noise, sensors, symmetric, noise_model
+        free, joint, joint_dofs, frequency, sorted(set(obs) | set(exc) | cur_nodes), noise, sensors, symmetric
     )
     rel = final.relative_std(obs, exc)
     crit = _criterion(rel, w)[0]
@@ -528,6 +507,6 @@ def design_layout(
     return LayoutDesign(
         tuple(obs), tuple(exc), frequency, tuple(terms), rel, crit,
         None if current is None else tuple(current[0]), None if current is None else tuple(current[1]),
-        cur_rel, cur_crit, dict(zip(terms, w.tolist())), float(noise), noise_model, cands, grid.hz.size, evaluations,
+        cur_rel, cur_crit, dict(zip(terms, w.tolist())), float(noise), cands, grid.hz.size, evaluations,
         time.perf_counter() - t0, tuple((s, float(c)) for s, c in history),
     )

@@ -51,6 +51,6 @@ def plot_layout_design(design, axes=None):
         ax.set_title(f"{name} (weight {design.weights.get(name, 1):g})")
         ax.set_xlabel("frequency (Hz)")
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].set_ylabel(f"predicted relative std per line (%), {100 * design.noise:g} % FRF noise ({design.noise_model})")
+    axes[0].set_ylabel(f"predicted relative std per line (%), {100 * design.noise:g} % FRF noise")
     axes[0].legend(loc="upper left", fontsize=7)
     return fig
