@@ -60,6 +60,18 @@ def test_prediction_is_the_identifications_covariance_and_sensors_move_with_the_
     np.testing.assert_allclose(pred10.relative_std(obs, exc), 10 * rel, rtol=1e-9)
 
 
+def test_sensors_not_on_the_observed_nodes_stay_put():
+    st = coarse(20.0)
+    fixed = dataclasses.replace(st, accelerometers=dataclasses.replace(st.accelerometers, nodes=(1, 19)))
+    assert study_sensors(st).nodes is None and study_sensors(fixed).nodes == (1, 19)
+    assert with_layout(fixed, (2, 4, 6), (8, 10)).accelerometers.nodes == (1, 19)
+    moved = with_layout(fixed, (2, 4, 6), (8, 10))
+    pred = LayoutPredictor(free_model(st, with_accelerometers=False), true_joint(st), st.joint.joint_dofs, st.grid,
+                           range(1, 20), 0.01, study_sensors(fixed))
+    H = simulate(moved).frf.to("receptance").data
+    assert np.max(np.abs(pred.exact_receptance((2, 4, 6), (8, 10)) / H - 1)) < 1e-7
+
+
 def test_design_on_the_benchmark_beats_model_3_on_the_rotational_term(design5):
     d = design5
     assert len(d.observed) == 7 and len(d.excited) == 3
