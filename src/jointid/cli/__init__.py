@@ -15,5 +15,5 @@ from .._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {".main": ("build_parser", "COMMANDS")},
-    submodules=("main", "common", "direct", "experiment", "frf", "identify", "modes", "reproduce", "simulate"),
+    submodules=("main", "common", "design", "direct", "experiment", "frf", "identify", "modes", "reproduce", "simulate"),
 )

@@ -19,7 +19,9 @@ The main API, re-exported here (imported on first use)::
 * impact tests -- :mod:`.impact`: ``estimate_frfs``, ``estimate_frf``, ``ImpactRecord``,
   ``ImpactOptions``, ``ImpactFRF``, ``RejectedHit``; :mod:`.virtual_hammer`:
   ``simulate_hits``, ``HammerSettings``, ``ImpactHits``; :mod:`.sensor_correction`:
-  ``roving_sensor_correction``.
+  ``roving_sensor_correction``;
+* test design -- :mod:`.design`: ``design_layout``, ``LayoutDesign``, ``LayoutPredictor``, ``Sensors``
+  (where to measure and hit, from the predicted covariance of the default method).
 
 This layer imports :mod:`jointid.physics` and the labels, never studies, report, plots
 (except inside ``plot()`` methods) or the CLI.
@@ -52,6 +54,7 @@ __getattr__, __dir__, __all__ = attach(
         ".impact": ("estimate_frfs", "estimate_frf", "ImpactRecord", "ImpactOptions", "ImpactFRF", "RejectedHit"),
         ".virtual_hammer": ("simulate_hits", "HammerSettings", "ImpactHits"),
         ".sensor_correction": ("roving_sensor_correction",),
+        ".design": ("design_layout", "LayoutDesign", "LayoutPredictor", "Sensors"),
     },
     submodules=(
         "coupling",
@@ -75,5 +78,6 @@ __getattr__, __dir__, __all__ = attach(
         "impact_windows",
         "virtual_hammer",
         "sensor_correction",
+        "design",
     ),
 )

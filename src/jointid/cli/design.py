@@ -1,0 +1,102 @@
+"""``jointid design``: choose observed and excited nodes for the best-determined joint (test design)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+from ..errors import StudyError
+from ..io.output_dir import OutputSet
+from .common import add_out_argument, add_study_argument, study_from_args
+
+__all__ = ["add_parser", "run", "parse_nodes", "parse_weights"]
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "design",
+        help="choose observed and excited nodes that minimize the predicted uncertainty of the joint terms",
+        description="Search K observed and L excited nodes among the candidates (greedy forward, then pairwise "
+        "exchange) that minimize the weighted geometric mean of the per-term median predicted relative standard "
+        "deviation of the default identification over the study's band, for a stated FRF noise, with the study's "
+        "[joint.model] as the expected joint and its [accelerometers] (on the observed nodes, they move with them). "
+        "Writes DIR/design.json (chosen and current layout, median predicted relative std per term) and "
+        "DIR/design.png (per-term predicted relative std vs frequency, both layouts). See jointid.methods.design.",
+    )
+    add_study_argument(p, required=False)
+    add_out_argument(p)
+    p.add_argument("--observed", type=int, default=None, metavar="K", help="observed nodes (default: as in the study)")
+    p.add_argument("--excited", type=int, default=None, metavar="L", help="excited nodes (default: as in the study)")
+    p.add_argument("--candidates", default=None, metavar="NODES",
+                   help="nodes that may be observed or excited, e.g. 1..19 or 1,3,5..9 (default: every beam node)")
+    p.add_argument("--noise", type=float, default=0.01, help="relative 1-sigma FRF noise (default 0.01 = 1 %%)")
+    p.add_argument("--weights", default=None, metavar="TERM=W,...",
+                   help="term weights, e.g. K_theta_theta=4 (default 1 each; 0 ignores a term)")
+    p.add_argument("--band-hz", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="band (default: [frequency] start..stop)")
+    p.add_argument("--search-lines", type=int, default=200, metavar="N",
+                   help="lines of the search grid, spread over the band (default 200)")
+    p.add_argument("--no-plots", action="store_true", help="skip the figure")
+    p.set_defaults(func=run)
+
+
+def parse_nodes(text: str) -> list[int]:
+    """``"1..19"`` or ``"1,3,5..9"`` -> node numbers (in order, without repeats)."""
+    out: list[int] = []
+    for part in text.split(","):
+        part = part.strip()
+        lo, sep, hi = part.partition("..")
+        try:
+            nodes = range(int(lo), int(hi) + 1) if sep else [int(part)]
+        except ValueError:
+            raise StudyError(f"--candidates: expected node numbers and ranges like 1..19 or 1,3,5..9, got {text!r}") from None
+        if sep and int(hi) < int(lo):
+            raise StudyError(f"--candidates: the range {part} is empty; write low..high")
+        out.extend(nodes)
+    return list(dict.fromkeys(out))
+
+
+def parse_weights(text: str) -> dict[str, float]:
+    """``"K_theta_theta=4,K_w_w=1"`` -> ``{"K_theta_theta": 4.0, "K_w_w": 1.0}``."""
+    out: dict[str, float] = {}
+    for part in text.split(","):
+        name, sep, value = part.strip().partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise StudyError(f"--weights: expected TERM=WEIGHT pairs like K_theta_theta=4,K_w_w=1, got {text!r}") from None
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..design import design_study
+
+    study = study_from_args(args)
+    candidates = parse_nodes(args.candidates) if args.candidates is not None else None
+    weights = parse_weights(args.weights) if args.weights is not None else None
+    if not (math.isfinite(args.noise) and args.noise > 0):
+        raise StudyError(f"--noise: expected a relative FRF noise level > 0 (0.01 = 1 %), got {args.noise:g}")
+    with OutputSet(args.out, command="design") as out:
+        d = design_study(
+            study, args.observed, args.excited, candidates=candidates, noise=args.noise, weights=weights,
+            band_hz=tuple(args.band_hz) if args.band_hz else None, search_lines=args.search_lines,
+        )
+        summary = d.to_dict()
+        summary["study"] = str(study.source)
+        path = out.write_text("design.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
+        if not args.no_plots:
+            out.write_figure("design.png", d.plot())
+
+    def line(name, obs, exc, med):
+        terms = ", ".join(f"{t} {100 * v:.3g} %" for t, v in med.items())
+        return f"{name}: observed {','.join(map(str, obs))}; excited {','.join(map(str, exc))}: {terms}"
+
+    print(f"predicted per-line median relative std, {100 * d.noise:g} % relative FRF noise, "
+          f"{d.frequency.hz[0]:g}-{d.frequency.hz[-1]:g} Hz:")
+    print("  " + line("chosen ", d.observed, d.excited, d.median()))
+    print("  " + line("current", d.current_observed, d.current_excited, d.median(True)))
+    print(f"searched {d.evaluations} layouts on {d.search_lines} lines in {d.seconds:.1f} s; wrote {path}")
+    return 0

@@ -1,0 +1,171 @@
+"""Test design (``jointid design``): predicted covariance, search, ranking against noisy identifications, CLI."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from jointid.benchmark import benchmark_study, benchmark_study_path
+from jointid.cli.main import main
+from jointid.design import design_study, study_sensors, with_layout
+from jointid.frf import FRF
+from jointid.methods.coupling_lines import coupling_per_line
+from jointid.methods.design import LayoutPredictor
+from jointid.physics.free_model import StructureModel
+from jointid.pipeline import free_model, identify, simulate, true_joint
+
+MODEL3 = ((1, 3, 6, 9, 12, 15, 19), (3, 9, 15))
+
+
+def coarse(step: float = 5.0):
+    """The benchmark over 100-1000 Hz on a coarser grid (fast)."""
+    st = benchmark_study()
+    return dataclasses.replace(st, frequency=dataclasses.replace(st.frequency, start=100.0, step=step))
+
+
+@pytest.fixture(scope="module")
+def design5():
+    """Design on the benchmark, 7 observed x 3 excited of nodes 1..19, 5 Hz grid."""
+    return design_study(coarse(5.0), 7, 3, search_lines=40)
+
+
+def test_prediction_is_the_identifications_covariance_and_sensors_move_with_the_layout():
+    # an independent path: the test article synthesized with its sensors moved, and
+    # coupling_per_line's covariance (variance / scale) on those exact FRFs
+    st = coarse(20.0)
+    obs, exc = (2, 5, 8, 11, 14, 17, 19), (4, 12)
+    moved = with_layout(st, obs, exc)
+    assert moved.accelerometers.nodes == obs and moved.measurement.excited == exc
+    pred = LayoutPredictor(free_model(st, with_accelerometers=False), true_joint(st), st.joint.joint_dofs, st.grid,
+                           range(1, 20), 0.01, study_sensors(st))
+    test = simulate(moved)
+    H = test.frf.to("receptance").data
+    assert np.max(np.abs(pred.exact_receptance(obs, exc) / H - 1)) < 1e-7
+    fm = StructureModel(free_model(moved))  # the identification's model: sensors at the new observed nodes
+    m, e, n = moved.measurement.observed_dofs, moved.measurement.excited_dofs, st.joint.joint_dofs
+    f = st.grid
+    lines = coupling_per_line(fm.receptance(f, m, n), fm.receptance(f, n, e), fm.receptance(f, n, n),
+                              fm.receptance(f, m, e) - H, (0.01 * np.abs(H)) ** 2)
+    expected = lines.variance / lines.scale[:, None, None]
+    assert np.max(np.abs(pred.variance(obs, exc) / expected - 1)) < 1e-5
+    rel = pred.relative_std(obs, exc)
+    assert rel.shape == (f.hz.size, 3)
+    np.testing.assert_allclose(rel[:, 2], np.sqrt(expected[:, 1, 1]) / np.abs(test.truth[:, 1, 1]), rtol=1e-5)
+    # ten times the noise, ten times the standard deviation
+    pred10 = LayoutPredictor(free_model(st, with_accelerometers=False), true_joint(st), st.joint.joint_dofs, st.grid,
+                             range(1, 20), 0.1, study_sensors(st))
+    np.testing.assert_allclose(pred10.relative_std(obs, exc), 10 * rel, rtol=1e-9)
+
+
+def test_sensors_not_on_the_observed_nodes_stay_put():
+    st = coarse(20.0)
+    fixed = dataclasses.replace(st, accelerometers=dataclasses.replace(st.accelerometers, nodes=(1, 19)))
+    assert study_sensors(st).nodes is None and study_sensors(fixed).nodes == (1, 19)
+    assert with_layout(fixed, (2, 4, 6), (8, 10)).accelerometers.nodes == (1, 19)
+    moved = with_layout(fixed, (2, 4, 6), (8, 10))
+    pred = LayoutPredictor(free_model(st, with_accelerometers=False), true_joint(st), st.joint.joint_dofs, st.grid,
+                           range(1, 20), 0.01, study_sensors(fixed))
+    H = simulate(moved).frf.to("receptance").data
+    assert np.max(np.abs(pred.exact_receptance((2, 4, 6), (8, 10)) / H - 1)) < 1e-7
+
+
+def test_design_on_the_benchmark_beats_model_3_on_the_rotational_term(design5):
+    d = design5
+    assert len(d.observed) == 7 and len(d.excited) == 3
+    assert set(d.observed) | set(d.excited) <= set(range(1, 20))
+    assert (d.current_observed, d.current_excited) == MODEL3
+    chosen, model3 = d.median(), d.median(current=True)
+    assert chosen["K_theta_theta"] <= model3["K_theta_theta"]
+    assert d.criterion <= d.current_criterion
+    # Model 3's predicted figure is what the identification's covariance gives (per line, 1 % relative noise)
+    assert 1.2 < model3["K_theta_theta"] < 1.8 and 0.012 < model3["K_w_w"] < 0.025
+    # the search improved on its greedy start, and evaluated each layout once
+    steps = [c for _, c in d.history]
+    assert steps[-1] == min(steps[1:]) and 300 < d.evaluations < 3000
+    js = d.to_dict()
+    assert js["chosen"]["observed"] == list(d.observed) and js["current"]["excited"] == [3, 9, 15]
+    assert set(js["chosen"]["median_relative_std"]) == {"K_w_w", "K_w_theta", "K_theta_theta"}
+    json.dumps(js, allow_nan=False)
+
+
+def test_noisy_identifications_confirm_the_predicted_ranking(design5):
+    # 1 % complex relative noise on exact FRFs, the default method (smoothed), 3 seeds each
+    st = coarse(5.0)
+    errors = {}
+    for name, layout in (("chosen", (design5.observed, design5.excited)), ("model3", MODEL3)):
+        s = with_layout(st, *layout)
+        test = simulate(s)
+        per_seed = []
+        for seed in range(3):
+            rng = np.random.default_rng(seed)
+            d = test.frf.data
+            noisy = d * (1 + 0.01 * (rng.standard_normal(d.shape) + 1j * rng.standard_normal(d.shape)) / np.sqrt(2))
+            K = identify(s, FRF(test.frequency, noisy, test.frf.responses, test.frf.references, test.frf.kind)).stiffness
+            per_seed.append(np.median(np.abs(K[:, 1, 1] / test.truth[:, 1, 1] - 1)))
+        errors[name] = np.median(per_seed)
+    assert errors["chosen"] <= errors["model3"], errors
+
+
+def test_weights_put_the_rotational_term_first():
+    st = coarse(20.0)
+    only = design_study(st, 4, 2, candidates=range(1, 20, 2), weights={"K_w_w": 0, "K_w_theta": 0}, search_lines=16)
+    assert only.weights == {"K_w_w": 0.0, "K_w_theta": 0.0, "K_theta_theta": 1.0}
+    assert only.criterion == pytest.approx(only.median()["K_theta_theta"], rel=1e-12)
+    assert set(only.observed) | set(only.excited) <= set(range(1, 20, 2))
+
+
+def test_plot_has_one_log_panel_per_term(design5):
+    fig = design5.plot()
+    axes = fig.axes
+    assert [a.get_title().split(" ")[0] for a in axes] == ["K_w_w", "K_w_theta", "K_theta_theta"]
+    assert all(a.get_yscale() == "log" for a in axes)
+    assert len(axes[2].get_lines()) == 4  # chosen and current, each with its median
+
+
+def _coarse_study_file(tmp_path):
+    text = benchmark_study_path().read_text(encoding="utf-8")
+    text = text.replace("start = 5.0", "start = 100.0").replace("step = 1.0", "step = 20.0")
+    p = tmp_path / "study.toml"
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def test_cli_writes_design_json_and_plot(tmp_path, capsys):
+    study = _coarse_study_file(tmp_path)
+    out = tmp_path / "out"
+    code = main(["design", str(study), "--out", str(out), "--observed", "3", "--excited", "2",
+                 "--candidates", "1,4..7,10,13,16,19", "--weights", "K_theta_theta=4", "--search-lines", "16"])
+    assert code == 0
+    js = json.loads((out / "design.json").read_text())
+    assert len(js["chosen"]["observed"]) == 3 and len(js["chosen"]["excited"]) == 2
+    assert js["candidates"] == [1, 4, 5, 6, 7, 10, 13, 16, 19]
+    assert set(js["chosen"]["observed"] + js["chosen"]["excited"]) <= set(js["candidates"])
+    assert js["current"]["observed"] == list(MODEL3[0]) and js["weights"]["K_theta_theta"] == 4.0
+    assert js["noise"] == 0.01 and js["band_hz"] == [100.0, 1000.0] and js["lines"] == 46
+    assert (out / "design.png").stat().st_size > 0
+    printed = capsys.readouterr().out
+    assert "chosen : observed" in printed and "current: observed 1,3,6,9,12,15,19; excited 3,9,15" in printed
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--candidates", "1..25"], "candidates: node 20 is not a node of the beam (nodes 1..19)"),
+    (["--candidates", "0,3,5"], "candidates: node 0 is not a node of the beam (nodes 1..19)"),
+    (["--candidates", "a..b"], "--candidates: expected node numbers and ranges like 1..19 or 1,3,5..9, got 'a..b'"),
+    (["--observed", "1"], "observed: 1 node cannot identify the 2 joint DOFs; choose at least 2"),
+    (["--excited", "1"], "excited: 1 node cannot identify the 2 joint DOFs; choose at least 2"),
+    (["--excited", "30"], "excited: 30 nodes asked for but there are only 19 candidate nodes; choose at most 19"),
+    (["--candidates", "1..5"], "observed: 7 nodes asked for but there are only 5 candidate nodes; choose at most 5"),
+    (["--weights", "K_rot=2"], "weights: unknown term 'K_rot'; expected one of K_w_w, K_w_theta, K_theta_theta"),
+    (["--weights", "K_theta_theta"], "--weights: expected TERM=WEIGHT pairs like K_theta_theta=4,K_w_w=1, got 'K_theta_theta'"),
+    (["--weights", "K_w_w=-1"], "weights: K_w_w = -1.0; expected a number >= 0"),
+    (["--noise", "0"], "--noise: expected a relative FRF noise level > 0 (0.01 = 1 %), got 0"),
+])
+def test_bad_input_is_one_line_exit_2_and_no_output(tmp_path, capsys, extra, message):
+    out = tmp_path / "out"
+    assert main(["design", "--out", str(out), *extra]) == 2
+    err = capsys.readouterr().err
+    assert err == f"jointid design: error: {message}\n"
+    assert not out.exists()
