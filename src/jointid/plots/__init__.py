@@ -8,6 +8,7 @@ The main API, re-exported here (matplotlib is imported on first use, not by ``im
 * :mod:`.inverse` -- ``plot_identification`` (also ``InverseResult.plot()``);
 * :mod:`.direct` -- ``plot_direct_stiffness``, ``plot_deformed_shapes``;
 * :mod:`.studies` -- ``plot_terms``, ``plot_conditions``;
+* :mod:`.noise_robustness` -- ``plot_band_examples``, ``plot_error_vs_noise``;
 * :mod:`.style` -- ``new_figure``, ``save_figure``.
 """
 
@@ -22,7 +23,8 @@ __getattr__, __dir__, __all__ = attach(
         ".joint_stiffness": ("plot_joint_stiffness",),
         ".direct": ("plot_direct_stiffness", "plot_deformed_shapes"),
         ".studies": ("plot_terms", "plot_conditions"),
+        ".noise_robustness": ("plot_band_examples", "plot_error_vs_noise"),
         ".style": ("new_figure", "save_figure"),
     },
-    submodules=("frf", "impact", "inverse", "joint_stiffness", "direct", "studies", "style"),
+    submodules=("frf", "impact", "inverse", "joint_stiffness", "direct", "studies", "noise_robustness", "style"),
 )
