@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Mapping, Sequence
 
 import numpy as np
+from matplotlib.ticker import NullFormatter
 
 from ..methods.coupling import Z90 as _Z90
 from .inverse import TERM_UNITS
@@ -45,26 +46,27 @@ def plot_band_examples(panels: Sequence, methods: Mapping[str, str], title: str 
         One row per entry: ``f_hz`` (F,), ``truth`` (F, 2, 2) complex, ``results`` method key -> a
         result with ``stiffness`` (F, 2, 2) and, for a band, ``std_real``/``std_imag``.
     methods : mapping
-        Method key -> legend label, in drawing order (the first is drawn on top with its band).
+        Method key -> legend label; the first is drawn on top with its band, the others thin.
 
     The magnitude axis spans the truth's range widened 5x each way, so a wild estimate does not hide the others.
     """
     rows = len(panels)
     fig, axes = new_figure(rows, 3, figsize=(14.0, 3.4 * rows + 0.8))
     axes = np.asarray(axes).reshape(rows, 3)
-    order = list(methods)[::-1]  # draw the first method last, on top
+    keys = list(methods)
     for r, (label, f, truth, results) in enumerate(panels):
         for c, (i, j, di, dj) in enumerate(_TERMS):
             ax = axes[r, c]
-            for z, key in enumerate(order):
+            for z, key in enumerate(keys):
                 res = results[key]
                 k = res.stiffness[:, i, j]
                 color = _COLORS.get(key, f"C{z + 3}")
-                top = key == list(methods)[0]
-                if getattr(res, "std_real", None) is not None and top:
+                top = z == 0
+                if top and getattr(res, "std_real", None) is not None:
                     lo, hi = magnitude_band(k, res.std_real[:, i, j], res.std_imag[:, i, j])
-                    ax.fill_between(f, lo, hi, color=color, alpha=0.3, lw=0, zorder=2 + z, label=f"{methods[key]}: 90 % band")
-                ax.semilogy(f, np.abs(k), color=color, lw=1.2 if top else 0.7, alpha=1.0 if top else 0.8, zorder=3 + z, label=methods[key])
+                    ax.fill_between(f, lo, hi, color=color, alpha=0.3, lw=0, zorder=8, label=f"{methods[key]}: 90 % band")
+                ax.semilogy(f, np.abs(k), color=color, lw=1.3 if top else 0.6, alpha=1.0 if top else 0.55,
+                            zorder=9 if top else 5 - z, label=methods[key])
             t = np.abs(truth[:, i, j])
             ax.semilogy(f, t, "k--", lw=1.1, zorder=10, label="true")
             ax.set_ylim(t.min() / 5.0, t.max() * 5.0)
@@ -103,7 +105,10 @@ def plot_error_vs_noise(levels: Sequence[float], medians: Mapping[str, np.ndarra
             color = _COLORS.get(key, f"C{z + 3}")
             ax.loglog(x, np.median(m, axis=0), "o-", color=color, lw=1.3, ms=4, label=methods[key])
             if m.shape[0] > 1:
-                ax.fill_between(x, m.min(axis=0), m.max(axis=0), color=color, alpha=0.15, lw=0)
+                ax.fill_between(x, m.min(axis=0), m.max(axis=0), color=color, alpha=0.12, lw=0)
+        ax.set_xticks(x)
+        ax.set_xticklabels([f"{v:g}" for v in x])
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_title(term, fontsize="medium")
         ax.set_xlabel("FRF noise, relative rms [%]")
         ax.grid(True, which="both", alpha=0.3)
