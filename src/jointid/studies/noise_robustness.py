@@ -48,6 +48,7 @@ from .common import Progress, StudyOutput, add_noise, band_errors
 __all__ = [
     "run", "Case", "CaseResult", "CachedReceptance", "TERMS", "METHODS", "BAND_HZ",
     "cases", "case_study", "run_case", "exact_frf", "term_errors", "within_band", "method_options",
+    "band_of", "position", "reference_level",
 ]
 
 #: Joint terms: label, row, column of the (F, 2, 2) stiffness.
