@@ -10,7 +10,9 @@ beam end (node 1), Model 3 layout, 100-1000 Hz:
    FRFs: median and 90th-percentile error per term, and the fraction of lines whose
    truth lies within +-1.645 sigma (real and imaginary part) per term.
 
-Medians of the relative error per line. Not a test: run
+Medians of the relative error per line. The error, noise and coverage helpers are
+those of ``jointid reproduce``'s noise-robustness study
+(:mod:`jointid.studies.noise_robustness`). Not a test: run
 ``python benchmarks/robust_identification.py [--seeds 50]``.
 """
 
@@ -23,11 +25,10 @@ import time
 import numpy as np
 
 from jointid.benchmark import benchmark_study
-from jointid.frf import FRF
 from jointid.methods.inverse import InverseOptions
 from jointid.pipeline import experiment, identify, simulate
-
-TERMS = [(0, 0, "K_ww"), (0, 1, "K_wtheta"), (1, 1, "K_thetatheta")]
+from jointid.studies.common import add_noise
+from jointid.studies.noise_robustness import TERMS, term_errors, within_band
 
 
 def study(material: str, node: int, **experiment_settings):
@@ -40,8 +41,9 @@ def study(material: str, node: int, **experiment_settings):
 
 
 def errors(K, truth):
-    rel = np.abs(K - truth) / np.abs(truth)
-    return rel, [100 * np.median(rel[:, i, j]) for i, j, _ in TERMS]
+    """Relative error per line and term (F, 3) and its median per term in %."""
+    rel = term_errors(K, truth)
+    return rel, list(100 * np.median(rel, axis=0))
 
 
 def fmt(v):
@@ -64,10 +66,10 @@ def experiments() -> None:
                 rel, e_new = errors(new.stiffness, truth)
                 _, e_hl = errors(plain.stiffness, truth)
                 flags = []
-                for i, j, _ in TERMS:
+                for t, (_, i, j) in enumerate(TERMS):
                     ok = new.reliable_terms[:, i, j]
-                    a = 100 * np.median(rel[ok, i, j]) if ok.any() else np.nan
-                    b = 100 * np.median(rel[~ok, i, j]) if (~ok).any() else np.nan
+                    a = 100 * np.median(rel[ok, t]) if ok.any() else np.nan
+                    b = 100 * np.median(rel[~ok, t]) if (~ok).any() else np.nan
                     flags.append(f"{a:.3g}|{b:.3g}")
                 print(f"  {label:26s} {mat} node {node:2d}: default {fmt(e_new)}  hong-lee {fmt(e_hl)}  "
                       f"reliable|unreliable {' '.join(flags)}  ({dt:.2f} s)")
@@ -79,25 +81,20 @@ def seeds(n: int) -> None:
         for node in (10, 1):
             st = study(mat, node)
             test = simulate(st)
-            d = test.frf.data
             rels, inside = [], []
             hl = []
             for s in range(n):
-                rng = np.random.default_rng(s)
-                noisy = d + 0.01 * np.abs(d) * (rng.standard_normal(d.shape) + 1j * rng.standard_normal(d.shape)) / np.sqrt(2)
-                frf = FRF(test.frf.frequency, noisy, test.frf.responses, test.frf.references, test.frf.kind)
+                frf = add_noise(test.frf, 0.01, np.random.default_rng(s))
                 r = identify(st, frf)
-                rel, _ = errors(r.stiffness, test.truth)
-                rels.append(rel)
-                inside.append(np.stack([np.abs(r.stiffness.real - test.truth.real) <= 1.645 * r.std_real,
-                                        np.abs(r.stiffness.imag - test.truth.imag) <= 1.645 * r.std_imag]))
+                rels.append(term_errors(r.stiffness, test.truth))
+                inside.append(within_band(r.stiffness, r.std_real, r.std_imag, test.truth))
                 if s < 3:
-                    hl.append(errors(identify(st, frf, InverseOptions()).stiffness, test.truth)[0])
-            rels, inside, hl = np.array(rels), np.array(inside), np.array(hl)
-            med = [100 * np.median(rels[:, :, i, j]) for i, j, _ in TERMS]
-            p90 = [100 * np.percentile(rels[:, :, i, j], 90) for i, j, _ in TERMS]
-            cov = [f"{inside[:, 0, :, i, j].mean():.2f},{inside[:, 1, :, i, j].mean():.2f}" for i, j, _ in TERMS]
-            hlm = [100 * np.median(hl[:, :, i, j]) for i, j, _ in TERMS]
+                    hl.append(term_errors(identify(st, frf, InverseOptions()).stiffness, test.truth))
+            rels, inside, hl = np.array(rels), np.array(inside), np.array(hl)  # (seeds, F, 3), (seeds, 2, F, 3)
+            med = list(100 * np.median(rels, axis=(0, 1)))
+            p90 = list(100 * np.percentile(rels, 90, axis=(0, 1)))
+            cov = [f"{inside[:, 0, :, t].mean():.2f},{inside[:, 1, :, t].mean():.2f}" for t in range(len(TERMS))]
+            hlm = list(100 * np.median(hl, axis=(0, 1)))
             print(f"  {mat} node {node:2d}: median {fmt(med)}  p90 {fmt(p90)}  coverage {' '.join(cov)}  (hong-lee median {fmt(hlm)})")
 
 

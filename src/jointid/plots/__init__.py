@@ -9,6 +9,7 @@ The main API, re-exported here (matplotlib is imported on first use, not by ``im
 * :mod:`.direct` -- ``plot_direct_stiffness``, ``plot_deformed_shapes``;
 * :mod:`.studies` -- ``plot_terms``, ``plot_conditions``;
 * :mod:`.design` -- ``plot_layout_design`` (also ``LayoutDesign.plot()``);
+* :mod:`.noise_robustness` -- ``plot_band_examples``, ``plot_error_vs_noise``;
 * :mod:`.style` -- ``new_figure``, ``save_figure``.
 """
 
@@ -24,7 +25,8 @@ __getattr__, __dir__, __all__ = attach(
         ".direct": ("plot_direct_stiffness", "plot_deformed_shapes"),
         ".studies": ("plot_terms", "plot_conditions"),
         ".design": ("plot_layout_design",),
+        ".noise_robustness": ("plot_band_examples", "plot_error_vs_noise"),
         ".style": ("new_figure", "save_figure"),
     },
-    submodules=("frf", "impact", "inverse", "joint_stiffness", "direct", "studies", "design", "style"),
+    submodules=("frf", "impact", "inverse", "joint_stiffness", "direct", "studies", "design", "noise_robustness", "style"),
 )

@@ -29,5 +29,6 @@ __getattr__, __dir__, __all__ = attach(
         "model_error",
         "accelerometers",
         "virtual_experiment",
+        "noise_robustness",
     ),
 )

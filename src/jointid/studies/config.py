@@ -17,6 +17,11 @@
     [noise]
     conditioning = 0.005   # relative noise rms on the FRFs of the conditioning study
     experiment = 0.01      # force and response noise of the virtual roving-hammer test
+    [noise_robustness]     # the noise-robustness study
+    levels = [0.003, 0.01, 0.03]   # relative complex noise rms on every exact FRF value
+    seeds = 3              # noise realizations per level and case
+    layouts = ["model_2", "model_3"]
+    joint_nodes = [10, 1]  # joint positions (beam nodes): mid-span, beam end
     [accelerometers]
     mass = 0.005           # kg
     rotary_inertia = 2e-7  # kg*m^2
@@ -45,7 +50,7 @@ from ..study import BeamSpec
 __all__ = ["Layout", "ElastomerMaterialSpec", "ReproduceConfig", "load_config", "STUDY_NAMES"]
 
 #: Study names in report order (``--only`` takes a comma-separated subset).
-STUDY_NAMES = ("direct", "conditioning", "verification", "model-error", "accelerometers", "experiment")
+STUDY_NAMES = ("direct", "conditioning", "verification", "model-error", "accelerometers", "experiment", "noise-robustness")
 
 
 @dataclass(frozen=True)
@@ -91,6 +96,10 @@ class ReproduceConfig:
     materials: Mapping[str, ElastomerMaterialSpec] = field(default_factory=_default_materials)
     conditioning_noise: float = 0.005
     experiment_noise: float = 0.01
+    robustness_levels: tuple[float, ...] = (0.003, 0.01, 0.03)
+    robustness_seeds: int = 3
+    robustness_layouts: tuple[str, ...] = ("model_2", "model_3")
+    robustness_joint_nodes: tuple[int, ...] = (10, 1)
     accelerometer_mass: float = 0.005
     accelerometer_rotary_inertia: float = 2e-7
     direct_start: float = 25.0
@@ -154,7 +163,7 @@ def _table(where: str, v: Any) -> Mapping[str, Any]:
 
 
 def _apply(cfg: ReproduceConfig, data: Mapping[str, Any]) -> ReproduceConfig:
-    allowed = {"seed", "frequency", "layouts", "materials", "noise", "accelerometers", "direct"}
+    allowed = {"seed", "frequency", "layouts", "materials", "noise", "noise_robustness", "accelerometers", "direct"}
     for key in data:
         if key not in allowed:
             raise StudyError(f"unknown key {key!r}; expected one of: {', '.join(sorted(allowed))}")
@@ -208,6 +217,7 @@ def _apply(cfg: ReproduceConfig, data: Mapping[str, Any]) -> ReproduceConfig:
         if k not in ("conditioning", "experiment"):
             raise StudyError(f"[noise]: unknown key {k!r}; expected conditioning, experiment")
         changes[f"{k}_noise"] = _num(f"[noise].{k}", noise[k], positive=False)
+    changes.update(_robustness(data.get("noise_robustness", {}), changes.get("layouts", cfg.layouts), n_nodes))
     acc = data.get("accelerometers", {})
     for k in acc:
         if k not in ("mass", "rotary_inertia"):
@@ -227,3 +237,29 @@ def _apply(cfg: ReproduceConfig, data: Mapping[str, Any]) -> ReproduceConfig:
     if changes.get("direct_start", cfg.direct_start) >= changes.get("direct_stop", cfg.direct_stop):
         raise StudyError("[direct]: start must be below stop")
     return replace(cfg, **changes)
+
+
+def _robustness(section: Mapping[str, Any], layouts: Mapping[str, Layout], n_nodes: int) -> dict[str, Any]:
+    """The ``[noise_robustness]`` keys as ReproduceConfig changes."""
+    changes: dict[str, Any] = {}
+    for k, v in section.items():
+        where = f"[noise_robustness].{k}"
+        if k == "levels":
+            if not isinstance(v, list) or not v:
+                raise StudyError(f"{where}: expected a non-empty list of positive numbers (relative noise rms), got {v!r}")
+            changes["robustness_levels"] = tuple(sorted({_num(where, x) for x in v}))
+        elif k == "seeds":
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise StudyError(f"{where}: expected an integer >= 1, got {v!r}")
+            changes["robustness_seeds"] = v
+        elif k == "layouts":
+            if not isinstance(v, list) or not v or not all(isinstance(x, str) and x in layouts for x in v):
+                raise StudyError(f"{where}: expected a non-empty list of layout names out of {', '.join(layouts)}, got {v!r}")
+            changes["robustness_layouts"] = tuple(dict.fromkeys(v))
+        elif k == "joint_nodes":
+            if not isinstance(v, list) or not v or not all(isinstance(x, int) and not isinstance(x, bool) and 1 <= x <= n_nodes for x in v):
+                raise StudyError(f"{where}: expected a non-empty list of beam nodes 1..{n_nodes}, got {v!r}")
+            changes["robustness_joint_nodes"] = tuple(dict.fromkeys(v))
+        else:
+            raise StudyError(f"[noise_robustness]: unknown key {k!r}; expected levels, seeds, layouts, joint_nodes")
+    return changes

@@ -39,6 +39,7 @@ STUDY_MODULES = {
     "model-error": "model_error",
     "accelerometers": "accelerometers",
     "experiment": "virtual_experiment",
+    "noise-robustness": "noise_robustness",
 }
 
 
