@@ -43,7 +43,7 @@ from ..frequency import Frequency
 from ..frf import FRF
 from ..physics.free_model import as_free_model
 from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration
-from .coupling_lines import coupling_per_line
+from .coupling_lines import coupling_per_line, relinearize
 from .frf_variance import WEIGHTINGS, frf_variance
 from .inverse import check_layout, joint_term, stiffness_columns
 from .smoothing import smooth_series
@@ -54,6 +54,8 @@ __all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOO
 SMOOTH_MIN_RELATIVE_STD = 1e-6
 #: Weighted designs above this condition number make a line unreliable.
 MAX_CONDITION = 1e8
+#: Gauss-Newton steps: per-line estimates relinearized around the smoothed estimate, smoothed again.
+RELINEARIZATIONS = 2
 #: Values of ``CouplingOptions.calibration``.
 CALIBRATIONS = ("auto", "columns", "none")
 #: Two-sided 90 % normal quantile: the bands drawn and the passivity test are +-Z90 sigma.
@@ -281,7 +283,26 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
 
 
 def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False) -> CouplingResult:
-    """Smooth each term over frequency, propagate the variance, set the flags."""
+    """Smooth each term over frequency (relinearized around the smooth estimate), propagate the variance, set the flags."""
+    K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines, options)
+    for _ in range(RELINEARIZATIONS if any(v is not None for v in edf.values()) else 0):
+        lines_k = relinearize(lines, K)
+        K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines_k, options)
+    std_re, std_im = np.sqrt(var_re), np.sqrt(var_im)
+    diag = np.arange(lines.stiffness.shape[1])
+    passive = ~(K[:, diag, diag].imag < -Z90 * std_im[:, diag, diag])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.hypot(std_re, std_im) / np.abs(K)
+    reliable = (rel <= options.max_relative_std) & (lines.condition <= MAX_CONDITION)[:, None, None]
+    reliable[:, diag, diag] &= passive
+    return CouplingResult(
+        freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0)),
+        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied,
+    )
+
+
+def _smooth_terms(freq: Frequency, n_dofs, lines, options: CouplingOptions):
+    """Smoothed stiffness and the variance of its real and imaginary parts, per term."""
     F, n, _ = lines.stiffness.shape
     K = lines.stiffness.copy()
     var_re = lines.variance / 2.0  # circular errors: half in each part
@@ -306,14 +327,4 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     if lines.common_variance is not None:  # common to all lines: smoothing does not reduce it
         var_re = var_re + lines.common_variance / 2.0
         var_im = var_im + lines.common_variance / 2.0
-    std_re, std_im = np.sqrt(var_re), np.sqrt(var_im)
-    diag = np.arange(n)
-    passive = ~(K[:, diag, diag].imag < -Z90 * std_im[:, diag, diag])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rel = np.hypot(std_re, std_im) / np.abs(K)
-    reliable = (rel <= options.max_relative_std) & (lines.condition <= MAX_CONDITION)[:, None, None]
-    reliable[:, diag, diag] &= passive
-    return CouplingResult(
-        freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0)),
-        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied,
-    )
+    return K, var_re, var_im, edf
