@@ -154,3 +154,20 @@ def test_unsymmetric_option_smooths_each_entry_on_its_own(noisy_case):
     assert all(v is not None for v in r.smoothing_edf.values())
     assert not np.allclose(r.stiffness[:, 0, 1], r.stiffness[:, 1, 0])  # no symmetry imposed
     assert np.all(_errors(r.stiffness, test.truth)[[0]] < 0.01)
+
+
+def test_relinearization_is_a_gauss_newton_step():
+    """Exact per-line data, linearized around the truth perturbed by 1e-3: the pseudo-observations are exact to second order."""
+    from jointid.methods.coupling_lines import coupling_per_line, relinearize
+
+    freq = Frequency.from_range(50, 1000, 50)
+    joint = _joint(10)
+    m, e, n = ["1w", "6w", "12w", "19w"], EXCITED, ["10w", "10theta"]
+    H = synthesize_frf(BEAM.with_joint(joint), freq, m, e).data
+    Y = lambda r, c: synthesize_frf(BEAM, freq, r, c).data
+    lines = coupling_per_line(Y(m, n), Y(n, e), Y(n, n), Y(m, e) - H, np.abs(H) ** 2)
+    K = joint(freq.hz)
+    for step in (1e-3, 1e-2):
+        pseudo = relinearize(lines, K * (1 + step)).stiffness
+        err = np.max(np.abs(pseudo - K) / np.abs(K))
+        assert err < 50 * step**2 and err > 1e-3 * step**2, (step, err)  # quadratic, not zero and not linear
