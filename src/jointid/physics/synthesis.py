@@ -150,7 +150,8 @@ def receptance_modal_refined(structure: Structure, frequency: Frequency, respons
     if not _EXTENDED:
         return _refined_on_every_dof(structure, frequency, ri, ci, modes)
     Phi = modes.shapes
-    lam = modes.eigenvalues * (1.0 + 1j * structure.proportional_loss_factor)
+    eta = modes.loss_factor if modes.loss_factor is not None else structure.proportional_loss_factor
+    lam = modes.eigenvalues * (1.0 + 1j * eta)
     w2_all = frequency.omega**2
     w2_max = float(w2_all.max())
     count = int(np.clip(np.searchsorted(modes.eigenvalues, REFINE_FACTOR**2 * w2_max, "right"), min(12, lam.size), lam.size))
