@@ -112,17 +112,22 @@ _EXTENDED = bool(np.finfo(np.longdouble).eps < 1e-18)
 
 
 def _projection_errors(structure: Structure, modes: Modes, count: int, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``Phi^T K* Phi - diag(lam)`` and ``Phi^T M Phi - I`` on the first ``count`` modes, summed in long double."""
-    Phi = modes.shapes[:, :count].astype(np.longdouble)
+    """``Phi^T K* Phi - diag(lam)`` and ``Phi^T M Phi - I`` on the first ``count`` modes.
+
+    ``K* Phi`` is the cancelling product (entries ~lam_max, result ~lam_r): it is summed
+    in long double over the nonzeros and rounded once; ``Phi^T (K* Phi)`` then errs
+    by ~eps lam_r only, far below ``dA`` (~eps lam_max) for the low modes.
+    """
+    Phi = modes.shapes[:, :count]
     out = []
     for A, diag in ((np.asarray(structure.K, complex), lam[:count]), (structure.M, np.ones(count))):
         dtype = np.clongdouble if np.iscomplexobj(A) else np.longdouble
         i, j = np.nonzero(A)
         APhi = np.zeros(Phi.shape, dtype)
-        np.add.at(APhi, i, A[i, j].astype(dtype)[:, None] * Phi[j])
-        P = Phi.T @ APhi
-        P[np.arange(count), np.arange(count)] -= diag.astype(dtype)
-        out.append(P.astype(complex if np.iscomplexobj(A) else float))
+        np.add.at(APhi, i, A[i, j].astype(dtype)[:, None] * Phi[j].astype(np.longdouble))
+        P = Phi.T @ APhi.astype(A.dtype)
+        P[np.arange(count), np.arange(count)] -= diag
+        out.append(P)
     return out[0], out[1]
 
 
@@ -161,7 +166,7 @@ def receptance_modal_refined(structure: Structure, frequency: Frequency, respons
     # modes above the band: 1 / (lam - w^2) = sum_p w^(2p) / lam^(p+1), ratio w^2 / lam <= 1 / REFINE_FACTOR^2
     ratio = w2_max / float(modes.eigenvalues[count]) if count < lam.size else 0.0
     terms = 0 if count == lam.size else max(1, int(np.ceil(np.log(1e-17) / np.log(max(ratio, 1e-300)))))
-    series = np.array([(high.T / lam[count:] ** (p + 1)).T.sum(axis=0) for p in range(terms)]).reshape(terms, -1)
+    series = np.array([(high.T / lam[count:] ** (p + 1)).T.sum(axis=0) for p in range(terms)])  # (terms, r c)
     Pr, Pc = Phi[ri, :count], Phi[ci, :count]
     dAB = np.hstack([dA.T, dB.T]).astype(complex)
     out = np.empty((frequency.size, ri.size, ci.size), complex)
