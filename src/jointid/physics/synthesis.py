@@ -122,9 +122,10 @@ def _projection_errors(structure: Structure, modes: Modes, count: int, lam: np.n
     out = []
     for A, diag in ((np.asarray(structure.K, complex), lam[:count]), (structure.M, np.ones(count))):
         dtype = np.clongdouble if np.iscomplexobj(A) else np.longdouble
-        i, j = np.nonzero(A)
+        i, j = np.nonzero(A)  # row-major: each row's nonzeros together
+        rows, start = np.unique(i, return_index=True)
         APhi = np.zeros(Phi.shape, dtype)
-        np.add.at(APhi, i, A[i, j].astype(dtype)[:, None] * Phi[j].astype(np.longdouble))
+        APhi[rows] = np.add.reduceat(A[i, j].astype(dtype)[:, None] * Phi[j].astype(np.longdouble), start, axis=0)
         P = Phi.T @ APhi.astype(A.dtype)
         P[np.arange(count), np.arange(count)] -= diag
         out.append(P)
