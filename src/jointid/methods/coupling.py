@@ -235,7 +235,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     H = measured.to("receptance").data
     Y = model.receptance(freq, tuple(m_dofs) + tuple(n_dofs), tuple(n_dofs) + tuple(e_dofs))  # one call: rows m, n; cols n, e
     nm, nn = len(m_dofs), len(n_dofs)
-    Ymn, Yme, Ynn, Yne = Y[:, :nm, :nn], Y[:, :nm, nn:], Y[:, nm:, :nn], Y[:, nm:, nn:]
+    Ymn, Yme, Ynn, Yne = (np.ascontiguousarray(b) for b in (Y[:, :nm, :nn], Y[:, :nm, nn:], Y[:, nm:, :nn], Y[:, nm:, nn:]))
     variance, source = frf_variance(H, getattr(measured, "coherence", None), options.weighting, options.averages)
     lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric)
     return _finish(freq, n_dofs, lines, source, options)
