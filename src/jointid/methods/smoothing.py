@@ -12,9 +12,11 @@ second differences of its coefficients (Eilers & Marx 1996)::
 
 ``lam`` minimizes the generalized cross-validation score
 ``F rss / (F - tr H)^2`` over a grid (Craven & Wahba 1979), computed for every
-``lam`` at once from one generalized eigendecomposition. The uncertainty is the
+``lam`` at once from one generalized eigendecomposition, the residuals from the
+K coefficients (nothing of size F x grid). The uncertainty is the
 Bayesian posterior covariance ``B (B^T W B + lam D^T D)^-1 B^T`` (Wahba 1983),
-whose intervals include the smoothing bias on average (Nychka 1988).
+whose intervals include the smoothing bias on average (Nychka 1988); its
+diagonal needs only the first diagonals of the coefficients' covariance (banded B).
 
 Caveats: knots every ``band / K`` (``K`` <= :data:`MAX_BASIS`) resolve features
 a few knot spacings wide, not sharper ones; the variances ``v`` must be on an
