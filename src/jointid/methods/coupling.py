@@ -265,10 +265,9 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     if freq.hz[0] <= 0.0:
         raise IdentificationError("the receptance method needs frequencies > 0 Hz (a free structure is singular at 0 Hz); drop the 0 Hz line")
     H = measured.to("receptance").data
-    Ymn = model.receptance(freq, m_dofs, n_dofs)
-    Yne = model.receptance(freq, n_dofs, e_dofs)
-    Ynn = model.receptance(freq, n_dofs, n_dofs)
-    Yme = model.receptance(freq, m_dofs, e_dofs)
+    Y = model.receptance(freq, tuple(m_dofs) + tuple(n_dofs), tuple(n_dofs) + tuple(e_dofs))  # one call: rows m, n; cols n, e
+    nm, nn = len(m_dofs), len(n_dofs)
+    Ymn, Yme, Ynn, Yne = (np.ascontiguousarray(b) for b in (Y[:, :nm, :nn], Y[:, :nm, nn:], Y[:, nm:, :nn], Y[:, nm:, nn:]))
     variance, source = frf_variance(H, getattr(measured, "coherence", None), options.weighting, options.averages)
     cal, applied = None, False
     if options.calibration != "none":

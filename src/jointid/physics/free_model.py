@@ -21,6 +21,7 @@ import numpy as np
 from ..dofs import Dof, parse_dofs
 from ..errors import ModelError
 from ..frequency import Frequency
+from ..parallel import single_threaded_blas
 from .modes import DENSE_EIGEN_LIMIT, Modes, natural_modes
 from .structure import Structure
 from .synthesis import _check_zero_frequency, receptance_direct, receptance_modal_refined
@@ -46,14 +47,14 @@ class StructureModel:
 
     Proportionally damped models up to
     :data:`~jointid.physics.modes.DENSE_EIGEN_LIMIT` DOFs use modal superposition
-    over every mode, ``Y0 = Phi diag(1 / (w_r^2 (1 + j eta) - w^2)) Phi^T``, plus one
-    step of iterative refinement against the assembled matrices,
-    ``Y = Y0 + Y0 (E - D Y0)`` with ``D = K* - w^2 M``: the plain modal sum loses
-    accuracy to cancellation between modes (1.6e-10 relative on the 19-node
-    benchmark beam, 5e-8 on it meshed 8x finer, which an inverse method
-    amplifies ~200x in the rotational term); the refined sum agrees with a
-    direct solve to ~1e-13 at about twice the modal cost (and ~1/300 of a dense
-    direct solve's on the refined beam). The modes are computed once, here.
+    over every mode with one step of iterative refinement
+    (:func:`~jointid.physics.synthesis.receptance_modal_refined`): the plain modal
+    sum loses accuracy to the eigensolver's round-off (1.5e-11 relative on the
+    19-node benchmark beam, up to 1.2e-7 at resonances on it meshed 8x finer,
+    which an inverse method amplifies ~200x in the rotational term); the refined
+    sum agrees with an extended-precision direct solve to 8e-14 and 2e-11, at
+    the cost of a modal sum on the requested rows and columns only (20 000 lines
+    of the refined beam: ~0.2 s CPU). The modes are computed once, here.
     Others use a batched direct solve.
 
     Parameters
@@ -68,11 +69,14 @@ class StructureModel:
     def __post_init__(self) -> None:
         if self.structure.joints:
             raise ModelError("a free model must not contain frequency-dependent joints: Do is the free structure alone")
-        if self.modes is None and self.structure.proportional_loss_factor is not None and len(self.structure.dofs) <= DENSE_EIGEN_LIMIT:
+        if self.modes is None and len(self.structure.dofs) <= DENSE_EIGEN_LIMIT:
             try:
-                object.__setattr__(self, "modes", natural_modes(self.structure))
+                with single_threaded_blas():  # a 290-DOF eigh: BLAS threads only contend (measured 0.3-4.8 s vs 0.1 s on a loaded machine)
+                    modes = natural_modes(self.structure)
             except np.linalg.LinAlgError:  # e.g. massless DOFs: M not positive definite
-                pass
+                return
+            if modes.loss_factor is not None:  # proportional damping: the modal path is exact
+                object.__setattr__(self, "modes", modes)
 
     @property
     def dofs(self) -> tuple[Dof, ...]:
