@@ -89,7 +89,9 @@ def replace_study_values(
         if (t, key) in done:
             continue
         if t not in headers:
-            raise StudyError(f"{source}: no [{t}] table to write {name} into; add [{t}] to the study")
+            raise StudyError(
+                f"{source}: no [{t}] table header to write {name} into (inline tables are not edited); set it by hand"
+            )
         inserts.append((headers[t], f"{key} = {_format(value)}  # {note} (was not set){newline}"))
     for at, line in sorted(inserts, reverse=True):
         lines.insert(at + 1, line)

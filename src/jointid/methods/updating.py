@@ -69,6 +69,7 @@ from scipy.optimize import least_squares
 
 from ..errors import DataError, ModelError
 from ..frf import FRF, kind_factor
+from ..physics.banded_receptance import receptance_banded
 from ..physics.free_model import StructureModel
 from ..physics.modes import natural_modes
 from ..physics.structure import Structure
@@ -95,8 +96,11 @@ PARAMETERS: dict[str, tuple[str, tuple[float, float], str]] = {
 }
 #: What ``jointid update`` fits by default.
 DEFAULT_PARAMETERS = ("elastic_modulus", "density", "loss_factor")
-#: Relative finite-difference step of the Jacobian (in ln p).
-_DIFF_STEP = 1e-6
+#: Finite-difference step of the Jacobian in ln p: small enough for sharp resonances (a step of 1e-5
+#: in ln E moves a 1 kHz resonance by 0.005 Hz), large against the model's round-off (~1e-9, see
+#: :mod:`jointid.physics.banded_receptance`); the loss factor acts smoothly and weakly off resonance.
+_DIFF_STEP = {"loss_factor": 1e-3}
+_DEFAULT_DIFF_STEP = 1e-5
 
 
 @dataclass(frozen=True)
@@ -244,50 +248,6 @@ class UpdateResult:
         from ..plots.updating import plot_update
 
         return plot_update(self.measured, self.initial_model, self.updated_model, pairs=pairs)
-
-
-#: Largest half-bandwidth of K and M for the banded solver (a beam's is 3).
-_MAX_BAND = 16
-
-
-def _bandwidth(A: np.ndarray) -> int:
-    i, j = np.nonzero(A)
-    return int(np.max(np.abs(i - j))) if i.size else 0
-
-
-def receptance_banded(structure: Structure, frequency, rows, cols) -> np.ndarray | None:
-    """Receptance ``D(w)^-1[rows, cols]`` by a banded LU per line (exact), or None if ``K``, ``M`` are not banded.
-
-    A beam's matrices (DOFs in x order) have half-bandwidth 3: one LAPACK
-    ``gbsv`` per line costs ~30 us, against a dense eigen-solution per model
-    evaluation for the modal path; updating evaluates many models.
-    """
-    from scipy.linalg.lapack import zgbsv
-
-    K, M = structure.K, structure.M
-    if structure.joints or K.shape[0] != len(structure.dofs):
-        return None
-    bw = max(_bandwidth(K), _bandwidth(M))
-    if bw > _MAX_BAND:
-        return None
-    n = K.shape[0]
-    ri, ci = structure.index(rows), structure.index(cols)
-    # LAPACK band storage with bw extra rows for the LU's fill-in: ab[2 bw + i - j, j] = A[i, j]
-    Kb = np.zeros((3 * bw + 1, n), dtype=complex)
-    Mb = np.zeros((3 * bw + 1, n))
-    for d in range(-bw, bw + 1):
-        Kb[2 * bw - d, max(d, 0): n + min(d, 0)] = np.diagonal(K, d)
-        Mb[2 * bw - d, max(d, 0): n + min(d, 0)] = np.diagonal(M, d)
-    E = np.zeros((n, len(ci)), dtype=complex)
-    E[ci, np.arange(len(ci))] = 1.0
-    w2 = frequency.omega**2
-    out = np.empty((w2.size, len(ri), len(ci)), dtype=complex)
-    for k, x in enumerate(w2):
-        _, _, X, info = zgbsv(bw, bw, Kb - x * Mb, E)
-        if info != 0:
-            raise ModelError(f"the free model is singular at {frequency.hz[k]:g} Hz (a rigid-body mode at 0 Hz?); drop that line")
-        out[k] = X[ri]
-    return out
 
 
 def _model_frf(build: Callable[[Mapping[str, float]], Structure], values: Mapping[str, float], measured: FRF) -> FRF:
@@ -498,11 +458,11 @@ def _fit(log_ratio, weights, init, start, fitted, max_evaluations):
         r = weights * log_ratio(values)
         return np.concatenate([r.real.ravel(), r.imag.ravel()])
 
-    fit = least_squares(residual, x0, bounds=(lo, hi), method="trf", x_scale=1.0, diff_step=_DIFF_STEP, max_nfev=max_evaluations,
+    fit = least_squares(residual, x0, bounds=(lo, hi), method="trf", x_scale=1.0, diff_step=np.array([_DIFF_STEP.get(n, _DEFAULT_DIFF_STEP) for n in fitted]), max_nfev=max_evaluations,
                         xtol=1e-8, ftol=1e-6, gtol=1e-10)
     if fit.status <= 0:
         raise DataError(
-            f"the update did not converge in {max_evaluations} model evaluations (fitting {', '.join(fitted)}); "
+            f"the update did not converge in {max_evaluations} model evaluation{'s' if max_evaluations != 1 else ''} (fitting {', '.join(fitted)}); "
             "check that the FRFs are a free-free test of this beam with these sensors, or allow more evaluations"
         )
     return fit, jacobian_covariance(fit.jac, fit.fun)
