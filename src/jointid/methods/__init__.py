@@ -19,7 +19,9 @@ The main API, re-exported here (imported on first use)::
 * impact tests -- :mod:`.impact`: ``estimate_frfs``, ``estimate_frf``, ``ImpactRecord``,
   ``ImpactOptions``, ``ImpactFRF``, ``RejectedHit``; :mod:`.virtual_hammer`:
   ``simulate_hits``, ``HammerSettings``, ``ImpactHits``; :mod:`.sensor_correction`:
-  ``roving_sensor_correction``.
+  ``roving_sensor_correction``;
+* free-structure model updating -- :mod:`.updating`: ``update_free_model``, ``UpdateOptions``,
+  ``UpdateResult``.
 
 This layer imports :mod:`jointid.physics` and the labels, never studies, report, plots
 (except inside ``plot()`` methods) or the CLI.
@@ -52,6 +54,7 @@ __getattr__, __dir__, __all__ = attach(
         ".impact": ("estimate_frfs", "estimate_frf", "ImpactRecord", "ImpactOptions", "ImpactFRF", "RejectedHit"),
         ".virtual_hammer": ("simulate_hits", "HammerSettings", "ImpactHits"),
         ".sensor_correction": ("roving_sensor_correction",),
+        ".updating": ("update_free_model", "UpdateOptions", "UpdateResult"),
     },
     submodules=(
         "coupling",
@@ -75,5 +78,6 @@ __getattr__, __dir__, __all__ = attach(
         "impact_windows",
         "virtual_hammer",
         "sensor_correction",
+        "updating",
     ),
 )

@@ -378,12 +378,14 @@ def update_free_model(
     notes = []
 
     def log_ratio(values: Mapping[str, float]) -> np.ndarray:
-        model = _model_frf(build, values, measured)
+        return log_ratio_of(_model_frf(build, values, measured))
+
+    def log_ratio_of(model: FRF) -> np.ndarray:
         lr = np.log(model.data) - data_log
         return lr.real + 1j * np.angle(np.exp(1j * lr.imag))
 
     initial_model = _model_frf(build, init, measured)
-    before = float(np.sqrt(np.mean(np.abs(log_ratio(init)) ** 2)))
+    before = float(np.sqrt(np.mean(np.abs(log_ratio_of(initial_model)) ** 2)))
 
     start = dict(init)
     scale = 1.0
@@ -408,7 +410,7 @@ def update_free_model(
         values.update({n: init[n] for n in held})
         x = fit.x
         for n, xi in zip(fitted, x):
-            values[n] = init[n] * math.exp(xi)
+            values[n] = init[n] * math.exp(xi - 1.0)
         estimates = {}
         newly_held = []
         for i, n in enumerate(fitted):
@@ -439,7 +441,7 @@ def update_free_model(
         corr = correlation_matrix(cov_x)
     final = tuple(held[n] if n in held else estimates[n] for n in names)
     updated_model = _model_frf(build, values, measured)
-    after = float(np.sqrt(np.mean(np.abs(log_ratio(values)) ** 2)))
+    after = float(np.sqrt(np.mean(np.abs(log_ratio_of(updated_model)) ** 2)))
     return UpdateResult(
         final, init, values, corr, tuple(fitted), before, after, scale, int(fit.nfev),
         measured, initial_model, updated_model, tuple(notes),
@@ -448,13 +450,15 @@ def update_free_model(
 
 def _fit(log_ratio, weights, init, start, fitted, max_evaluations):
     """One least-squares fit of ``fitted`` (ln of ratio to ``init``) from ``start``; returns (result, cov_x)."""
-    lo = np.array([math.log(PARAMETERS[n][1][0]) for n in fitted])
-    hi = np.array([math.log(PARAMETERS[n][1][1]) for n in fitted])
-    x0 = np.clip(np.array([math.log(start[n] / init[n]) for n in fitted]), lo + 1e-9, hi - 1e-9)
+    # x = 1 + ln(p / p0): unit scale, and an initial trust region of ~1 in ln p (least_squares starts with
+    # a radius |x0|: about the start's own distance from p0, which would make it creep towards a -30 % eta)
+    lo = np.array([1.0 + math.log(PARAMETERS[n][1][0]) for n in fitted])
+    hi = np.array([1.0 + math.log(PARAMETERS[n][1][1]) for n in fitted])
+    x0 = np.clip(np.array([1.0 + math.log(start[n] / init[n]) for n in fitted]), lo + 1e-9, hi - 1e-9)
 
     def residual(x):
         values = dict(start)
-        values.update({n: init[n] * math.exp(xi) for n, xi in zip(fitted, x)})
+        values.update({n: init[n] * math.exp(xi - 1.0) for n, xi in zip(fitted, x)})
         r = weights * log_ratio(values)
         return np.concatenate([r.real.ravel(), r.imag.ravel()])
 
