@@ -261,3 +261,24 @@ def test_replace_study_values_refuses_what_it_cannot_edit_in_place():
     with pytest.raises(StudyError) as exc:
         replace_study_values("beam = { elastic_modulus = 1.0 }\n", {"elastic_modulus": 2.0}, source="x.toml")
     assert str(exc.value) == "x.toml: no [beam] table header to write elastic_modulus into (inline tables are not edited); set it by hand"
+
+
+def test_model_error_study_shows_errors_before_and_after_updating(tmp_path):
+    from jointid.studies import model_error
+    from jointid.studies.common import material_joint, study_beam, terms_of
+    from jointid.studies.config import load_config
+
+    cfg_file = tmp_path / "coarse.toml"
+    cfg_file.write_text("[frequency]\nstart = 5.0\nstop = 1000.0\nstep = 2.0\n")
+    cfg = load_config(cfg_file)
+    f, lay, joint = cfg.grid, cfg.layouts["model_3"], material_joint(cfg, "A")
+    frf = synthesize_frf(study_beam(cfg).with_joint(joint), f, [f"{n}w" for n in lay.observed], [f"{n}w" for n in lay.excited], kind="accelerance")
+    rows, summary, cols, result = model_error.updating_comparison(cfg, frf, terms_of(joint(f.hz)), lay, f.mask(100, 1000))
+    nominal, updated = rows
+    assert nominal[:4] == ["nominal (E x 1.02, rho x 0.99)", "+2 %", "-1 %", "+0 %"]
+    pct = lambda s: abs(float(s.rstrip(" %")))  # noqa: E731
+    assert pct(updated[1]) < 0.05 and pct(updated[2]) < 0.05  # E and density from the free-free test
+    for before, after in zip(nominal[4:], updated[4:]):  # translational, coupling, rotational median errors
+        assert pct(after) < pct(before) / 20
+    assert [p.name for p in result.parameters] == ["elastic_modulus", "density", "loss_factor"]
+    assert {"translational_nominal_real", "rotational_updated_imag"} <= set(cols)

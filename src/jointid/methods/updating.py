@@ -83,7 +83,9 @@ from .fit_statistics import (
     jacobian_covariance,
 )
 
-__all__ = ["PARAMETERS", "DEFAULT_PARAMETERS", "UpdateOptions", "UpdateResult", "update_free_model", "frequency_scale"]
+__all__ = [
+    "PARAMETERS", "DEFAULT_PARAMETERS", "UpdateOptions", "UpdateResult", "update_free_model", "frequency_scale", "check_parameter_names",
+]
 
 #: Parameters that can be updated: name -> (unit, bounds as ratios of the initial value, label).
 PARAMETERS: dict[str, tuple[str, tuple[float, float], str]] = {
