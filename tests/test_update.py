@@ -282,3 +282,39 @@ def test_model_error_study_shows_errors_before_and_after_updating(tmp_path):
         assert pct(after) < pct(before) / 20
     assert [p.name for p in result.parameters] == ["elastic_modulus", "density", "loss_factor"]
     assert {"translational_nominal_real", "rotational_updated_imag"} <= set(cols)
+
+
+def test_coherence_weights_the_fit():
+    """Every other line noisy (20 %) and flagged by its coherence: the weighted fit trusts the clean lines."""
+    study = parse_study(_data(start=5.0, stop=150.0))
+    exact = pipeline.simulate_free(study)
+    rng = np.random.default_rng(7)
+    noisy = np.zeros(exact.shape, bool)
+    noisy[::2] = True
+    z = (rng.standard_normal(exact.shape) + 1j * rng.standard_normal(exact.shape)) / np.sqrt(2)
+    data = exact.data * (1 + np.where(noisy, 0.2, 0.005) * z)
+    fits = {}
+    for name, coherence in (("plain", None), ("weighted", np.where(noisy, 0.2, 0.9999))):
+        measured = FRF(exact.frequency, data, exact.responses, exact.references, exact.kind, coherence)
+        fits[name] = {p.name: p for p in pipeline.update(study, measured).parameters}
+    for name in ("elastic_modulus", "density"):
+        w, p = fits["weighted"][name], fits["plain"][name]
+        assert w.std_error < p.std_error / 10
+        assert abs(w.value - TRUE[name]) < 3 * w.std_error
+        assert abs(w.value / TRUE[name] - 1) < 1e-4
+
+
+def test_simulate_free_with_truth_from_another_study(tmp_path, capsys):
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.replace("stop = 1000.0", "stop = 200.0"))
+    other = tmp_path / "other.toml"
+    other.write_text(STUDY.replace("elastic_modulus = 69e9     # Pa, nominal", "elastic_modulus = 71e9").split("[truth]")[0])
+    assert main(["simulate", str(study), "--free", "--truth", str(other), "--out", str(tmp_path / "sim")]) == 0
+    truth = json.loads((tmp_path / "sim" / "true_beam.json").read_text())
+    assert truth["elastic_modulus"] == 71e9 and truth["density"] == RHO0 and truth["noise"] == 0.0
+    other.write_text(STUDY.replace("nodes = 19", "nodes = 21"))
+    assert main(["simulate", str(study), "--free", "--truth", str(other), "--out", str(tmp_path / "sim2")]) == 2
+    assert capsys.readouterr().err.endswith(
+        f"error: {other}: [beam].nodes = 21 differs from the 19 of {study}; the true beam needs the same grid of nodes\n"
+    )
+    assert not (tmp_path / "sim2").exists()
