@@ -25,6 +25,7 @@ from .study import Study
 __all__ = [
     "free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "read_measured", "identify",
     "inverse_options", "ExperimentResult", "experiment", "virtual_hits", "coupling_options",
+    "true_beam_study", "simulate_free", "read_free_measured", "free_beam_parameters", "update",
 ]
 
 
@@ -300,3 +301,147 @@ def virtual_hits(study: Study, seed: int | None = None, *, periodic: bool = Fals
         band_hz=(max(study.frequency.start, 1.0 / x.duration), study.frequency.stop),
     )
     return records, options
+
+
+# --------------------------------------------------------------------------- free-free test and model updating
+def true_beam_study(study: Study, truth: Study | None = None) -> Study:
+    """``study`` with its beam replaced by the true one: ``[truth]`` applied, or ``truth``'s beam.
+
+    Parameters
+    ----------
+    truth : Study, optional
+        Another study whose ``[beam]`` (with its own ``[truth]`` applied) is the
+        true beam; it must have the same number of grid nodes. Default: the
+        study's ``[beam]`` with its ``[truth]`` overrides.
+
+    Raises
+    ------
+    StudyError
+        ``truth`` has a different number of beam nodes.
+    """
+    from dataclasses import replace
+
+    from .errors import StudyError
+
+    if truth is None:
+        return study.true_study()
+    beam = truth.true_study().beam
+    if beam.nodes != study.beam.nodes:
+        raise StudyError(
+            f"{truth.source}: [beam].nodes = {beam.nodes} differs from the {study.beam.nodes} of {study.source}; "
+            "the true beam needs the same grid of nodes"
+        )
+    return replace(study, beam=beam, truth=None)
+
+
+def simulate_free(
+    study: Study, frequency: Frequency | None = None, noise: float = 0.0, seed: int = 0, truth: Study | None = None
+) -> FRF:
+    """A virtual free-free test: accelerances of the free true beam with its accelerometers (no joint).
+
+    The structure is the study's beam with the ``[truth]`` overrides (or
+    ``truth``'s beam, see :func:`true_beam_study`), meshed by the true study's
+    ``elements_per_segment`` (or automatically), carrying the ``[accelerometers]``
+    as the test article does; FRFs at the study's observed x excited coordinates.
+
+    Parameters
+    ----------
+    frequency : Frequency, optional
+        Default: the study's grid (a 0 Hz line is dropped: a free beam has no receptance there).
+    noise : float
+        Relative rms of complex Gaussian noise on every value, ``H (1 + noise n)``
+        with ``n`` circular, ``E|n|^2 = 1`` (0: exact).
+    seed : int
+        Seed of the noise.
+
+    Returns
+    -------
+    FRF
+        Accelerance, (m/s^2)/N, shape (F, |m|, |e|).
+    """
+    if not (np.isfinite(noise) and noise >= 0):
+        raise DataError(f"noise must be a relative rms >= 0, got {noise!r}")
+    frequency = frequency or study.grid
+    if frequency.hz[0] <= 0:
+        frequency = frequency[frequency.hz > 0]
+    from .physics.banded_receptance import receptance_banded
+
+    true = true_beam_study(study, truth)
+    article = free_model(true, with_accelerometers=True)
+    m = study.measurement
+    Y = receptance_banded(article, frequency, m.observed_dofs, m.excited_dofs)  # exact to ~1e-8, fast on fine meshes
+    if Y is None:
+        frf = synthesize_frf(article, frequency, m.observed_dofs, m.excited_dofs, kind="accelerance")
+    else:
+        frf = FRF(frequency, Y, m.observed_dofs, m.excited_dofs, "receptance").to("accelerance")
+    if noise > 0:
+        rng = np.random.default_rng(seed)
+        shape = frf.data.shape
+        n = (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) / np.sqrt(2.0)
+        frf = FRF(frf.frequency, frf.data * (1.0 + noise * n), frf.responses, frf.references, frf.kind)
+    return frf
+
+
+def read_free_measured(study: Study, path: str | os.PathLike) -> FRF:
+    """Read a free-free FRF file: every FRF between the beam's grid nodes (any subset), in SI, with coherence.
+
+    ``[measurement].points`` and ``.axis`` apply as in :func:`read_measured`;
+    a record at a node outside the beam is an error naming the file and record.
+    """
+    from .io.frf_files import read_frf
+
+    m = study.measurement
+    return read_frf(path, n_nodes=study.beam.nodes, points=m.point_map, axis=m.axis, coherence=True)
+
+
+def free_beam_parameters(study: Study):
+    """The study's free beam with its accelerometers as a parameterized model for updating.
+
+    Returns
+    -------
+    build : callable
+        ``build(values) -> Structure``: the beam meshed with the study's
+        refinement at ``[frequency].stop`` (fixed, so the model is smooth in the
+        parameters), ``values`` replacing ``[beam]`` keys (``elastic_modulus``,
+        ``density``, ``loss_factor``, ``shear_coefficient``) and
+        ``accelerometers.mass`` / ``accelerometers.rotary_inertia``.
+    initial : dict
+        The study's value of each of those keys (the accelerometer ones only
+        with an ``[accelerometers]`` section).
+    """
+    from dataclasses import replace
+
+    beam = study.beam
+    r = beam.mesh_refinement(study.frequency.stop)
+    beam_keys = ("elastic_modulus", "density", "loss_factor", "shear_coefficient")
+    initial = {k: float(getattr(beam, k)) for k in beam_keys}
+    acc = study.accelerometers
+    if acc is not None:
+        initial["accelerometers.mass"] = acc.mass
+        initial["accelerometers.rotary_inertia"] = acc.rotary_inertia
+
+    def build(values) -> Structure:
+        spec = replace(beam, elements_per_segment=r, **{k: values[k] for k in beam_keys if k in values})
+        s = spec.structure()
+        if acc is not None:
+            s = s.with_masses(
+                acc.nodes, values.get("accelerometers.mass", acc.mass),
+                values.get("accelerometers.rotary_inertia", acc.rotary_inertia),
+            )
+        return s
+
+    return build, initial
+
+
+def update(study: Study, measured: FRF, options=None):
+    """Update the study's free beam (and sensors) from free-free FRFs over the study's band.
+
+    See :func:`jointid.methods.updating.update_free_model`; the lines of
+    ``measured`` in ``[frequency] start..stop`` (above 0 Hz) are used on the
+    data's own grid. Returns its :class:`~jointid.methods.updating.UpdateResult`.
+    """
+    from .methods.updating import update_free_model
+
+    data = measured.band(max(study.frequency.start, 1e-6), study.frequency.stop)
+    build, initial = free_beam_parameters(study)
+    return update_free_model(build, initial, data, options)

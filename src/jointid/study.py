@@ -1,7 +1,8 @@
 """Study files: the TOML schema of a jointid study, validated before any computation.
 
-Every section and key of a study lives here (one module, one schema). Units
-are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
+Every section and key of a study is validated here (one schema); the
+validated sections are the frozen dataclasses of :mod:`jointid.study_sections`,
+re-exported here. Units are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
 
 .. code-block:: toml
 
@@ -83,6 +84,12 @@ are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     exponential_window = 0.0  # s, time constant tau (0: none)
     seed = 0
 
+    [truth]                   # the true beam of `simulate` / `simulate --free` (virtual tests only):
+    elastic_modulus = 70.38e9 #   any of these [beam] keys replace the model's value in the simulated
+    density = 2673.0          #   structure, so a model error is explicit; `identify` and `update`
+    loss_factor = 0.0042      #   start from [beam]
+    elements_per_segment = 32 # e.g. data from a finer mesh than the model
+
 Only ``[beam]``, ``[joint]``, ``[measurement]`` and ``[frequency]`` are required.
 
 Limits (so that a typo cannot exhaust the memory): ``[beam].nodes`` at most
@@ -95,13 +102,25 @@ from __future__ import annotations
 import math
 import os
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from .dofs import DIRECTIONS, Dof
+from .dofs import DIRECTIONS
 from .errors import StudyError
-from .frequency import Frequency
+from .study_sections import (
+    TRUTH_KEYS,
+    AccelerometerSpec,
+    BeamSpec,
+    ExperimentSpec,
+    FrequencySpec,
+    IdentificationSpec,
+    JointModelSpec,
+    JointSpec,
+    MeasurementSpec,
+    Study,
+    TruthSpec,
+)
 
 __all__ = [
     "Study",
@@ -113,6 +132,7 @@ __all__ = [
     "IdentificationSpec",
     "FrequencySpec",
     "ExperimentSpec",
+    "TruthSpec",
     "load_study",
     "parse_study",
     "MAX_NODES",
@@ -208,206 +228,6 @@ def _nodes_in_range(section: str, key: str, nodes, n_nodes: int) -> None:
             raise StudyError(f"[{section}].{key}: node {x} is out of range; the beam has nodes 1..{n_nodes}")
 
 
-# --------------------------------------------------------------------------- sections
-@dataclass(frozen=True)
-class BeamSpec:
-    """The free beam: geometry (m), material (Pa, kg/m^3), loss factor, mesh."""
-
-    length: float
-    elastic_modulus: float
-    density: float
-    nodes: int
-    width: float | None = None
-    height: float | None = None
-    diameter: float | None = None
-    loss_factor: float = 0.0
-    poisson_ratio: float | None = 0.33
-    shear_modulus: float | None = None
-    shear_coefficient: float = 5.0 / 6.0
-    theory: str = "timoshenko"
-    elements_per_segment: int | None = None
-
-    def section(self):
-        """The cross-section (:class:`~jointid.physics.elements.Section`)."""
-        from .physics.elements import Section
-
-        if self.diameter is not None:
-            return Section.circle(self.diameter)
-        return Section.rectangle(self.width, self.height)
-
-    def material(self):
-        """The beam material (:class:`~jointid.physics.elements.Material`)."""
-        from .physics.elements import Material
-
-        return Material(self.elastic_modulus, self.density, self.loss_factor, self.poisson_ratio, self.shear_modulus)
-
-    def mesh_refinement(self, max_frequency_hz: float | None = None) -> int:
-        """Elements per segment between grid nodes: ``elements_per_segment``, or automatic.
-
-        Automatic (key absent) with ``max_frequency_hz``: the convergence criterion of
-        :func:`jointid.physics.beam_mesh.elements_per_segment` at that frequency;
-        without it: 1 (the grid itself).
-        """
-        if self.elements_per_segment is not None:
-            return self.elements_per_segment
-        if max_frequency_hz is None:
-            return 1
-        from .physics.beam_mesh import elements_per_segment
-
-        return elements_per_segment(self.length, self.nodes, self.section(), self.material(), max_frequency_hz)
-
-    def structure(self, max_frequency_hz: float | None = None):
-        """The free-free beam (:class:`~jointid.physics.structure.Structure`), grid nodes 1..N from x = 0.
-
-        Parameters
-        ----------
-        max_frequency_hz : float, optional
-            Refine the mesh between grid nodes for FRFs converged up to this
-            frequency (:meth:`mesh_refinement`); internal nodes are numbered N+1, ...
-        """
-        from .physics.structure import beam_structure
-
-        return beam_structure(
-            self.length,
-            self.section(),
-            self.material(),
-            self.nodes,
-            self.shear_coefficient,
-            euler_bernoulli=self.theory == "euler-bernoulli",
-            elements_per_segment=self.mesh_refinement(max_frequency_hz),
-        )
-
-
-@dataclass(frozen=True)
-class JointModelSpec:
-    """The true joint for virtual experiments: ``type`` and its parameters (SI units)."""
-
-    type: str
-    parameters: Mapping[str, Any] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class JointSpec:
-    """Where the joint connects the beam to ground, on which DOFs."""
-
-    node: int
-    dofs: tuple[str, ...] = DIRECTIONS
-    model: JointModelSpec | None = None
-
-    @property
-    def joint_dofs(self) -> tuple[Dof, ...]:
-        """The joint coordinates n as labelled DOFs."""
-        return tuple(Dof(self.node, d) for d in self.dofs)
-
-
-@dataclass(frozen=True)
-class MeasurementSpec:
-    """Observed (response, w) and excited (force, w) beam nodes; how the FRF file names them.
-
-    ``axis`` is the FRF file's direction that is the model's ``w``;
-    ``points`` pairs (file point id, beam node), empty: the file's point ids
-    are node numbers.
-    """
-
-    observed: tuple[int, ...]
-    excited: tuple[int, ...]
-    axis: str = "+Z"
-    points: tuple[tuple[int, int], ...] = ()
-
-    @property
-    def point_map(self) -> dict[int, int] | None:
-        """File point id -> beam node, or None (point ids are node numbers)."""
-        return dict(self.points) if self.points else None
-
-    @property
-    def observed_dofs(self) -> tuple[Dof, ...]:
-        """Observed coordinates m (transverse w)."""
-        return tuple(Dof(n, "w") for n in self.observed)
-
-    @property
-    def excited_dofs(self) -> tuple[Dof, ...]:
-        """Excited coordinates e (transverse force)."""
-        return tuple(Dof(n, "w") for n in self.excited)
-
-
-@dataclass(frozen=True)
-class AccelerometerSpec:
-    """Accelerometers on the test article: mass (kg), rotary inertia (kg*m^2) each, nodes."""
-
-    mass: float = 0.005
-    rotary_inertia: float = 0.0
-    nodes: tuple[int, ...] = ()
-
-
-@dataclass(frozen=True)
-class IdentificationSpec:
-    """Options of the inverse identification: the method and its options.
-
-    ``method = "receptance"`` (default): weighted receptance-coupling estimator with
-    smoothing over frequency and per-term uncertainty (:mod:`jointid.methods.coupling`);
-    ``"hong-lee"``: the paper's per-line method (:mod:`jointid.methods.inverse`).
-    ``symmetric`` defaults to true for "receptance" and false for "hong-lee".
-    """
-
-    method: str = "receptance"
-    smoothing: str = "gcv"
-    weighting: str = "auto"
-    averages: int | None = None
-    max_relative_std: float = 0.1
-    symmetric: bool | None = None
-    regularization: str = "none"
-    model_accelerometers: bool = False
-    estimation: str = "qr"
-    cond_rtol: float = 0.01
-
-
-@dataclass(frozen=True)
-class FrequencySpec:
-    """Frequency grid, Hz."""
-
-    start: float
-    stop: float
-    step: float
-
-    def frequency(self) -> Frequency:
-        """The grid as a :class:`~jointid.frequency.Frequency`."""
-        return Frequency.from_range(self.start, self.stop, self.step)
-
-
-@dataclass(frozen=True)
-class ExperimentSpec:
-    """Virtual roving-hammer experiment settings (Hz, s, N, relative noise rms)."""
-
-    sample_rate: float = 8192.0
-    duration: float = 2.0
-    averages: int = 5
-    force_noise: float = 0.01
-    response_noise: float = 0.01
-    pulse_duration: float = 0.0005
-    pulse_amplitude: float = 100.0
-    exponential_window: float = 0.0
-    seed: int = 0
-
-
-@dataclass(frozen=True)
-class Study:
-    """A validated study: beam, joint, measurement, frequency grid and optional sections."""
-
-    beam: BeamSpec
-    joint: JointSpec
-    measurement: MeasurementSpec
-    frequency: FrequencySpec
-    accelerometers: AccelerometerSpec | None = None
-    identification: IdentificationSpec = IdentificationSpec()
-    experiment: ExperimentSpec = ExperimentSpec()
-    source: str = "<study>"
-
-    @property
-    def grid(self) -> Frequency:
-        """The study's frequency grid."""
-        return self.frequency.frequency()
-
-
 _BEAM = {
     "length": _Field("number", True, unit="m", check=_positive),
     "width": _Field("number", unit="m", check=_positive),
@@ -491,7 +311,8 @@ _EXPERIMENT = {
     "exponential_window": _Field("number", False, 0.0, unit="s", check=_nonneg),
     "seed": _Field("int", False, 0, check=lambda v: None if v >= 0 else "an integer >= 0"),
 }
-_TOP = ("beam", "joint", "measurement", "frequency", "accelerometers", "identification", "experiment")
+_TRUTH = {k: replace(_BEAM[k], required=False, default=None) for k in TRUTH_KEYS}
+_TOP = ("beam", "joint", "measurement", "frequency", "accelerometers", "identification", "experiment", "truth")
 
 
 def parse_study(data: Mapping[str, Any], source: str = "<study>") -> Study:
@@ -583,7 +404,10 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
     if ident.model_accelerometers and acc is None:
         raise StudyError("[identification].model_accelerometers = true needs an [accelerometers] section")
     exp = ExperimentSpec(**_section(data.get("experiment", {}), "experiment", _EXPERIMENT))
-    return Study(beam, joint, measurement, frequency, acc, ident, exp, source)
+    truth = None
+    if "truth" in data:
+        truth = TruthSpec(**{k: v for k, v in _section(data["truth"], "truth", _TRUTH).items()})
+    return Study(beam, joint, measurement, frequency, acc, ident, exp, source, truth)
 
 
 def _points(table: Any, n_nodes: int, used: tuple[int, ...]) -> tuple[tuple[int, int], ...]:

@@ -18,7 +18,7 @@ from ..errors import JointIdError
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: Subcommand modules under :mod:`jointid.cli`, in help order.
-COMMANDS = ("reproduce", "modes", "simulate", "identify", "experiment", "frf", "direct", "design")
+COMMANDS = ("reproduce", "modes", "simulate", "identify", "update", "experiment", "frf", "direct", "design")
 
 
 def build_parser() -> argparse.ArgumentParser:

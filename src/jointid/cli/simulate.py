@@ -1,12 +1,16 @@
-"""``jointid simulate``: a virtual test of the study's constrained beam (exact FRFs)."""
+"""``jointid simulate``: a virtual test of the study's constrained beam, or of its free beam (``--free``)."""
 
 from __future__ import annotations
 
 import argparse
+import json
+from pathlib import Path
 
+from ..errors import StudyError
 from ..io.output_dir import OutputSet
 from ..methods.inverse import stiffness_columns
-from ..pipeline import simulate
+from ..pipeline import simulate, simulate_free, true_beam_study
+from ..study import load_study
 from .common import add_out_argument, add_study_argument, study_from_args
 
 __all__ = ["add_parser", "run"]
@@ -15,24 +19,67 @@ __all__ = ["add_parser", "run"]
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "simulate",
-        help="synthesize the constrained beam's FRFs (a virtual test) and the true joint",
+        help="synthesize the constrained beam's FRFs (a virtual test) and the true joint, or a free-free test (--free)",
         description="Synthesize the FRFs of the study's beam attached to ground through its [joint.model] "
         "(with the [accelerometers] on the test article, if given) at the observed x excited coordinates, "
         "and write DIR/frf.uff (UFF58 accelerance, (m/s^2)/N, like a real test) and DIR/true_joint.csv "
-        "(the true joint matrix, columns as `jointid identify` writes them).",
+        "(the true joint matrix, columns as `jointid identify` writes them). With --free: the free (suspended) "
+        "beam with its accelerometers, no joint, at the same coordinates: DIR/free_frf.uff and DIR/true_beam.json "
+        "(a virtual free-free test for `jointid update`). The simulated beam is the study's [beam] with its [truth] "
+        "overrides, or the [beam] of --truth OTHER.toml.",
     )
     add_study_argument(p, required=False)
     add_out_argument(p)
+    p.add_argument("--free", action="store_true", help="a free-free test of the beam with its accelerometers (no joint)")
+    p.add_argument("--noise", type=float, default=0.0, metavar="X",
+                   help="relative rms of complex Gaussian noise on every FRF value (default 0: exact)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the noise (default 0)")
+    p.add_argument("--truth", type=Path, metavar="OTHER.toml",
+                   help="study whose [beam] (with its [truth]) is the true beam; default: this study's [beam] + [truth]")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
 
+    if not args.noise >= 0 or args.noise != args.noise or args.noise == float("inf"):
+        raise StudyError(f"--noise: expected a relative rms >= 0 (e.g. 0.01), got {args.noise}")
+    if args.seed < 0:
+        raise StudyError(f"--seed: expected an integer >= 0, got {args.seed}")
     study = study_from_args(args)
+    other = load_study(args.truth) if args.truth else None
+    true = true_beam_study(study, other)
+    if args.free:
+        with OutputSet(args.out, command="simulate") as out:
+            frf = simulate_free(study, noise=args.noise, seed=args.seed, truth=other)
+            uff = out.write_file("free_frf.uff", lambda p: write_uff_frf(p, frf, kind="accelerance", description="jointid free-free test"))
+            b = true.beam
+            truth = {
+                "elastic_modulus": b.elastic_modulus, "density": b.density, "loss_factor": b.loss_factor,
+                "elements_per_segment": b.mesh_refinement(study.frequency.stop), "noise": args.noise, "seed": args.seed,
+                "accelerometers": None if study.accelerometers is None else {
+                    "mass": study.accelerometers.mass, "rotary_inertia": study.accelerometers.rotary_inertia,
+                    "nodes": list(study.accelerometers.nodes)},
+            }
+            js = out.write_text("true_beam.json", json.dumps(truth, indent=2) + "\n")
+        f = frf.frequency.hz
+        print(f"wrote {uff} (free-free: {len(frf.responses)} x {len(frf.references)} accelerances, "
+              f"{f.size} lines {f[0]:g}-{f[-1]:g} Hz, noise {args.noise:g}) and {js}")
+        return 0
     with OutputSet(args.out, command="simulate") as out:
-        test = simulate(study)
-        uff = out.write_file("frf.uff", lambda p: write_uff_frf(p, test.frf, kind="accelerance"))
+        test = simulate(true)
+        if args.noise > 0:
+            import numpy as np
+
+            from ..frf import FRF
+
+            rng = np.random.default_rng(args.seed)
+            shape = test.frf.data.shape
+            n = (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) / np.sqrt(2.0)
+            noisy = FRF(test.frf.frequency, test.frf.data * (1.0 + args.noise * n), test.frf.responses, test.frf.references, test.frf.kind)
+        else:
+            noisy = test.frf
+        uff = out.write_file("frf.uff", lambda p: write_uff_frf(p, noisy, kind="accelerance"))
         csv = out.write_csv("true_joint.csv", stiffness_columns(test.frequency, test.joint_dofs, test.truth))
     f = test.frequency.hz
     print(

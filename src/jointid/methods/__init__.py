@@ -22,6 +22,8 @@ The main API, re-exported here (imported on first use)::
   ``roving_sensor_correction``;
 * test design -- :mod:`.design`: ``design_layout``, ``LayoutDesign``, ``LayoutPredictor``, ``Sensors``
   (where to measure and hit, from the predicted covariance of the default method).
+* free-structure model updating -- :mod:`.updating`: ``update_free_model``, ``UpdateOptions``,
+  ``UpdateResult``.
 
 This layer imports :mod:`jointid.physics` and the labels, never studies, report, plots
 (except inside ``plot()`` methods) or the CLI.
@@ -55,6 +57,7 @@ __getattr__, __dir__, __all__ = attach(
         ".virtual_hammer": ("simulate_hits", "HammerSettings", "ImpactHits"),
         ".sensor_correction": ("roving_sensor_correction",),
         ".design": ("design_layout", "LayoutDesign", "LayoutPredictor", "Sensors"),
+        ".updating": ("update_free_model", "UpdateOptions", "UpdateResult"),
     },
     submodules=(
         "coupling",
@@ -79,5 +82,6 @@ __getattr__, __dir__, __all__ = attach(
         "virtual_hammer",
         "sensor_correction",
         "design",
+        "updating",
     ),
 )

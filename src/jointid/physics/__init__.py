@@ -29,5 +29,5 @@ __getattr__, __dir__, __all__ = attach(
         ".beam_mesh": ("elements_per_segment", "bending_wavelength_m"),
         ".synthesis": ("synthesize_frf", "receptance_direct", "receptance_modal", "choose_method"),
     },
-    submodules=("elements", "structure", "joints", "modes", "synthesis", "free_model", "beam_mesh"),
+    submodules=("elements", "structure", "joints", "modes", "synthesis", "free_model", "beam_mesh", "banded_receptance"),
 )

@@ -1,0 +1,93 @@
+"""``jointid update``: update the free beam's model (E, density, loss factor, ...) from a free-free test."""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+from pathlib import Path
+
+from ..errors import StudyError
+from ..io.output_dir import OutputSet
+from ..methods.updating import DEFAULT_PARAMETERS, PARAMETERS, UpdateOptions
+from ..pipeline import read_free_measured, update
+from ..study_edit import replace_study_values
+from .common import add_out_argument, add_study_argument, study_from_args
+
+__all__ = ["add_parser", "run", "parse_parameters"]
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "update",
+        help="update the free beam's E, density and loss factor from free-free FRFs",
+        description="Fit the study's free beam (with its [accelerometers], no joint) to FRFs measured on the free "
+        "(suspended) structure: any kind, any subset of the beam's nodes, UFF58 or CSV, read like `identify` reads "
+        "them ([measurement] axis and points), over the study's [frequency] band. The fit is on the FRFs themselves "
+        "(log-magnitude and phase, weighted by coherence where the file has it), so E and density separate through "
+        "the FRF level. Writes DIR/update.json (values with standard errors, correlation, residual before/after), "
+        "DIR/updated_study.toml (the study with the determined values written in) and DIR/update.png (FRF overlay). "
+        "A parameter the FRFs cannot determine is reported as such and keeps the study's value.",
+    )
+    add_study_argument(p)
+    p.add_argument("--frf", required=True, type=Path, metavar="FILE", help="free-free FRFs (.uff, .unv, .csv)")
+    add_out_argument(p)
+    p.add_argument(
+        "--parameters", metavar="NAMES", default=",".join(DEFAULT_PARAMETERS),
+        help=f"comma-separated parameters to fit (default {','.join(DEFAULT_PARAMETERS)}); any of {', '.join(PARAMETERS)}",
+    )
+    p.add_argument("--max-evaluations", type=int, default=UpdateOptions.max_evaluations, metavar="N",
+                   help="model evaluations allowed to the fit (default %(default)s); more is reported as not converged")
+    p.add_argument("--no-plots", action="store_true", help="skip the figure")
+    p.set_defaults(func=run)
+
+
+def parse_parameters(text: str) -> tuple[str, ...]:
+    """``--parameters`` as names, validated (one-line :class:`StudyError` naming a bad one)."""
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise StudyError(f"--parameters: give at least one of {', '.join(PARAMETERS)}")
+    for n in names:
+        if n not in PARAMETERS:
+            raise StudyError(f"--parameters: unknown parameter {n!r}; expected any of {', '.join(PARAMETERS)}")
+    if len(set(names)) != len(names):
+        raise StudyError(f"--parameters: {text!r} names a parameter twice")
+    return names
+
+
+def run(args: argparse.Namespace) -> int:
+    names = parse_parameters(args.parameters)
+    if args.max_evaluations < 1:
+        raise StudyError(f"--max-evaluations: expected an integer >= 1, got {args.max_evaluations}")
+    study = study_from_args(args)
+    if study.accelerometers is None and any(n.startswith("accelerometers.") for n in names):
+        raise StudyError(f"--parameters: {study.source} has no [accelerometers] section to fit")
+    text = Path(args.study).read_text(encoding="utf-8-sig")
+    measured = read_free_measured(study, args.frf)
+    for note in measured.notes:
+        print(f"{args.frf}: {note}")
+    options = UpdateOptions(parameters=names, max_evaluations=args.max_evaluations)
+    with OutputSet(args.out, command="update") as out:
+        result = update(study, measured, options)
+        determined = result.determined()
+        header = [
+            f"Updated by `jointid update` on {datetime.date.today().isoformat()} from the free-free FRFs {args.frf}",
+            f"(fit of {', '.join(names)} on {result.measured.frequency.size} lines x {len(result.measured.responses)} x "
+            f"{len(result.measured.references)} FRFs; residual {result.residual_before:.3g} -> {result.residual_after:.3g};",
+            "values with standard errors in update.json).",
+        ] + [f"  {line}" for line in result.describe()]
+        new_text = replace_study_values(text, determined, header, source=str(args.study)) if determined else \
+            "".join(f"# {h}\n" for h in header + ["No parameter was determined: the study is unchanged."]) + text
+        report = result.to_dict()
+        report.update({"study": study.source, "frf_file": str(args.frf), "fitted": list(names)})
+        out.write_text("update.json", json.dumps(report, indent=2) + "\n")
+        out.write_text("updated_study.toml", new_text)
+        if not args.no_plots:
+            out.write_figure("update.png", result.plot())
+    for line in result.describe():
+        print(line)
+    print(
+        f"residual (rms |ln(H_model / H_measured)|) {result.residual_before:.3g} -> {result.residual_after:.3g}; "
+        f"wrote {out.path('updated_study.toml')} and {out.path('update.json')}"
+    )
+    return 0
