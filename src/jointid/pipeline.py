@@ -122,6 +122,7 @@ def coupling_options(study: Study) -> CouplingOptions:
         weighting=spec.weighting,
         averages=spec.averages,
         max_relative_std=spec.max_relative_std,
+        calibration=spec.calibration,
     )
 
 

@@ -290,6 +290,7 @@ _IDENTIFICATION = {
     "averages": _Field("int", False, None, check=lambda v: None if v >= 1 else "an integer >= 1"),
     "max_relative_std": _Field("number", False, 0.1, check=_positive),
     "symmetric": _Field("bool", False, None),
+    "calibration": _Field("str", False, "auto", check=_choices("auto", "columns", "none")),
     "regularization": _Field("str", False, "none", check=_choices("none", "gcv", "lcurve")),
     "model_accelerometers": _Field("bool", False, False),
     "estimation": _Field("str", False, "qr", check=_choices("qr", "svd")),

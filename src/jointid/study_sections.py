@@ -166,6 +166,9 @@ class IdentificationSpec:
     smoothing over frequency and per-term uncertainty (:mod:`jointid.methods.coupling`);
     ``"hong-lee"``: the paper's per-line method (:mod:`jointid.methods.inverse`).
     ``symmetric`` defaults to true for "receptance" and false for "hong-lee".
+    ``calibration`` ("receptance" only): force-calibration error per excitation column,
+    corrected when significant ("auto"), always ("columns") or never ("none")
+    (:mod:`jointid.methods.column_calibration`).
     """
 
     method: str = "receptance"
@@ -174,6 +177,7 @@ class IdentificationSpec:
     averages: int | None = None
     max_relative_std: float = 0.1
     symmetric: bool | None = None
+    calibration: str = "auto"
     regularization: str = "none"
     model_accelerometers: bool = False
     estimation: str = "qr"
