@@ -41,9 +41,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
-from scipy.interpolate import BSpline
 
 from .coupling_lines import symmetric_parametrization
+from .smoothing import _basis as bspline_basis
 
 __all__ = ["ColumnCalibration", "estimate_column_calibration", "CALIBRATION_BASIS", "CALIBRATION_P_VALUE", "CALIBRATION_MIN_F", "CALIBRATION_MIN_ERROR"]
 
@@ -98,13 +98,6 @@ class ColumnCalibration:
         """Corrected receptance ``H (1 - delta)`` and its variance, shapes (F, m, e)."""
         g = 1.0 - self.delta[:, None, :]
         return H * g, variance * np.abs(g) ** 2
-
-
-def bspline_basis(hz: np.ndarray, n_basis: int, degree: int = 3) -> np.ndarray:
-    """Cubic B-splines with uniform knots over ``[hz[0], hz[-1]]``, shape (F, n_basis)."""
-    x = (hz - hz[0]) / (hz[-1] - hz[0])
-    t = np.r_[[0.0] * degree, np.linspace(0.0, 1.0, n_basis - degree + 1), [1.0] * degree]
-    return BSpline.design_matrix(np.clip(x, 0.0, 1.0), t, degree).toarray()
 
 
 def estimate_column_calibration(
@@ -166,7 +159,7 @@ def estimate_column_calibration(
     QhG = Qh @ Gw
     Z = Gw - Q @ QhG
     r0 = dw - np.einsum("fij,fj->fi", Q, np.einsum("fij,fj->fi", Qh, dw))
-    B = bspline_basis(np.asarray(hz, float), nb)
+    B = bspline_basis(np.asarray(hz, float), nb).toarray()  # cubic, uniform knots over the band
     ZZ = np.einsum("fai,faj->fij", Z.conj(), Z)
     N = np.einsum("fij,fb,fc->ibjc", ZZ, B, B).reshape(e * nb, e * nb)
     rhs = -np.einsum("fai,fa,fb->ib", Z.conj(), r0, B).reshape(e * nb)
