@@ -56,6 +56,8 @@ SMOOTH_MIN_RELATIVE_STD = 1e-6
 MAX_CONDITION = 1e8
 #: Gauss-Newton steps: per-line estimates relinearized around the smoothed estimate, smoothed again.
 RELINEARIZATIONS = 2
+#: A median column calibration error above this (relative) is reported as a units or sensitivity problem.
+GROSS_CALIBRATION_ERROR = 0.1
 #: Values of ``CouplingOptions.calibration``.
 CALIBRATIONS = ("auto", "columns", "none")
 #: Two-sided 90 % normal quantile: the bands drawn and the passivity test are +-Z90 sigma.
@@ -202,6 +204,7 @@ class CouplingResult:
             out.append(
                 "force calibration error of the excitation columns (median " + ", ".join(f"{v:.2g} %" for v in eps)
                 + f"; F test p = {cal.p_value:.2g}): corrected, its uncertainty is in the bands"
+                + ("; far more than force noise: check the FRF units and the hammer's sensitivity" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
             )
         rel = self.relative_std
         done = set()
