@@ -177,6 +177,7 @@ class SparseModel:
         self.n_modes = n_modes
         self._modes: ModalBasis | None = None
         self._factor = None  # splu of K + s M
+        self._shifted = None  # K + s M
         self._xs: dict[int, np.ndarray] = {}  # DOF index -> (J + 1, N) deflated Krylov vectors
 
     @classmethod
@@ -267,7 +268,8 @@ class SparseModel:
                 u = np.abs(lu.U.diagonal())
                 if u.min() <= 1e-12 * u.max():
                     raise ModelError("the dynamic stiffness is singular at 0 Hz (rigid-body modes); drop the 0 Hz line")
-            X = lu.solve(E)[take]
+            X = lu.solve(E)
+            X = (X + lu.solve(E - A @ X))[take]  # one step of iterative refinement: ill-conditioned FE models
             out[i] = X.T if transpose else X
         return out
 
@@ -317,6 +319,9 @@ class SparseModel:
             if self.n_modes is not None or lam.max() >= lam_cut or k >= N - 2:
                 break
             k = _more_modes(np.sort(lam), lam_cut, N)
+        # one step of subspace iteration with refined solves, then Rayleigh-Ritz: Lanczos vectors carry the
+        # factorization's round-off (1e-5 on ill-conditioned fine meshes), the refined solves do not
+        phi = self._solve(np.asarray(self.mass @ phi))
         lam, phi = _rayleigh_ritz(self.stiffness, self.mass, phi)
         lam = np.where(np.abs(lam) <= RIGID_TOLERANCE * abs(lam[-1]), 0.0, lam)
         covers = np.sqrt(max(lam.max(), 0.0)) / (2.0 * np.pi) / self.cutoff_factor
@@ -326,8 +331,14 @@ class SparseModel:
         self._xs.clear()
         return self._modes
 
+    def _solve(self, B: np.ndarray) -> np.ndarray:
+        """``(K + s M)^-1 B`` with one step of iterative refinement (fine FE meshes are ill-conditioned)."""
+        X = self._factor.solve(B)
+        return X + self._factor.solve(B - np.asarray(self._shifted @ X))
+
     def _set_factor(self, shift: float) -> None:
         A = (self.stiffness + shift * self.mass).tocsc()
+        self._shifted = A
         try:
             self._factor = spla.splu(A, permc_spec="COLAMD")
         except RuntimeError as exc:
@@ -350,13 +361,13 @@ class SparseModel:
             Phi = basis.shapes
             E = np.zeros((self.size, len(need)))
             E[need, np.arange(len(need))] = 1.0
-            X = self._factor.solve(E)
+            X = self._solve(E)
             stack = []
             for j in range(J + 1):
                 X = X - Phi @ (Phi.T @ np.asarray(self.mass @ X))  # P: deflate the kept modes
                 stack.append(X)
                 if j < J:
-                    X = self._factor.solve(np.asarray(self.mass @ X))
+                    X = self._solve(np.asarray(self.mass @ X))
             stack = np.stack(stack)  # (J + 1, N, len(need))
             for col, i in enumerate(need):
                 self._xs[i] = np.ascontiguousarray(stack[:, :, col])
