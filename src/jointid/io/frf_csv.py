@@ -43,7 +43,7 @@ from typing import Iterable, Mapping
 
 import numpy as np
 
-from ..dofs import Dof, parse_dof, parse_dofs
+from ..dofs import DIRECTIONS, Dof, parse_dof, parse_dofs
 from ..errors import DataError, JointIdError
 from ..frequency import Frequency
 from ..frf import FRF, KINDS
@@ -64,6 +64,8 @@ def _label(text: str, lineno: int, column: str, cache: dict[str, Dof], path: Pat
             dof = parse_dof(int(t)) if t.isdigit() else parse_dof(t)
         except JointIdError as exc:
             raise DataError(f"row {lineno} of {path}: cannot read the {column} DOF {text!r}: {exc}") from exc
+        if dof.direction not in DIRECTIONS:
+            raise DataError(f"row {lineno} of {path}: cannot read the {column} DOF {text!r}: this CSV layout holds beam DOFs only (w, theta)")
         cache[text] = dof
     return dof
 

@@ -1,0 +1,332 @@
+"""A free structure's mass and stiffness matrices and DOF list, read from files.
+
+Formats (chosen by the file's extension):
+
+* **Matrix Market** ``.mtx`` (``scipy.io.mmread``): one matrix per file,
+  ``coordinate`` (sparse) or ``array`` (dense), ``general`` or ``symmetric``;
+* **NumPy** ``.npz``, either a ``scipy.sparse.save_npz`` file (one sparse
+  matrix; recognized by its ``format`` array) or an ``np.savez`` file of dense
+  2-D arrays, by default ``M`` (mass) and ``K`` (stiffness) -- so one file can
+  hold both -- or ``"file.npz:NAME"`` for the array ``NAME``;
+* **Nastran OP4** ``.op4`` (binary or ASCII, dense or sparse, read with
+  ``pyyeti.nastran.op4``): by default the matrix ``MXX`` (mass) or ``KXX``
+  (stiffness), or ``"file.op4:NAME"``; names are case-insensitive.
+
+The DOF list is a CSV with one row per matrix row, ``node,component``, the
+component ``x|y|z|rx|ry|rz`` or its code ``1-6`` (UFF direction, Nastran
+component), or ``0`` / ``s`` for a scalar point (an SPOINT, a Craig-Bampton
+modal coordinate); an optional header row ``node,component``, ``#`` comments and
+blank lines are skipped.
+
+Matrices are returned as ``scipy.sparse.csr_array`` (float64) whatever the file
+held. Each is checked: real, finite, square, symmetric within a relative
+tolerance (``max |A - A^T| <= tol * max |A|``), and of the DOF list's size; the
+DOF list has no repeated DOF. A failed check raises one
+:class:`~jointid.errors.DataError` line naming the file and what is wrong.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..dofs import COMPONENT_CODES, DofArray, pack_dof_keys, parse_component
+from ..errors import DataError, DofError
+
+__all__ = [
+    "FreeMatrices",
+    "MATRIX_SUFFIXES",
+    "SYMMETRY_TOLERANCE",
+    "read_matrix",
+    "read_dof_list",
+    "read_free_matrices",
+    "check_symmetric",
+    "write_dof_list",
+]
+
+#: File extensions :func:`read_matrix` reads.
+MATRIX_SUFFIXES: tuple[str, ...] = (".mtx", ".npz", ".op4")
+#: Default relative symmetry tolerance: ``max |A - A^T| <= tol * max |A|``.
+SYMMETRY_TOLERANCE = 1e-8
+_DEFAULT_NAMES = {"mass": {".npz": "M", ".op4": "MXX"}, "stiffness": {".npz": "K", ".op4": "KXX"}}
+
+
+@dataclass(frozen=True, eq=False)
+class FreeMatrices:
+    """A free structure's matrices as read from files.
+
+    Attributes
+    ----------
+    mass, stiffness : scipy.sparse.csr_array, shape (N, N)
+        Mass (kg, kg*m, kg*m^2) and stiffness (N/m, N, N*m/rad) matrices, real and symmetric.
+    dofs : DofArray
+        The DOF of each row/column.
+    sources : tuple of str
+        Where each came from (mass, stiffness, dofs), as given.
+    """
+
+    mass: sp.csr_array
+    stiffness: sp.csr_array
+    dofs: DofArray
+    sources: tuple[str, str, str]
+
+
+def _split_spec(spec: "str | Path", base: "Path | None") -> tuple[Path, str | None]:
+    """``("dir/file.op4", "NAME")`` from ``"file.op4:NAME"`` (relative to ``base``)."""
+    text = str(spec)
+    name = None
+    head, sep, tail = text.rpartition(":")
+    if sep and Path(head).suffix.lower() in (".npz", ".op4") and tail and "/" not in tail and "\\" not in tail:
+        text, name = head, tail.strip()
+    path = Path(text)
+    if base is not None and not path.is_absolute():
+        path = Path(base) / path
+    return path, name
+
+
+def read_matrix(spec: "str | Path", role: str = "stiffness", base: "Path | None" = None) -> sp.csr_array:
+    """One real square matrix from a ``.mtx``, ``.npz`` or ``.op4`` file, as a CSR array.
+
+    Parameters
+    ----------
+    spec : str or Path
+        The file, optionally ``"file.npz:NAME"`` / ``"file.op4:NAME"`` to pick a matrix.
+    role : {"mass", "stiffness"}
+        Chooses the default matrix name in ``.npz`` (``M``/``K``) and ``.op4`` (``MXX``/``KXX``) files.
+    base : Path, optional
+        Directory that relative paths are relative to (e.g. the study file's).
+
+    Returns
+    -------
+    scipy.sparse.csr_array, float64
+
+    Raises
+    ------
+    DataError
+        Missing or unreadable file, unknown format or matrix name, a complex,
+        non-finite or non-square matrix (one line naming the file).
+    """
+    if role not in _DEFAULT_NAMES:
+        raise DataError(f"role must be 'mass' or 'stiffness', got {role!r}")
+    path, name = _split_spec(spec, base)
+    suffix = path.suffix.lower()
+    if suffix not in MATRIX_SUFFIXES:
+        raise DataError(f"{path}: unknown matrix file type {path.suffix!r}; use .mtx (Matrix Market), .npz (NumPy) or .op4 (Nastran)")
+    if not path.is_file():
+        raise DataError(f"{path}: {role} matrix file not found")
+    if name is None:
+        name = _DEFAULT_NAMES[role].get(suffix)
+    label = f"{path}:{name}" if suffix != ".mtx" else str(path)
+    if suffix == ".mtx":
+        A = _read_mtx(path)
+    elif suffix == ".npz":
+        A = _read_npz(path, name, spec_given=":" in str(spec))
+    else:
+        A = _read_op4(path, name)
+    return _check_matrix(A, label)
+
+
+def _read_mtx(path: Path):
+    import scipy.io
+
+    try:
+        return scipy.io.mmread(str(path))
+    except Exception as exc:  # noqa: BLE001 - any parse failure is a data error
+        raise DataError(f"{path}: cannot read as Matrix Market: {_one_line(exc)}") from exc
+
+
+def _read_npz(path: Path, name: str, spec_given: bool):
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            keys = list(z.files)
+            sparse_file = "format" in keys and "shape" in keys
+            if not sparse_file:
+                if name not in keys:
+                    raise DataError(f"{path}: no array {name!r} (it has: {', '.join(keys) or 'none'}); write '{path.name}:NAME' to pick one")
+                A = np.array(z[name])
+    except DataError:
+        raise
+    except Exception as exc:  # noqa: BLE001
+        raise DataError(f"{path}: cannot read as a NumPy .npz file: {_one_line(exc)}") from exc
+    if sparse_file:
+        if spec_given:
+            raise DataError(f"{path}: a scipy.sparse .npz file holds one matrix; give the file without ':{name}'")
+        try:
+            return sp.load_npz(path)
+        except Exception as exc:  # noqa: BLE001
+            raise DataError(f"{path}: cannot read as a scipy.sparse .npz file: {_one_line(exc)}") from exc
+    if A.ndim != 2:
+        raise DataError(f"{path}: array {name!r} has {A.ndim} dimension(s); a matrix needs 2")
+    return A
+
+
+def _read_op4(path: Path, name: str):
+    try:
+        from pyyeti.nastran import op4
+    except ImportError as exc:  # pragma: no cover - a declared dependency
+        raise DataError(f"{path}: reading Nastran .op4 needs the 'pyyeti' package (pip install pyyeti)") from exc
+    try:
+        names, mats, _, _ = op4.load(str(path), into="list", sparse=(None, sp.coo_matrix.tocsr))
+    except Exception as exc:  # noqa: BLE001
+        raise DataError(f"{path}: cannot read as a Nastran OP4 file: {_one_line(exc)}") from exc
+    found = [i for i, n in enumerate(names) if n.lower() == name.lower()]
+    if not found:
+        have = ", ".join(n.upper() for n in names) or "none"
+        raise DataError(f"{path}: no matrix {name.upper()} (it has: {have}); write '{path.name}:NAME' to pick one")
+    if len(found) > 1:
+        raise DataError(f"{path}: {len(found)} matrices are named {name.upper()}; keep one")
+    return mats[found[0]]
+
+
+def _one_line(exc: Exception) -> str:
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
+def _check_matrix(A, label: str) -> sp.csr_array:
+    """Real, finite, square: as a float64 CSR array."""
+    A = sp.csr_array(A) if sp.issparse(A) else sp.csr_array(np.asarray(A))
+    if A.ndim != 2:
+        raise DataError(f"{label}: not a 2-D matrix")
+    if np.iscomplexobj(A.data):
+        if A.nnz and np.abs(A.data.imag).max() > 0:
+            raise DataError(f"{label}: the matrix is complex; give real mass and stiffness (damping comes from loss_factor)")
+        A = sp.csr_array(A.real)
+    if not np.issubdtype(A.dtype, np.number) or A.dtype == bool:
+        raise DataError(f"{label}: the matrix is not numeric ({A.dtype})")
+    A = A.astype(np.float64)
+    r, c = A.shape
+    if r != c:
+        raise DataError(f"{label}: the matrix is {r} x {c}, not square")
+    if A.nnz and not np.isfinite(A.data).all():
+        raise DataError(f"{label}: the matrix has non-finite entries (NaN or inf)")
+    A.sum_duplicates()
+    A.eliminate_zeros()
+    return A
+
+
+def check_symmetric(A: sp.csr_array, label: str, tol: float = SYMMETRY_TOLERANCE) -> None:
+    """Raise :class:`DataError` unless ``max |A - A^T| <= tol * max |A|``."""
+    if A.nnz == 0:
+        return
+    scale = np.abs(A.data).max()
+    D = (A - A.T).tocsr()
+    asym = np.abs(D.data).max() if D.nnz else 0.0
+    if asym > tol * scale:
+        raise DataError(f"{label}: the matrix is not symmetric: max |A - A^T| = {asym / scale:.3g} of max |A| (tolerance {tol:g})")
+
+
+def read_dof_list(path: "str | Path", base: "Path | None" = None) -> DofArray:
+    """The DOF of each matrix row from a CSV of ``node,component`` rows.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV (see the module docstring for the layout).
+    base : Path, optional
+        Directory relative paths are relative to.
+
+    Returns
+    -------
+    DofArray
+
+    Raises
+    ------
+    DataError
+        Missing file, a row that is not ``node,component``, a node < 1, an
+        unknown component, or a DOF listed twice (naming both rows).
+    """
+    path = Path(path)
+    if base is not None and not path.is_absolute():
+        path = Path(base) / path
+    if not path.is_file():
+        raise DataError(f"{path}: DOF list not found")
+    nodes: list[int] = []
+    codes: list[int] = []
+    rows: list[int] = []
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        for lineno, row in enumerate(csv.reader(fh), start=1):
+            cells = [c.strip() for c in row]
+            if not cells or not any(cells) or cells[0].startswith("#"):
+                continue
+            if not nodes and not rows and [c.lower() for c in cells[:2]] == ["node", "component"]:
+                continue
+            if len(cells) != 2:
+                raise DataError(f"row {lineno} of {path}: expected 'node,component', got {','.join(row)!r}")
+            try:
+                node = int(cells[0])
+            except ValueError:
+                node = 0
+            if node < 1:
+                raise DataError(f"row {lineno} of {path}: node must be an integer >= 1, got {cells[0]!r}")
+            try:
+                comp = parse_component(cells[1])
+            except DofError:
+                raise DataError(f"row {lineno} of {path}: unknown component {cells[1]!r}; use x, y, z, rx, ry, rz, 1-6, or 0 for a scalar point") from None
+            nodes.append(node)
+            codes.append(COMPONENT_CODES[comp])
+            rows.append(lineno)
+    if not nodes:
+        raise DataError(f"{path}: the DOF list has no rows")
+    dofs = DofArray(nodes, codes)
+    dup = dofs.duplicates()
+    if dup:
+        where = np.flatnonzero(dofs.keys == pack_dof_keys(dup[0].node, dup[0].code))
+        lines = " and ".join(str(rows[i]) for i in where[:2])
+        more = f" ({len(dup)} DOFs are repeated)" if len(dup) > 1 else ""
+        raise DataError(f"{path}: DOF {dup[0]} is listed twice (rows {lines}){more}; each matrix row needs its own DOF")
+    return dofs
+
+
+def write_dof_list(path: "str | Path", dofs: DofArray) -> None:
+    """Write a DOF list CSV (header ``node,component``, components by name) that :func:`read_dof_list` reads."""
+    names = np.array(["s", "x", "y", "z", "rx", "ry", "rz", "w", "theta"], dtype=object)[dofs.code]
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        fh.write("node,component\n")
+        fh.writelines(f"{n},{c}\n" for n, c in zip(dofs.node.tolist(), names.tolist()))
+
+
+def read_free_matrices(
+    mass: "str | Path",
+    stiffness: "str | Path",
+    dofs: "str | Path",
+    base: "Path | None" = None,
+    symmetry_tolerance: float = SYMMETRY_TOLERANCE,
+) -> FreeMatrices:
+    """Mass, stiffness and DOF list of a free structure, read and checked (the study's ``[structure]``).
+
+    Parameters
+    ----------
+    mass, stiffness : str or Path
+        Matrix files (``.mtx``, ``.npz``, ``.op4``, optionally ``":NAME"``; see :func:`read_matrix`).
+    dofs : str or Path
+        DOF list CSV (:func:`read_dof_list`).
+    base : Path, optional
+        Directory relative paths are relative to (the study file's).
+    symmetry_tolerance : float
+        Relative tolerance of the symmetry check.
+
+    Returns
+    -------
+    FreeMatrices
+
+    Raises
+    ------
+    DataError
+        One line naming the file and what is wrong.
+    """
+    dof_array = read_dof_list(dofs, base)
+    out = []
+    for role, spec in (("mass", mass), ("stiffness", stiffness)):
+        A = read_matrix(spec, role, base)
+        path, name = _split_spec(spec, base)
+        label = str(path) if name is None else f"{path}:{name}"
+        check_symmetric(A, label, symmetry_tolerance)
+        if A.shape[0] != len(dof_array):
+            raise DataError(f"{label}: the {role} matrix is {A.shape[0]} x {A.shape[1]} but the DOF list {dofs} has {len(dof_array)} DOFs")
+        out.append(A)
+    return FreeMatrices(out[0], out[1], dof_array, (str(mass), str(stiffness), str(dofs)))
