@@ -6,40 +6,10 @@ import pytest
 
 from jointid.cli.main import main
 from jointid.io.output_dir import MANIFEST_NAME, OutputSet
+from study_texts import beam_study_toml
 from test_output_dir import snapshot
 
-STUDY = """
-[beam]
-length = 0.9144
-width = 0.0127
-height = 0.0127
-elastic_modulus = 69e9
-density = 2700.0
-loss_factor = 0.006
-poisson_ratio = 0.33
-shear_coefficient = 0.8333333333333334
-nodes = 19
-
-[joint]
-node = 10
-dofs = ["w", "theta"]
-
-[joint.model]
-type = "parametric"
-k_w_w = 2.0e5
-k_w_theta = 1.5e3
-k_theta_theta = 60.0
-loss_factor = 0.12
-
-[measurement]
-observed = [1, 3, 6, 9, 12, 15, 19]
-excited  = [3, 9, 15]
-
-[frequency]
-start = 20.0
-stop = 1000.0
-step = 20.0
-"""
+STUDY = beam_study_toml(start=20.0, step=20.0)
 
 
 def _git(cwd, *args):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..errors import StudyError
 from ..io.output_dir import OutputSet
-from ..methods.updating import DEFAULT_PARAMETERS, PARAMETERS, UpdateOptions
+from ..methods.updating import DEFAULT_PARAMETERS, PARAMETERS, UpdateOptions, check_parameter_names
 from ..pipeline import read_free_measured, update
 from ..study_edit import replace_study_values
 from .common import add_out_argument, add_study_argument, study_from_args
@@ -43,15 +43,9 @@ def add_parser(sub) -> None:
 
 
 def parse_parameters(text: str) -> tuple[str, ...]:
-    """``--parameters`` as names, validated (one-line :class:`StudyError` naming a bad one)."""
+    """``--parameters`` as names, validated (one-line error naming a bad one)."""
     names = tuple(n.strip() for n in text.split(",") if n.strip())
-    if not names:
-        raise StudyError(f"--parameters: give at least one of {', '.join(PARAMETERS)}")
-    for n in names:
-        if n not in PARAMETERS:
-            raise StudyError(f"--parameters: unknown parameter {n!r}; expected any of {', '.join(PARAMETERS)}")
-    if len(set(names)) != len(names):
-        raise StudyError(f"--parameters: {text!r} names a parameter twice")
+    check_parameter_names(names, prefix="--parameters: ")
     return names
 
 

@@ -144,15 +144,16 @@ class UpdateOptions:
             raise ModelError(f"max_evaluations must be an integer >= 1, got {self.max_evaluations!r}")
 
 
-def check_parameter_names(names: Sequence[str], what: str = "parameter") -> None:
-    """Raise :class:`ModelError` (one line) for an unknown or repeated name, or none."""
+def check_parameter_names(names: Sequence[str], prefix: str = "") -> None:
+    """Raise :class:`ModelError` (one line, starting with ``prefix``) for no, an unknown or a repeated name."""
+    listed = ", ".join(PARAMETERS)
     if not names:
-        raise ModelError(f"no {what} to fit; give at least one of: {', '.join(PARAMETERS)}")
+        raise ModelError(f"{prefix}give at least one of {listed}")
     for n in names:
         if n not in PARAMETERS:
-            raise ModelError(f"unknown {what} {n!r}; expected one of: {', '.join(PARAMETERS)}")
+            raise ModelError(f"{prefix}unknown parameter {n!r}; expected any of {listed}")
     if len(set(names)) != len(names):
-        raise ModelError(f"{what} names repeated in {list(names)}; give each once")
+        raise ModelError(f"{prefix}{', '.join(names)!r} names a parameter twice")
 
 
 @dataclass(frozen=True, eq=False)
