@@ -8,6 +8,8 @@ The main API, re-exported here (imported on first use)::
 * :mod:`.structure` -- ``Structure`` (immutable assembled model), ``ComplexStiffness``,
   ``beam_structure``, ``constant_stiffness``;
 * :mod:`.joints` -- ``parametric_joint``, ``joint_from_spec``;
+* :mod:`.frame` -- ``build_frame`` (3-D Timoshenko frames, 6 DOFs per node, sparse),
+  ``FrameModel``, ``Member``, ``PointMass``; :mod:`.frame_sections` -- ``FrameSection``;
 * :mod:`.modes` -- ``Modes``, ``natural_modes``;
 * :mod:`.synthesis` -- ``synthesize_frf`` (batched direct solve or modal superposition),
   ``receptance_direct``, ``receptance_modal``, ``choose_method``.
@@ -25,9 +27,11 @@ __getattr__, __dir__, __all__ = attach(
         ".structure": ("Structure", "ComplexStiffness", "beam_structure", "constant_stiffness"),
         ".joints": ("parametric_joint", "joint_from_spec"),
         ".modes": ("Modes", "natural_modes"),
+        ".frame": ("build_frame", "FrameModel", "Member", "PointMass"),
+        ".frame_sections": ("FrameSection",),
         ".free_model": ("FreeModel", "StructureModel", "as_free_model"),
         ".beam_mesh": ("elements_per_segment", "bending_wavelength_m"),
         ".synthesis": ("synthesize_frf", "receptance_direct", "receptance_modal", "choose_method"),
     },
-    submodules=("elements", "structure", "joints", "modes", "synthesis", "free_model", "beam_mesh", "banded_receptance"),
+    submodules=("elements", "structure", "joints", "modes", "synthesis", "free_model", "beam_mesh", "banded_receptance", "frame", "frame_sections"),
 )
