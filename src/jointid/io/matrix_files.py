@@ -23,13 +23,18 @@ held. Each is checked: real, finite, square, symmetric within a relative
 tolerance (``max |A - A^T| <= tol * max |A|``), and of the DOF list's size; the
 DOF list has no repeated DOF. A failed check raises one
 :class:`~jointid.errors.DataError` line naming the file and what is wrong.
+
+:func:`write_free_matrices` writes a model (e.g. a
+:func:`jointid.physics.frame.build_frame` frame) in these formats, through the
+output-directory writer :class:`~jointid.io.output_dir.OutputSet` (atomic; it
+never replaces a file jointid did not write).
 """
 
 from __future__ import annotations
 
 import csv
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import numpy as np
 import scipy.sparse as sp
@@ -46,12 +51,20 @@ __all__ = [
     "read_free_matrices",
     "check_symmetric",
     "write_dof_list",
+    "write_free_matrices",
+    "FreeMatrixFiles",
+    "WRITE_FORMATS",
+    "DENSE_NPZ_LIMIT",
 ]
 
 #: File extensions :func:`read_matrix` reads.
 MATRIX_SUFFIXES: tuple[str, ...] = (".mtx", ".npz", ".op4")
 #: Default relative symmetry tolerance: ``max |A - A^T| <= tol * max |A|``.
 SYMMETRY_TOLERANCE = 1e-8
+#: Formats :func:`write_free_matrices` writes.
+WRITE_FORMATS: tuple[str, ...] = ("npz", "mtx", "sparse-npz")
+#: Largest model (DOFs) written as dense arrays in one ``.npz``; larger ones need ``mtx`` or ``sparse-npz``.
+DENSE_NPZ_LIMIT = 5000
 _DEFAULT_NAMES = {"mass": {".npz": "M", ".op4": "MXX"}, "stiffness": {".npz": "K", ".op4": "KXX"}}
 
 
@@ -330,3 +343,155 @@ def read_free_matrices(
             raise DataError(f"{label}: the {role} matrix is {A.shape[0]} x {A.shape[1]} but the DOF list {dofs} has {len(dof_array)} DOFs")
         out.append(A)
     return FreeMatrices(out[0], out[1], dof_array, (str(mass), str(stiffness), str(dofs)))
+
+
+@dataclass(frozen=True)
+class FreeMatrixFiles:
+    """Where :func:`write_free_matrices` wrote a model (final paths).
+
+    Attributes
+    ----------
+    mass, stiffness, dofs : Path
+        The mass and stiffness matrix files (the same ``.npz`` for format ``npz``)
+        and the DOF list CSV: the ``[structure]`` table's ``mass``, ``stiffness`` and ``dofs``.
+    """
+
+    mass: Path
+    stiffness: Path
+    dofs: Path
+
+    def structure_table(self, base: "str | Path | None" = None) -> dict[str, str]:
+        """``{"mass": ..., "stiffness": ..., "dofs": ...}`` for a study's ``[structure]``, relative to ``base`` if given."""
+        def rel(p: Path) -> str:
+            if base is None:
+                return str(p)
+            try:
+                return p.resolve().relative_to(Path(base).resolve()).as_posix()
+            except ValueError:
+                return str(p.resolve())
+
+        return {"mass": rel(self.mass), "stiffness": rel(self.stiffness), "dofs": rel(self.dofs)}
+
+
+def _matrix_to_write(A, role: str, n: int) -> sp.csr_array:
+    """``A`` checked as :func:`read_free_matrices` would check it (real, finite, square, symmetric, n x n)."""
+    A = _check_matrix(A, f"{role} matrix to write")
+    check_symmetric(A, f"{role} matrix to write")
+    if A.shape[0] != n:
+        raise DataError(f"{role} matrix to write is {A.shape[0]} x {A.shape[1]} but the DOF list has {n} DOFs")
+    return A
+
+
+def write_free_matrices(
+    path: "str | Path",
+    mass,
+    stiffness,
+    dofs: DofArray,
+    format: str | None = None,
+    output=None,
+) -> FreeMatrixFiles:
+    """Write a free model's M, K and DOF list in files :func:`read_free_matrices` reads back exactly.
+
+    Parameters
+    ----------
+    path : str or Path
+        Stem ``"dir/model"`` or a file ``"dir/model.npz"`` / ``"dir/model.mtx"``
+        (the suffix sets ``format``). Files written, for stem ``model``:
+
+        * ``npz``: ``model.npz`` with dense arrays ``M`` and ``K`` (models up to
+          :data:`DENSE_NPZ_LIMIT` DOFs);
+        * ``mtx``: ``model_M.mtx`` and ``model_K.mtx`` (Matrix Market,
+          coordinate, ``symmetric`` when exactly so, else ``general``; 17 digits);
+        * ``sparse-npz``: ``model_M.npz`` and ``model_K.npz`` (``scipy.sparse.save_npz``);
+
+        and always ``model_dofs.csv`` (:func:`write_dof_list`). With ``output``,
+        ``path`` is a name relative to that output directory.
+    mass, stiffness : scipy.sparse matrix or ndarray, shape (N, N)
+        Real symmetric mass (kg, kg*m, kg*m^2) and stiffness (N/m, N, N*m/rad).
+    dofs : DofArray
+        The DOF of each row (no repeats).
+    format : {"npz", "mtx", "sparse-npz"}, optional
+        Default: from the suffix of ``path``, else ``npz`` up to
+        :data:`DENSE_NPZ_LIMIT` DOFs and ``mtx`` above.
+    output : jointid.io.output_dir.OutputSet, optional
+        An open output set to stage the files in (committed with the rest of
+        its files). Without it the files go through their own
+        ``OutputSet(dir, "matrices:<stem>")``: written atomically, all or none;
+        a file of the same name that jointid did not write is never replaced
+        (:class:`~jointid.io.output_dir.OutputError`), and rewriting the same
+        stem removes that stem's previous files (e.g. of another format).
+
+    Returns
+    -------
+    FreeMatrixFiles
+
+    Raises
+    ------
+    DataError
+        Matrices that are not real, finite, square, symmetric, of the DOF list's
+        size; a repeated DOF; an unknown format; a dense ``npz`` too large.
+    """
+    from .output_dir import OutputSet
+
+    if not isinstance(dofs, DofArray):
+        dofs = DofArray.from_dofs(dofs)
+    dup = dofs.duplicates()
+    if dup:
+        raise DataError(f"DOF {dup[0]} is listed twice in the DOF list to write; each matrix row needs its own DOF")
+    n = len(dofs)
+    M = _matrix_to_write(mass, "mass", n)
+    K = _matrix_to_write(stiffness, "stiffness", n)
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix in (".npz", ".mtx"):
+        p = p.with_suffix("")
+        if format is None:
+            format = suffix[1:]
+        elif (format == "mtx") != (suffix == ".mtx"):
+            raise DataError(f"{path}: the suffix {suffix!r} contradicts format {format!r}; give the stem without a suffix")
+    if format is None:
+        format = "npz" if n <= DENSE_NPZ_LIMIT else "mtx"
+    if format not in WRITE_FORMATS:
+        raise DataError(f"unknown matrix file format {format!r}; use one of {', '.join(WRITE_FORMATS)}")
+    if format == "npz" and n > DENSE_NPZ_LIMIT:
+        raise DataError(
+            f"{p}.npz: a model of {n} DOFs is too large for dense arrays in one .npz (limit {DENSE_NPZ_LIMIT}); use format 'mtx' or 'sparse-npz'"
+        )
+    stem = p.name
+    if not stem:
+        raise DataError(f"{path}: give a file stem such as 'dir/model'")
+    writers = {f"{stem}_dofs.csv": lambda q: write_dof_list(q, dofs)}
+    if format == "npz":
+        writers = {f"{stem}.npz": lambda q: _savez(q, M, K), **writers}
+        names = (f"{stem}.npz", f"{stem}.npz")
+    else:
+        ext = "mtx" if format == "mtx" else "npz"
+        save = _mmwrite if format == "mtx" else _save_sparse_npz
+        names = (f"{stem}_M.{ext}", f"{stem}_K.{ext}")
+        writers = {names[0]: lambda q: save(q, M), names[1]: lambda q: save(q, K), **writers}
+    if output is not None:
+        parent = PurePosixPath(p.parent.as_posix()) if str(p.parent) not in ("", ".") else None
+        keys = {name: (str(parent / name) if parent else name) for name in writers}
+        final = {name: output.write_file(keys[name], w) for name, w in writers.items()}
+    else:
+        with OutputSet(p.parent, f"matrices:{stem}") as out:
+            final = {name: out.write_file(name, w) for name, w in writers.items()}
+    return FreeMatrixFiles(final[names[0]], final[names[1]], final[f"{stem}_dofs.csv"])
+
+
+def _savez(path: Path, M: sp.csr_array, K: sp.csr_array) -> None:
+    with open(path, "wb") as fh:
+        np.savez(fh, M=M.toarray(), K=K.toarray())
+
+
+def _save_sparse_npz(path: Path, A: sp.csr_array) -> None:
+    with open(path, "wb") as fh:
+        sp.save_npz(fh, sp.csr_matrix(A))
+
+
+def _mmwrite(path: Path, A: sp.csr_array) -> None:
+    import scipy.io
+
+    exact = (A != A.T).nnz == 0  # "symmetric" keeps one triangle: only for exactly symmetric matrices
+    with open(path, "wb") as fh:
+        scipy.io.mmwrite(fh, sp.coo_matrix(A), symmetry="symmetric" if exact else "general", precision=17)

@@ -40,7 +40,12 @@ superposition of
 Global matrices are ``T^T K T`` with ``T`` four copies of the direction-cosine
 matrix. The element is exact in statics for end loads (tip deflection
 ``P L^3 / (3 E I) + P L / (kappa G A)``); dynamics converge with the mesh
-(consistent mass: frequencies from above). Caveats: straight prismatic members
+(consistent mass: frequencies from above), as ``h^4`` while elements are long
+compared with the section depth but only as ``h^2`` once they are short
+(``phi >> 1``: the shape functions tend to linear ones); measured on a
+simply supported beam of span/depth 5, first three modes: 3.5e-5, 4.1e-4,
+1.5e-3 relative frequency error with 32 elements (tests/test_frame.py), so
+keep ~10 elements per half wavelength and check convergence with the mesh. Caveats: straight prismatic members
 with doubly symmetric sections (shear centre = centroid, no warping: open thin
 sections are stiffer in torsion here than in reality), small displacements,
 no geometric stiffness (axial load does not change bending stiffness),
@@ -497,8 +502,11 @@ def build_frame(
         mv.append(block.ravel())
     K = sp.coo_array((Kg.ravel(), (rows, cols)), shape=(N, N)).tocsr()
     M = sp.coo_array((np.concatenate(mv), (np.concatenate(mr), np.concatenate(mc))), shape=(N, N)).tocsr()
-    K.sum_duplicates()
-    M.sum_duplicates()
+    # duplicates are summed in an order that may differ between (i, j) and (j, i): symmetrize exactly
+    K = sp.csr_array(0.5 * (K + K.T))
+    M = sp.csr_array(0.5 * (M + M.T))
+    K.sort_indices()
+    M.sort_indices()
 
     if loss_factor is None:
         etas = sorted({float(m.material.loss_factor) for m in mlist})
