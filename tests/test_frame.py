@@ -308,3 +308,18 @@ def test_other_bad_inputs():
         build_frame({1: (0, 0, 0), 2: (1, 0, 0)}, [(1, 2, s, STEEL)], point_masses={9: 1.0})
     with pytest.raises(ModelError, match=r"^internal_node_start 2 would reuse given node numbers; start above 3$"):
         build_frame({1: (0, 0, 0), 3: (1, 0, 0)}, [(1, 3, s, STEEL, 3)], internal_node_start=2)
+
+
+def test_point_mass_is_a_rigid_body_with_offset_centre_of_mass():
+    rng = np.random.default_rng(5)
+    m, r = 2.5, np.array([0.03, -0.02, 0.05])
+    A = rng.normal(size=(3, 3))
+    J = A @ A.T * 1e-3
+    Mb = PointMass(m, J, tuple(r)).matrix()
+    assert np.array_equal(Mb, Mb.T)
+    for _ in range(3):
+        t, th = rng.normal(size=3), rng.normal(size=3)
+        v = t + np.cross(th, r)  # velocity of the centre of mass
+        assert np.r_[t, th] @ Mb @ np.r_[t, th] == pytest.approx(m * v @ v + th @ J @ th, rel=1e-13)
+    np.testing.assert_allclose(Mb[3:, 3:], J + m * (r @ r * np.eye(3) - np.outer(r, r)), rtol=1e-14)
+    assert np.array_equal(PointMass(0.1).matrix(), np.diag([0.1, 0.1, 0.1, 0, 0, 0]))

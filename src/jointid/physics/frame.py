@@ -148,8 +148,8 @@ class PointMass:
         out[:3, :3] = m * np.eye(3)
         out[:3, 3:] = -m * S
         out[3:, :3] = m * S
-        out[3:, 3:] = 0.5 * (J + J.T) - m * S @ S
-        return out
+        out[3:, 3:] = J - m * S @ S
+        return 0.5 * (out + out.T)  # exactly symmetric
 
 
 @dataclass(frozen=True, eq=False)
@@ -375,6 +375,35 @@ def _as_member(k: int, m) -> Member:
     return member
 
 
+def _assemble_blocks(Ae: np.ndarray, pos_a: np.ndarray, pos_b: np.ndarray, nn: int,
+                     extra_pos: np.ndarray | None = None, extra: np.ndarray | None = None) -> sp.csr_array:
+    """Global CSR matrix from element matrices ``Ae`` (n, 12, 12) on node positions ``pos_a``, ``pos_b``.
+
+    Assembled by 6 x 6 node blocks: the blocks are sorted stably by (row, column)
+    node and summed in element order (``np.add.reduceat``), so block (b, a) is
+    exactly the transpose of block (a, b) and the matrix is exactly symmetric
+    when every element matrix is. ``extra`` (k, 6, 6) are added on the diagonal
+    blocks of node positions ``extra_pos`` (point masses).
+    """
+    blocks = [Ae[:, :6, :6], Ae[:, :6, 6:], Ae[:, 6:, :6], Ae[:, 6:, 6:]]
+    keys = [pos_a * nn + pos_a, pos_a * nn + pos_b, pos_b * nn + pos_a, pos_b * nn + pos_b]
+    if extra_pos is not None and extra_pos.size:
+        blocks.append(extra)
+        keys.append(extra_pos * nn + extra_pos)
+    data = np.concatenate(blocks).reshape(-1, 36)
+    key = np.concatenate(keys)
+    srt = np.argsort(key, kind="stable")
+    sk = key[srt]
+    first = np.flatnonzero(np.r_[True, sk[1:] != sk[:-1]])
+    summed = np.add.reduceat(data[srt], first, axis=0).reshape(-1, 6, 6)
+    brow, bcol = np.divmod(sk[first], nn)
+    indptr = np.searchsorted(brow, np.arange(nn + 1))
+    A = sp.bsr_array((summed, bcol, indptr), shape=(6 * nn, 6 * nn)).tocsr()
+    A.eliminate_zeros()
+    A.sort_indices()
+    return sp.csr_array(A)
+
+
 def build_frame(
     nodes: Mapping[int, Sequence[float]],
     members: Sequence,
@@ -485,28 +514,16 @@ def build_frame(
     Mg = np.matmul(T.transpose(0, 2, 1), np.matmul(Ml, T))
     Kg = 0.5 * (Kg + Kg.transpose(0, 2, 1))
     Mg = 0.5 * (Mg + Mg.transpose(0, 2, 1))
-    idx = np.concatenate([6 * pos_a[:, None] + np.arange(6), 6 * pos_b[:, None] + np.arange(6)], axis=1)
-    rows = np.broadcast_to(idx[:, :, None], (ne, 12, 12)).ravel()
-    cols = np.broadcast_to(idx[:, None, :], (ne, 12, 12)).ravel()
-    N = 6 * all_ids.size
-    mr, mc, mv = [rows], [cols], [Mg.ravel()]
+    nn = all_ids.size
+    pm_pos, pm_blocks = [], []
     for node, pm in (point_masses or {}).items():
         if not np.isin(int(node), all_ids):
             raise ModelError(f"point mass at node {node}: the node is not in the frame")
         pm = pm if isinstance(pm, PointMass) else PointMass(float(pm))
-        p = int(order[np.searchsorted(all_ids, int(node), sorter=order)])
-        block = pm.matrix()
-        i6 = 6 * p + np.arange(6)
-        mr.append(np.repeat(i6, 6))
-        mc.append(np.tile(i6, 6))
-        mv.append(block.ravel())
-    K = sp.coo_array((Kg.ravel(), (rows, cols)), shape=(N, N)).tocsr()
-    M = sp.coo_array((np.concatenate(mv), (np.concatenate(mr), np.concatenate(mc))), shape=(N, N)).tocsr()
-    # duplicates are summed in an order that may differ between (i, j) and (j, i): symmetrize exactly
-    K = sp.csr_array(0.5 * (K + K.T))
-    M = sp.csr_array(0.5 * (M + M.T))
-    K.sort_indices()
-    M.sort_indices()
+        pm_pos.append(int(order[np.searchsorted(all_ids, int(node), sorter=order)]))
+        pm_blocks.append(pm.matrix())
+    K = _assemble_blocks(Kg, pos_a, pos_b, nn)
+    M = _assemble_blocks(Mg, pos_a, pos_b, nn, np.asarray(pm_pos, dtype=np.int64), np.asarray(pm_blocks).reshape(-1, 6, 6))
 
     if loss_factor is None:
         etas = sorted({float(m.material.loss_factor) for m in mlist})
