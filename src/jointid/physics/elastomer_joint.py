@@ -74,8 +74,8 @@ from scipy.linalg import eigh
 
 from ..dofs import Dof
 from ..errors import ModelError
-from ..physics.elements import Material, Section, require_positive
-from ..physics.structure import ComplexStiffness, beam_structure
+from .elements import Material, Section, require_positive
+from .structure import ComplexStiffness, beam_structure
 
 __all__ = [
     "ElastomerMaterial",
