@@ -44,7 +44,8 @@ __getattr__, __dir__, __all__ = attach(
         ".physics.joints": ("parametric_joint",),
         ".physics.modes": ("Modes", "natural_modes"),
         ".physics.synthesis": ("synthesize_frf",),
-        ".physics.elastomer_joint": ("ElastomerJoint", "ElastomerMaterial", "MATERIALS"),
+        ".physics.elastomer_joint": ("ElastomerJoint",),
+        ".physics.elastomer_material": ("ElastomerMaterial", "MATERIALS"),
         # measurement: impact and step-sine test processing, virtual tests
         ".measurement.stepsine": ("process_stepsine", "read_stepsine_csv", "StepSineResult"),
         ".measurement.stepsine_synth": ("synthesize_stepsine", "example_stepsine"),

@@ -9,7 +9,8 @@ The main API, re-exported here (imported on first use)::
   ``beam_structure``, ``constant_stiffness``;
 * :mod:`.joints` -- ``parametric_joint``, ``joint_from_spec``;
 * :mod:`.elastomer_joint` -- ``ElastomerJoint`` (FE model of the elastomer cylinder between
-  end caps), ``ElastomerMaterial``, ``EndCap``, ``JointModes``, ``MATERIALS``;
+  end caps), ``JointModes``; :mod:`.elastomer_material` -- ``ElastomerMaterial`` (a
+  ``Material``), ``EndCap``, ``MATERIALS``;
 * :mod:`.modes` -- ``Modes``, ``natural_modes``;
 * :mod:`.synthesis` -- ``synthesize_frf`` (batched direct solve or modal superposition),
   ``receptance_direct``, ``receptance_modal``, ``choose_method``.
@@ -26,12 +27,13 @@ __getattr__, __dir__, __all__ = attach(
         ".elements": ("Section", "Material", "timoshenko_element"),
         ".structure": ("Structure", "ComplexStiffness", "beam_structure", "constant_stiffness"),
         ".joints": ("parametric_joint", "joint_from_spec"),
-        ".elastomer_joint": ("ElastomerJoint", "ElastomerMaterial", "EndCap", "JointModes", "MATERIALS"),
+        ".elastomer_joint": ("ElastomerJoint", "JointModes"),
+        ".elastomer_material": ("ElastomerMaterial", "EndCap", "MATERIALS"),
         ".modes": ("Modes", "natural_modes"),
         ".free_model": ("FreeModel", "StructureModel", "as_free_model"),
         ".beam_mesh": ("elements_per_segment", "bending_wavelength_m"),
         ".synthesis": ("synthesize_frf", "receptance_direct", "receptance_modal", "choose_method"),
     },
     submodules=("elements", "structure", "joints", "modes", "synthesis", "free_model", "beam_mesh", "banded_receptance",
-                "elastomer_joint"),
+                "elastomer_joint", "elastomer_material"),
 )

@@ -103,8 +103,7 @@ def elastomer_joint(config, material: str):
     """
     from ..physics.elastomer_joint import ElastomerJoint
 
-    m = config.materials[material]
-    return ElastomerJoint(m.elastic_modulus, m.loss_factor, m.density, cap=None)
+    return ElastomerJoint.from_material(config.materials[material], cap=None)
 
 
 def material_joint(config, material: str) -> ComplexStiffness:

@@ -10,7 +10,7 @@
     [layouts.model_1]      # coordinate layouts (beam nodes, transverse w)
     observed = [5, 15]
     excited = [5, 15]
-    [materials.A]          # elastomer materials (Pa, -, kg/m^3)
+    [materials.A]          # elastomer materials (Pa, -, kg/m^3): ElastomerMaterial
     elastic_modulus = 15e6
     loss_factor = 0.10
     density = 1200.0
@@ -40,14 +40,17 @@ import os
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from ..benchmark import benchmark_study
 from ..errors import StudyError
 from ..frequency import Frequency
 from ..study import BeamSpec
 
-__all__ = ["Layout", "ElastomerMaterialSpec", "ReproduceConfig", "load_config", "STUDY_NAMES"]
+if TYPE_CHECKING:
+    from ..physics.elastomer_joint import ElastomerMaterial
+
+__all__ = ["Layout", "ReproduceConfig", "load_config", "STUDY_NAMES"]
 
 #: Study names in report order (``--only`` takes a comma-separated subset).
 STUDY_NAMES = ("direct", "conditioning", "verification", "model-error", "accelerometers", "experiment", "noise-robustness")
@@ -62,15 +65,6 @@ class Layout:
     excited: tuple[int, ...]
 
 
-@dataclass(frozen=True)
-class ElastomerMaterialSpec:
-    """An elastomer: E (Pa), loss factor, density (kg/m^3)."""
-
-    elastic_modulus: float
-    loss_factor: float
-    density: float
-
-
 def _default_layouts() -> dict[str, Layout]:
     return {
         "model_1": Layout("Model 1", (5, 15), (5, 15)),
@@ -79,8 +73,11 @@ def _default_layouts() -> dict[str, Layout]:
     }
 
 
-def _default_materials() -> dict[str, ElastomerMaterialSpec]:
-    return {"A": ElastomerMaterialSpec(15e6, 0.10, 1200.0), "B": ElastomerMaterialSpec(8.8e6, 0.15, 1100.0)}
+def _default_materials() -> dict[str, "ElastomerMaterial"]:
+    """The built-in elastomers, :data:`jointid.physics.elastomer_joint.MATERIALS` (imported on use)."""
+    from ..physics.elastomer_joint import MATERIALS
+
+    return dict(MATERIALS)
 
 
 @dataclass(frozen=True)
@@ -93,7 +90,7 @@ class ReproduceConfig:
     stop: float = 1000.0
     step: float = 1.0
     layouts: Mapping[str, Layout] = field(default_factory=_default_layouts)
-    materials: Mapping[str, ElastomerMaterialSpec] = field(default_factory=_default_materials)
+    materials: Mapping[str, "ElastomerMaterial"] = field(default_factory=_default_materials)
     conditioning_noise: float = 0.005
     experiment_noise: float = 0.01
     robustness_levels: tuple[float, ...] = (0.003, 0.01, 0.03)
@@ -210,7 +207,12 @@ def _apply(cfg: ReproduceConfig, data: Mapping[str, Any]) -> ReproduceConfig:
             vals = {k: _num(f"[materials.{name}].{k}", m[k], positive=k != "loss_factor") for k in m}
             if base is None and len(vals) < 3:
                 raise StudyError(f"[materials.{name}]: a new material needs elastic_modulus, loss_factor and density")
-            mats[name] = replace(base, **vals) if base else ElastomerMaterialSpec(**vals)
+            if base is None:
+                from ..physics.elastomer_joint import ElastomerMaterial
+
+                mats[name] = ElastomerMaterial(**vals)  # values checked above: no ModelError left
+            else:
+                mats[name] = replace(base, **vals)
         changes["materials"] = mats
     noise = data.get("noise", {})
     for k in noise:
