@@ -49,3 +49,10 @@ def test_reproduce_config_materials_are_elastomer_materials(tmp_path):
     p.write_text("[materials.C]\nelastic_modulus = 5e6\nloss_factor = -0.05\ndensity = 1000.0\n")
     with pytest.raises(StudyError, match=r"\[materials.C\].loss_factor: expected a non-negative number, got -0.05$"):
         load_config(p)
+
+
+def test_joint_from_any_material_with_a_poisson_ratio():
+    steel_like = Material(8.8e6, 1100.0, 0.15, poisson_ratio=0.49)
+    assert ElastomerJoint.from_material(steel_like, cap=None).material == MATERIALS["B"]
+    with pytest.raises(ModelError, match="^elastomer material: give poisson_ratio"):
+        ElastomerJoint.from_material(Material(8.8e6, 1100.0, 0.15, shear_modulus=3e6))

@@ -66,7 +66,7 @@ from scipy.linalg import eigh
 from ..dofs import Dof
 from ..errors import ModelError
 from .elastomer_material import DEFAULT_DIAMETER_M, DEFAULT_LENGTH_M, DEFAULT_POISSON, MATERIALS, ElastomerMaterial, EndCap
-from .elements import Section, require_positive
+from .elements import Material, Section, require_positive
 from .structure import ComplexStiffness, beam_structure
 
 __all__ = [
@@ -172,13 +172,16 @@ class ElastomerJoint:
 
     # ------------------------------------------------------------ constructors
     @classmethod
-    def from_material(cls, material: "ElastomerMaterial | str", **kwargs) -> "ElastomerJoint":
-        """A joint of a built-in (``"A"``, ``"B"``) or given :class:`ElastomerMaterial`; ``kwargs`` set geometry etc."""
+    def from_material(cls, material: "Material | str", **kwargs) -> "ElastomerJoint":
+        """A joint of a built-in (``"A"``, ``"B"``) or given material (an :class:`ElastomerMaterial`, or any
+        :class:`~jointid.physics.elements.Material` with a Poisson ratio); ``kwargs`` set geometry etc."""
         if isinstance(material, str):
             if material not in MATERIALS:
                 raise ModelError(f"unknown elastomer material {material!r}; built-in materials: {', '.join(MATERIALS)}")
             material = MATERIALS[material]
-        kwargs.setdefault("poisson_ratio", material.nu)
+        if material.shear_modulus is not None:  # the joint takes G from E and nu: never ignore a given G
+            raise ModelError("elastomer material: give poisson_ratio (G = E / (2 (1 + nu))), not shear_modulus")
+        kwargs.setdefault("poisson_ratio", material.poisson_ratio)
         return cls(material.elastic_modulus, material.loss_factor, material.density, **kwargs)
 
     def with_material(self, elastic_modulus: float, loss_factor: float, density: float) -> "ElastomerJoint":
