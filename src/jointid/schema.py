@@ -119,8 +119,6 @@ def typed(section: str | None, key: str, f: Field, value: Any) -> Any:
         if not ok:
             fail(f"a list of {what}")
         if len(set(value)) != len(value):
-            if f.expected is not None:
-                fail("")
             raise StudyError(f"{where}: repeated entries in {value!r}; list each once")
         value = tuple(float(x) for x in value) if f.kind == "number_list" else tuple(value)
     if f.check is not None:
@@ -130,7 +128,9 @@ def typed(section: str | None, key: str, f: Field, value: Any) -> Any:
     return value
 
 
-def section(data: Mapping, section: str, fields: Mapping[str, Field], sub: tuple[str, ...] = ()) -> dict:
+def section(
+    data: Mapping, section: str, fields: Mapping[str, Field], sub: tuple[str, ...] = (), listing: str = "one of: "
+) -> dict:
     """Every key of ``fields`` typed (or its default) from the table ``[section]``.
 
     Parameters
@@ -142,6 +142,8 @@ def section(data: Mapping, section: str, fields: Mapping[str, Field], sub: tuple
     fields : mapping of str to Field
     sub : tuple of str
         Names of sub-tables allowed in ``data`` and left to the caller.
+    listing : str
+        Words before the allowed keys in the unknown-key message (``"expected one of: a, b"``).
 
     Raises
     ------
@@ -154,7 +156,7 @@ def section(data: Mapping, section: str, fields: Mapping[str, Field], sub: tuple
     unknown = [k for k in data if k not in fields and k not in sub]
     if unknown:
         raise StudyError(
-            f"[{section}]: unknown key {unknown[0]!r}; expected one of: " + ", ".join(list(fields) + list(sub))
+            f"[{section}]: unknown key {unknown[0]!r}; expected {listing}" + ", ".join(list(fields) + list(sub))
         )
     out = {}
     for key, f in fields.items():

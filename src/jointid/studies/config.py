@@ -129,7 +129,7 @@ def _number(positive: bool = True) -> Field:
 
 def _given(data: Mapping[str, Any], name: str, fields: Mapping[str, Field]) -> dict[str, Any]:
     """The keys of table ``[name]`` that ``data`` gives, typed (:func:`jointid.schema.section`)."""
-    values = schema.section(data, name, fields)
+    values = schema.section(data, name, fields, listing="")
     return {k: v for k, v in values.items() if k in data}
 
 
@@ -236,7 +236,7 @@ def _robustness(section: Mapping[str, Any], layouts: Mapping[str, Layout], n_nod
     """The ``[noise_robustness]`` keys as ReproduceConfig changes."""
     names = ", ".join(layouts)
     fields = {
-        "levels": Field("number_list", check=lambda v: None if v and all(x > 0 for x in v) else "out of range",
+        "levels": Field("number_list", check=lambda v: None if v else "empty",
                         expected="a non-empty list of positive numbers (relative noise rms)"),
         "seeds": Field("int", check=lambda v: None if v >= 1 else "out of range", expected="an integer >= 1"),
         "layouts": Field("str_list", check=lambda v: None if v and all(x in layouts for x in v) else "out of range",
@@ -248,5 +248,6 @@ def _robustness(section: Mapping[str, Any], layouts: Mapping[str, Layout], n_nod
             "joint_nodes": "robustness_joint_nodes"}
     changes = {keys[k]: v for k, v in given.items()}
     if "robustness_levels" in changes:
-        changes["robustness_levels"] = tuple(sorted(changes["robustness_levels"]))
+        level = _number()
+        changes["robustness_levels"] = tuple(sorted(typed("noise_robustness", "levels", level, x) for x in changes["robustness_levels"]))
     return changes
