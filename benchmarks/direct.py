@@ -9,10 +9,10 @@ import time
 
 import numpy as np
 
-from jointid.methods.joint_model import ElastomerJoint
+from jointid.physics.elastomer_joint import ElastomerJoint
 from jointid.methods.material_fit import complex_modulus_per_line, fit_material
-from jointid.methods.stepsine import process_stepsine
-from jointid.methods.stepsine_synth import synthesize_stepsine
+from jointid.measurement.stepsine import process_stepsine
+from jointid.measurement.stepsine_synth import synthesize_stepsine
 
 
 def best(fn, repeats: int = 5) -> float:

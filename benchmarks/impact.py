@@ -1,6 +1,6 @@
 """Benchmark impact-test FRF estimation: 7 responses x 3 excited nodes, 5 hits of 8192 samples each.
 
-Times :func:`jointid.methods.impact.estimate_frfs` (hit checks, windows, one
+Times :func:`jointid.measurement.impact.estimate_frfs` (hit checks, windows, one
 batched rfft per excited node, H1/H2/coherence) without and with the
 exponential window and its correction (modes detected automatically).
 Run: python benchmarks/impact.py
@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from jointid.methods.impact import ImpactOptions, ImpactRecord, estimate_frfs
+from jointid.measurement.impact import ImpactOptions, ImpactRecord, estimate_frfs
 
 FS = 4096.0
 N = 8192

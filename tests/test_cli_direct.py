@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import jointid.cli.main as cli_main
-from jointid.methods.joint_model import MATERIALS, ElastomerJoint
-from jointid.methods.stepsine import write_stepsine_csv
-from jointid.methods.stepsine_synth import synthesize_stepsine
+from jointid.physics.elastomer_joint import MATERIALS, ElastomerJoint
+from jointid.measurement.stepsine import write_stepsine_csv
+from jointid.measurement.stepsine_synth import synthesize_stepsine
 
 F = np.arange(25.0, 601.0, 25.0)
 AMP = 2.5e-5
@@ -166,7 +166,7 @@ def test_low_band_density_is_held_and_never_printed(tmp_path, main, capsys):
     assert abs(d["fit"]["parameters"]["elastic_modulus_pa"]["value"] / 15e6 - 1) < 0.005
     # the figure's legend marks the density as held; the lower panel is the loss factor (Re K21 > 0)
     from jointid.methods.material_fit import fit_material
-    from jointid.methods.stepsine import process_stepsine, read_stepsine_csv
+    from jointid.measurement.stepsine import process_stepsine, read_stepsine_csv
     from jointid.plots.direct import plot_direct_stiffness
 
     res = process_stepsine(read_stepsine_csv(tmp_path / "low.csv"))
@@ -196,8 +196,8 @@ def test_example_data_round_trip_through_the_internal_mode(tmp_path, main, capsy
     assert d["zener"]["parameters"]["tau_s"]["value"] is None
     assert "jointid direct: warning: Zener tau at bound: tau ran to 0" in cap.err
     # past the internal mode (~925 Hz) the lower panel shows the phase, not a loss factor running to infinity
-    from jointid.methods.stepsine import process_stepsine
-    from jointid.methods.stepsine_synth import example_stepsine
+    from jointid.measurement.stepsine import process_stepsine
+    from jointid.measurement.stepsine_synth import example_stepsine
     from jointid.plots.direct import plot_direct_stiffness
 
     fig = plot_direct_stiffness(process_stepsine(example_stepsine()))

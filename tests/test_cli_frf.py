@@ -16,8 +16,8 @@ from jointid.hits import frf_from_hits
 from jointid.io.impact_files import read_impact_uff, write_impact_csv, write_impact_npz, write_impact_uff
 from jointid.io.frf_files import read_frf
 from jointid.io.uff import read_uff_frf, write_uff_frf
-from jointid.methods.impact import ImpactOptions, ImpactRecord, check_hits, estimate_frfs, rejected_hits_table
-from jointid.methods.virtual_hammer import HammerSettings, simulate_hits
+from jointid.measurement.impact import ImpactOptions, ImpactRecord, check_hits, estimate_frfs, rejected_hits_table
+from jointid.measurement.virtual_hammer import HammerSettings, simulate_hits
 from jointid.pipeline import experiment, virtual_hits
 from jointid.study import parse_study
 

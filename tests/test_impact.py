@@ -18,7 +18,7 @@ import scipy.signal
 from jointid.dofs import Dof
 from jointid.errors import DataError
 from jointid.io.impact_files import read_impact_csv, read_impact_npz, read_impact_uff, write_impact_csv, write_impact_npz, write_impact_uff
-from jointid.methods.impact import (
+from jointid.measurement.impact import (
     ImpactOptions,
     ImpactRecord,
     check_hits,
@@ -404,7 +404,7 @@ def test_uff_time_record_minus_z_is_sign_flipped_and_rotations_rejected(tmp_path
 
     from jointid.errors import DataError
     from jointid.io.impact_files import read_impact_uff, write_impact_uff
-    from jointid.methods.impact import ImpactRecord
+    from jointid.measurement.impact import ImpactRecord
 
     t = np.arange(256) / 1024.0
     force = np.exp(-((t - 0.01) / 0.001) ** 2)[None] * 50.0

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from jointid.errors import ModelError
-from jointid.methods.joint_model import (
+from jointid.physics.elastomer_joint import (
     MATERIALS,
     ElastomerJoint,
     EndCap,

@@ -8,7 +8,7 @@ import pytest
 
 from jointid.errors import DataError
 from jointid.methods.fit_statistics import correlation_matrix, jacobian_covariance, propagate_covariance
-from jointid.methods.joint_model import MATERIALS, ElastomerJoint
+from jointid.physics.elastomer_joint import MATERIALS, ElastomerJoint
 from jointid.methods.material_fit import (
     complex_modulus_per_line,
     fit_material,
@@ -16,8 +16,8 @@ from jointid.methods.material_fit import (
     static_estimate,
     zener_modulus,
 )
-from jointid.methods.stepsine import process_stepsine
-from jointid.methods.stepsine_synth import synthesize_stepsine
+from jointid.measurement.stepsine import process_stepsine
+from jointid.measurement.stepsine_synth import synthesize_stepsine
 
 F = np.arange(25.0, 601.0, 25.0)
 A = math.pi * 0.0254**2 / 4

@@ -4,15 +4,15 @@ import numpy as np
 import pytest
 
 from jointid.errors import DataError
-from jointid.methods.joint_model import ElastomerJoint
-from jointid.methods.stepsine import (
+from jointid.physics.elastomer_joint import ElastomerJoint
+from jointid.measurement.stepsine import (
     StepSineBlock,
     process_block,
     process_stepsine,
     read_stepsine_csv,
     write_stepsine_csv,
 )
-from jointid.methods.stepsine_synth import synthesize_stepsine
+from jointid.measurement.stepsine_synth import synthesize_stepsine
 
 F_TEST = np.arange(25.0, 601.0, 25.0)
 AMP = 2.5e-5  # 0.05 mm peak-to-peak

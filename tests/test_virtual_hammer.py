@@ -6,7 +6,7 @@ import pytest
 from jointid.benchmark import benchmark_study
 from jointid.errors import DataError
 from jointid.frequency import Frequency
-from jointid.methods.virtual_hammer import HammerSettings, simulate_hits
+from jointid.measurement.virtual_hammer import HammerSettings, simulate_hits
 from jointid.physics.synthesis import synthesize_frf
 from jointid.pipeline import constrained_model
 

@@ -12,7 +12,7 @@ imported on first use (``import jointid`` itself loads neither numpy nor matplot
 
 Layers, bottom-up (a lower one never imports a higher one): labels and axes
 (:class:`Dof`, :class:`Frequency`, :class:`FRF`, errors) -> :mod:`jointid.physics` ->
-:mod:`jointid.methods` -> :mod:`jointid.studies` and :mod:`jointid.report` ->
+:mod:`jointid.measurement` -> :mod:`jointid.methods` -> :mod:`jointid.studies` and :mod:`jointid.report` ->
 :mod:`jointid.cli`; :mod:`jointid.io` holds the file formats of those objects,
 :mod:`jointid.plots` their figures, and ``study``, ``pipeline``, ``hits`` translate study
 and hit files into API calls. Each subpackage re-exports its own main API the same way;
@@ -44,15 +44,17 @@ __getattr__, __dir__, __all__ = attach(
         ".physics.joints": ("parametric_joint",),
         ".physics.modes": ("Modes", "natural_modes"),
         ".physics.synthesis": ("synthesize_frf",),
-        # methods: inverse, direct, impact
+        ".physics.elastomer_joint": ("ElastomerJoint",),
+        ".physics.elastomer_material": ("ElastomerMaterial", "MATERIALS"),
+        # measurement: impact and step-sine test processing, virtual tests
+        ".measurement.stepsine": ("process_stepsine", "read_stepsine_csv", "StepSineResult"),
+        ".measurement.stepsine_synth": ("synthesize_stepsine", "example_stepsine"),
+        ".measurement.impact": ("estimate_frfs", "ImpactRecord", "ImpactOptions", "ImpactFRF"),
+        ".measurement.virtual_hammer": ("simulate_hits", "HammerSettings"),
+        # methods: inverse, direct
         ".methods.inverse": ("identify_joint", "InverseOptions", "InverseResult"),
         ".methods.coupling": ("identify_joint_coupling", "CouplingOptions", "CouplingResult"),
-        ".methods.stepsine": ("process_stepsine", "read_stepsine_csv", "StepSineResult"),
-        ".methods.stepsine_synth": ("synthesize_stepsine", "example_stepsine"),
-        ".methods.joint_model": ("ElastomerJoint", "ElastomerMaterial", "MATERIALS"),
         ".methods.material_fit": ("fit_material", "MaterialFit", "static_estimate", "fit_zener"),
-        ".methods.impact": ("estimate_frfs", "ImpactRecord", "ImpactOptions", "ImpactFRF"),
-        ".methods.virtual_hammer": ("simulate_hits", "HammerSettings"),
         # files
         ".io.frf_files": ("read_frf", "write_frf"),
         ".io.output_dir": ("OutputSet",),
@@ -67,6 +69,7 @@ __getattr__, __dir__, __all__ = attach(
     },
     submodules=(
         "physics",
+        "measurement",
         "methods",
         "io",
         "plots",

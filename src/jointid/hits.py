@@ -3,7 +3,7 @@
 :func:`read_hits` reads hit files of any of the layouts of
 :mod:`jointid.io.impact_files` (NumPy ``.npz``, one excited node per file;
 long CSV; UFF58 time records) by extension; :func:`frf_from_hits` turns the
-records into H1/H2 and coherence with :func:`jointid.methods.impact.estimate_frfs`
+records into H1/H2 and coherence with :func:`jointid.measurement.impact.estimate_frfs`
 (hit checks, force and exponential windows, window correction) and returns a
 :class:`HitsFRF` with the chosen estimator, the rejected hits as a table and
 a summary of the averages.
@@ -11,7 +11,7 @@ a summary of the averages.
 Example::
 
     from jointid.hits import frf_from_hits
-    from jointid.methods.impact import ImpactOptions
+    from jointid.measurement.impact import ImpactOptions
 
     result = frf_from_hits(["n3.npz", "n9.npz"], ImpactOptions(force_window_s=1e-3, exp_tau_s=0.5))
     result.frf                # FRF (H1), accelerance (m/s^2)/N, (F, responses, excited)
@@ -31,7 +31,7 @@ import numpy as np
 
 from .errors import DataError
 from .frf import FRF
-from .methods.impact import ImpactFRF, ImpactOptions, ImpactRecord, estimate_frfs, rejected_hits_table
+from .measurement.impact import ImpactFRF, ImpactOptions, ImpactRecord, estimate_frfs, rejected_hits_table
 
 __all__ = ["HIT_EXTENSIONS", "HitsFRF", "read_hits", "frf_from_hits"]
 
@@ -133,7 +133,7 @@ class HitsFRF:
         return self.impact.coherence
 
     def rejected_table(self) -> dict[str, list]:
-        """Rejected hits, one row per finding (see :func:`jointid.methods.impact.rejected_hits_table`)."""
+        """Rejected hits, one row per finding (see :func:`jointid.measurement.impact.rejected_hits_table`)."""
         return rejected_hits_table(self.impact.rejected)
 
     def summary(self) -> list[str]:

@@ -224,8 +224,8 @@ def experiment(study: Study, seed: int | None = None, *, periodic: bool = False)
 
     The test article (beam, ``[accelerometers]``, true joint) is hit at each excited
     node ``[experiment].averages`` times with a half-sine pulse; the exact sampled
-    responses (see :mod:`jointid.methods.virtual_hammer`) get noise, and
-    :func:`jointid.methods.impact.estimate_frfs` turns them into H1 with a force
+    responses (see :mod:`jointid.measurement.virtual_hammer`) get noise, and
+    :func:`jointid.measurement.impact.estimate_frfs` turns them into H1 with a force
     window (and, for a transient test, the exponential window of
     ``[experiment].exponential_window``, corrected) on the study's ``start..stop`` band.
 
@@ -253,7 +253,7 @@ def experiment(study: Study, seed: int | None = None, *, periodic: bool = False)
         exponential window, which is then not applied): noise-free, H1 equals
         the model's FRF to ~3e-7 median, 3e-6 max (benchmark).
     """
-    from .methods.impact import estimate_frfs
+    from .measurement.impact import estimate_frfs
 
     records, options = virtual_hits(study, seed, periodic=periodic)
     impact = estimate_frfs(records, options)
@@ -271,8 +271,8 @@ def virtual_hits(study: Study, seed: int | None = None, *, periodic: bool = Fals
     options : ImpactOptions
         Force window, exponential window (transient test only) and band.
     """
-    from .methods.impact import ImpactOptions, ImpactRecord
-    from .methods.virtual_hammer import HammerSettings, simulate_hits
+    from .measurement.impact import ImpactOptions, ImpactRecord
+    from .measurement.virtual_hammer import HammerSettings, simulate_hits
 
     x = study.experiment
     shared = ("sample_rate", "duration", "averages", "force_noise", "response_noise", "pulse_duration", "pulse_amplitude")

@@ -108,6 +108,12 @@ from typing import Any, Callable, Mapping
 
 from .dofs import DIRECTIONS
 from .errors import StudyError
+from .schema import Field as _Field
+from .schema import choices as _choices
+from .schema import nonneg as _nonneg
+from .schema import positive as _positive
+from .schema import section as _section
+from .schema import typed as _typed  # noqa: F401 - importable from here (study_sections, other modules)
 from .study_sections import (
     TRUTH_KEYS,
     AccelerometerSpec,
@@ -146,82 +152,6 @@ MAX_LINES = 1_000_000
 
 
 # --------------------------------------------------------------------------- validation helpers
-@dataclass(frozen=True)
-class _Field:
-    kind: str  # "number", "int", "bool", "str", "int_list", "str_list"
-    required: bool = False
-    default: Any = None
-    unit: str = ""
-    check: Callable[[Any], str | None] | None = None  # returns a complaint or None
-
-
-def _positive(v) -> str | None:
-    return None if v > 0 else "a positive number"
-
-
-def _nonneg(v) -> str | None:
-    return None if v >= 0 else "a number >= 0"
-
-
-def _choices(*options: str) -> Callable[[Any], str | None]:
-    def check(v):
-        return None if v in options else "one of " + ", ".join(repr(o) for o in options)
-
-    return check
-
-
-def _typed(section: str, key: str, f: _Field, value: Any) -> Any:
-    where = f"[{section}].{key}"
-    unit = f" ({f.unit})" if f.unit else ""
-    if f.kind == "number":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise StudyError(f"{where}: expected a number{unit}, got {value!r}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise StudyError(f"{where}: expected a finite number{unit}, got {value!r}")
-    elif f.kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise StudyError(f"{where}: expected an integer{unit}, got {value!r}")
-    elif f.kind == "bool":
-        if not isinstance(value, bool):
-            raise StudyError(f"{where}: expected true or false, got {value!r}")
-    elif f.kind == "str":
-        if not isinstance(value, str):
-            raise StudyError(f"{where}: expected a string, got {value!r}")
-    elif f.kind in ("int_list", "str_list"):
-        item = int if f.kind == "int_list" else str
-        if not isinstance(value, list) or not all(isinstance(x, item) and not isinstance(x, bool) for x in value):
-            what = "integers" if item is int else "strings"
-            raise StudyError(f"{where}: expected a list of {what}, got {value!r}")
-        if len(set(value)) != len(value):
-            raise StudyError(f"{where}: repeated entries in {value!r}; list each once")
-        value = tuple(value)
-    if f.check is not None:
-        complaint = f.check(value)
-        if complaint:
-            raise StudyError(f"{where}: expected {complaint}{unit}, got {value!r}")
-    return value
-
-
-def _section(data: Mapping, section: str, fields: Mapping[str, _Field], sub: tuple[str, ...] = ()) -> dict:
-    if not isinstance(data, Mapping):
-        raise StudyError(f"[{section}] must be a table, got {data!r}")
-    unknown = [k for k in data if k not in fields and k not in sub]
-    if unknown:
-        raise StudyError(
-            f"[{section}]: unknown key {unknown[0]!r}; expected one of: " + ", ".join(list(fields) + list(sub))
-        )
-    out = {}
-    for key, f in fields.items():
-        if key in data:
-            out[key] = _typed(section, key, f, data[key])
-        elif f.required:
-            raise StudyError(f"[{section}]: missing key {key!r}" + (f" ({f.unit})" if f.unit else ""))
-        else:
-            out[key] = f.default
-    return out
-
-
 def _nodes_in_range(section: str, key: str, nodes, n_nodes: int) -> None:
     for x in nodes if isinstance(nodes, tuple) else (nodes,):
         if not 1 <= x <= n_nodes:

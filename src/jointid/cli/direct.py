@@ -152,9 +152,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, out: OutputSet) -> int:
     """Compute and stage the outputs of ``jointid direct`` in ``out``."""
-    from ..methods.joint_model import ElastomerJoint
+    from ..physics.elastomer_joint import ElastomerJoint
     from ..methods.material_fit import complex_modulus_per_line, fit_material, fit_zener, static_estimate
-    from ..methods.stepsine import process_stepsine, read_stepsine_csv
+    from ..measurement.stepsine import process_stepsine, read_stepsine_csv
 
     blocks = read_stepsine_csv(args.data, columns=_pairs(args.column, "column", False), scale=_pairs(args.scale, "scale", True))
     result = process_stepsine(blocks, parallel_joints=args.parallel_joints, commanded_amplitude_m=args.amplitude, tolerance=args.tolerance)
@@ -203,8 +203,8 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
 
 def _write_example(args) -> int:
     """``--example OUT.csv``: write the built-in example step-sine data."""
-    from ..methods.stepsine import write_stepsine_csv
-    from ..methods.stepsine_synth import EXAMPLE, example_stepsine
+    from ..measurement.stepsine import write_stepsine_csv
+    from ..measurement.stepsine_synth import EXAMPLE, example_stepsine
 
     if args.data is not None or args.out is not None:
         raise DataError("--example OUT.csv writes example data only; run `jointid direct OUT.csv --out DIR` on it afterwards")

@@ -65,8 +65,8 @@ def add_parser(sub) -> None:
 
 
 def impact_options_from_args(args: argparse.Namespace):
-    """The :class:`~jointid.methods.impact.ImpactOptions` of the command line (ms -> s exactly as ``x / 1000``)."""
-    from ..methods.impact import ImpactOptions
+    """The :class:`~jointid.measurement.impact.ImpactOptions` of the command line (ms -> s exactly as ``x / 1000``)."""
+    from ..measurement.impact import ImpactOptions
 
     kw = {}
     for flag, field, positive in _MS_OPTIONS:

@@ -41,7 +41,7 @@ import numpy as np
 
 from ..dofs import Dof
 from ..errors import DataError
-from ..methods.impact import ImpactRecord, where_hit
+from ..measurement.impact import ImpactRecord, where_hit
 from .atomic import atomic_path
 from .uff import FUNC_TIME
 
@@ -95,7 +95,7 @@ def read_impact_npz(path: str | Path) -> ImpactRecord:
     with z:
         missing = [k for k in ("force", "responses", "sample_rate_hz", "response_dofs", "reference") if k not in z]
         if missing:
-            raise DataError(f"{path}: missing array(s) {missing}; see jointid.methods.impact for the layout")
+            raise DataError(f"{path}: missing array(s) {missing}; see jointid.measurement.impact for the layout")
         ref = str(z["reference"])
         fs = float(z["sample_rate_hz"])
         if "time_s" in z:

@@ -11,7 +11,7 @@ Three levels, from the simplest:
 2. :func:`fit_material` -- least squares (``scipy.optimize.least_squares``
    on log-parameters, relative complex residuals ``(K_model - K) / |K|``) of
    a constant E, loss factor and density so that the FE joint model
-   (:class:`~jointid.methods.joint_model.ElastomerJoint`, blocked transfer
+   (:class:`~jointid.physics.elastomer_joint.ElastomerJoint`, blocked transfer
    stiffness) reproduces the measured K21 over the band. Every parameter gets
    a standard error (``s^2 (J^T J)^-1`` propagated to its own unit) and a
    status: the density is held at a default when the band lies too far
@@ -50,7 +50,7 @@ from .fit_statistics import (
     jacobian_covariance,
     propagate_covariance,
 )
-from .joint_model import DEFAULT_DIAMETER_M, DEFAULT_LENGTH_M, DEFAULT_POISSON, ElastomerJoint
+from ..physics.elastomer_joint import DEFAULT_DIAMETER_M, DEFAULT_LENGTH_M, DEFAULT_POISSON, ElastomerJoint
 from .material_static import StaticEstimate, as_band_arrays, joint_template, static_estimate
 from .modulus_per_line import ComplexModulus, complex_modulus_per_line
 from .zener_fit import ZenerFit, fit_zener, zener_modulus

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DataError, ModelError
-from .joint_model import DEFAULT_DIAMETER_M, DEFAULT_LENGTH_M, DEFAULT_POISSON, ElastomerJoint
+from ..physics.elastomer_joint import DEFAULT_DIAMETER_M, DEFAULT_LENGTH_M, DEFAULT_POISSON, ElastomerJoint
 
 __all__ = ["StaticEstimate", "static_estimate", "as_band_arrays", "joint_template"]
 

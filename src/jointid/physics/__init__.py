@@ -10,6 +10,10 @@ The main API, re-exported here (imported on first use)::
 * :mod:`.joints` -- ``parametric_joint``, ``joint_from_spec``;
 * :mod:`.frame` -- ``build_frame`` (3-D Timoshenko frames, 6 DOFs per node, sparse),
   ``FrameModel``, ``Member``, ``PointMass``; :mod:`.frame_sections` -- ``FrameSection``;
+* :mod:`.reduction` -- ``craig_bampton``, ``CraigBamptonModel`` (boundary DOFs + modal scalar points);
+* :mod:`.elastomer_joint` -- ``ElastomerJoint`` (FE model of the elastomer cylinder between
+  end caps), ``JointModes``; :mod:`.elastomer_material` -- ``ElastomerMaterial`` (a
+  ``Material``), ``EndCap``, ``MATERIALS``;
 * :mod:`.modes` -- ``Modes``, ``natural_modes``;
 * :mod:`.synthesis` -- ``synthesize_frf`` (batched direct solve or modal superposition),
   ``receptance_direct``, ``receptance_modal``, ``choose_method``.
@@ -26,12 +30,16 @@ __getattr__, __dir__, __all__ = attach(
         ".elements": ("Section", "Material", "timoshenko_element"),
         ".structure": ("Structure", "ComplexStiffness", "beam_structure", "constant_stiffness"),
         ".joints": ("parametric_joint", "joint_from_spec"),
+        ".elastomer_joint": ("ElastomerJoint", "JointModes"),
+        ".elastomer_material": ("ElastomerMaterial", "EndCap", "MATERIALS"),
         ".modes": ("Modes", "natural_modes"),
         ".frame": ("build_frame", "FrameModel", "Member", "PointMass"),
         ".frame_sections": ("FrameSection",),
+        ".reduction": ("craig_bampton", "CraigBamptonModel"),
         ".free_model": ("FreeModel", "StructureModel", "as_free_model"),
         ".beam_mesh": ("elements_per_segment", "bending_wavelength_m"),
         ".synthesis": ("synthesize_frf", "receptance_direct", "receptance_modal", "choose_method"),
     },
-    submodules=("elements", "structure", "joints", "modes", "synthesis", "free_model", "beam_mesh", "banded_receptance", "frame", "frame_sections"),
+    submodules=("elements", "structure", "joints", "modes", "synthesis", "free_model", "beam_mesh", "banded_receptance",
+                "elastomer_joint", "elastomer_material", "frame", "frame_sections", "reduction"),
 )

@@ -71,6 +71,10 @@ class Section:
 class Material:
     """Linear viscoelastic material with structural (hysteretic) damping.
 
+    The one material type of jointid: the beam's steel and the joint's elastomer
+    (:class:`jointid.physics.elastomer_joint.ElastomerMaterial`, the same fields with
+    nu = 0.49 by default) alike; the study and reproduce configurations parse into it.
+
     Parameters
     ----------
     elastic_modulus : float
@@ -91,18 +95,22 @@ class Material:
     poisson_ratio: float | None = 0.3
     shear_modulus: float | None = None
 
+    #: Prefix of the error messages (``"elastomer "`` for an elastomer).
+    _what = ""
+
     def __post_init__(self) -> None:
-        require_positive("elastic modulus", self.elastic_modulus, "Pa")
-        require_positive("density", self.density, "kg/m^3")
+        what = self._what
+        require_positive(f"{what}elastic modulus", self.elastic_modulus, "Pa")
+        require_positive(f"{what}density", self.density, "kg/m^3")
         if not (math.isfinite(self.loss_factor) and self.loss_factor >= 0):
-            raise ModelError(f"loss factor must be >= 0, got {self.loss_factor!r}")
+            raise ModelError(f"{what}loss factor must be >= 0, got {self.loss_factor!r}")
         if self.shear_modulus is None:
             if self.poisson_ratio is None:
-                raise ModelError("give either poisson_ratio or shear_modulus")
+                raise ModelError(f"{what}material: give either poisson_ratio or shear_modulus")
             if not (-1.0 < self.poisson_ratio < 0.5):
-                raise ModelError(f"Poisson ratio must lie in (-1, 0.5), got {self.poisson_ratio!r}")
+                raise ModelError(f"{what}Poisson ratio must lie in (-1, 0.5), got {self.poisson_ratio!r}")
         else:
-            require_positive("shear modulus", self.shear_modulus, "Pa")
+            require_positive(f"{what}shear modulus", self.shear_modulus, "Pa")
 
     @property
     def G(self) -> float:
@@ -110,6 +118,11 @@ class Material:
         if self.shear_modulus is not None:
             return float(self.shear_modulus)
         return self.elastic_modulus / (2.0 * (1.0 + float(self.poisson_ratio)))
+
+    @property
+    def complex_modulus(self) -> complex:
+        """E* = E (1 + j eta), Pa."""
+        return self.elastic_modulus * (1.0 + 1j * self.loss_factor)
 
 
 def timoshenko_element(

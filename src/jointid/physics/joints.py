@@ -69,7 +69,7 @@ def joint_from_spec(joint) -> ComplexStiffness:
     if model.type == "parametric":
         return parametric_joint(joint.node, dofs=joint.dofs, **dict(model.parameters))
     if model.type == "elastomer":
-        from ..methods.joint_model import elastomer_joint_from_parameters
+        from .elastomer_joint import elastomer_joint_from_parameters
 
         return elastomer_joint_from_parameters(joint.node, joint.dofs, dict(model.parameters))
     raise StudyError(f"[joint.model].type: unknown joint model {model.type!r}")

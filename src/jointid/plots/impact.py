@@ -15,7 +15,7 @@ def plot_impact_frf(impact, estimator: str = "h1", kind: str | None = None, axes
     Parameters
     ----------
     impact : ImpactFRF
-        From :func:`jointid.methods.impact.estimate_frfs` (or ``HitsFRF.impact``).
+        From :func:`jointid.measurement.impact.estimate_frfs` (or ``HitsFRF.impact``).
     estimator : {"h1", "h2"}
     kind : {"accelerance", "mobility", "receptance"}, optional
         Kind to draw (converted exactly; default: the records' kind). Lines at

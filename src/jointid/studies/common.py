@@ -96,15 +96,14 @@ def relative_error(identified: np.ndarray, truth: np.ndarray) -> np.ndarray:
 
 
 def elastomer_joint(config, material: str):
-    """The :class:`~jointid.methods.joint_model.ElastomerJoint` of ``config.materials[material]`` without end caps.
+    """The :class:`~jointid.physics.elastomer_joint.ElastomerJoint` of ``config.materials[material]`` without end caps.
 
     The caps are rigid steel masses; "every mass on one side": in the studies the
     beam-side cap belongs to the beam (see :func:`study_beam`), not to the joint.
     """
-    from ..methods.joint_model import ElastomerJoint
+    from ..physics.elastomer_joint import ElastomerJoint
 
-    m = config.materials[material]
-    return ElastomerJoint(m.elastic_modulus, m.loss_factor, m.density, cap=None)
+    return ElastomerJoint.from_material(config.materials[material], cap=None)
 
 
 def material_joint(config, material: str) -> ComplexStiffness:
@@ -122,7 +121,7 @@ def study_beam(config, scale: Mapping[str, float] | None = None):
     """
     from dataclasses import replace
 
-    from ..methods.joint_model import EndCap
+    from ..physics.elastomer_joint import EndCap
 
     spec = config.beam
     if scale:

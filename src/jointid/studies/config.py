@@ -10,7 +10,7 @@
     [layouts.model_1]      # coordinate layouts (beam nodes, transverse w)
     observed = [5, 15]
     excited = [5, 15]
-    [materials.A]          # elastomer materials (Pa, -, kg/m^3)
+    [materials.A]          # elastomer materials (Pa, -, kg/m^3): ElastomerMaterial
     elastic_modulus = 15e6
     loss_factor = 0.10
     density = 1200.0
@@ -35,19 +35,23 @@
 
 from __future__ import annotations
 
-import math
 import os
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from ..benchmark import benchmark_study
 from ..errors import StudyError
 from ..frequency import Frequency
+from .. import schema
+from ..schema import Field, table, typed
 from ..study import BeamSpec
 
-__all__ = ["Layout", "ElastomerMaterialSpec", "ReproduceConfig", "load_config", "STUDY_NAMES"]
+if TYPE_CHECKING:
+    from ..physics.elastomer_joint import ElastomerMaterial
+
+__all__ = ["Layout", "ReproduceConfig", "load_config", "STUDY_NAMES"]
 
 #: Study names in report order (``--only`` takes a comma-separated subset).
 STUDY_NAMES = ("direct", "conditioning", "verification", "model-error", "accelerometers", "experiment", "noise-robustness")
@@ -62,15 +66,6 @@ class Layout:
     excited: tuple[int, ...]
 
 
-@dataclass(frozen=True)
-class ElastomerMaterialSpec:
-    """An elastomer: E (Pa), loss factor, density (kg/m^3)."""
-
-    elastic_modulus: float
-    loss_factor: float
-    density: float
-
-
 def _default_layouts() -> dict[str, Layout]:
     return {
         "model_1": Layout("Model 1", (5, 15), (5, 15)),
@@ -79,8 +74,11 @@ def _default_layouts() -> dict[str, Layout]:
     }
 
 
-def _default_materials() -> dict[str, ElastomerMaterialSpec]:
-    return {"A": ElastomerMaterialSpec(15e6, 0.10, 1200.0), "B": ElastomerMaterialSpec(8.8e6, 0.15, 1100.0)}
+def _default_materials() -> dict[str, "ElastomerMaterial"]:
+    """The built-in elastomers, :data:`jointid.physics.elastomer_joint.MATERIALS` (imported on use)."""
+    from ..physics.elastomer_joint import MATERIALS
+
+    return dict(MATERIALS)
 
 
 @dataclass(frozen=True)
@@ -93,7 +91,7 @@ class ReproduceConfig:
     stop: float = 1000.0
     step: float = 1.0
     layouts: Mapping[str, Layout] = field(default_factory=_default_layouts)
-    materials: Mapping[str, ElastomerMaterialSpec] = field(default_factory=_default_materials)
+    materials: Mapping[str, "ElastomerMaterial"] = field(default_factory=_default_materials)
     conditioning_noise: float = 0.005
     experiment_noise: float = 0.01
     robustness_levels: tuple[float, ...] = (0.003, 0.01, 0.03)
@@ -122,10 +120,34 @@ class ReproduceConfig:
         return (Dof(self.joint_node, "w"), Dof(self.joint_node, "theta"))
 
 
-def _num(where: str, v: Any, positive: bool = True) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (positive and v <= 0) or v < 0:
-        raise StudyError(f"{where}: expected a {'positive' if positive else 'non-negative'} number, got {v!r}")
-    return float(v)
+def _number(positive: bool = True) -> Field:
+    """A positive (or non-negative) number; one message for a wrong type and a wrong sign."""
+    if positive:
+        return Field("number", check=schema.positive, expected="a positive number")
+    return Field("number", check=schema.nonneg, expected="a non-negative number")
+
+
+def _given(data: Mapping[str, Any], name: str, fields: Mapping[str, Field]) -> dict[str, Any]:
+    """The keys of table ``[name]`` that ``data`` gives, typed (:func:`jointid.schema.section`)."""
+    values = schema.section(data, name, fields, listing="")
+    return {k: v for k, v in values.items() if k in data}
+
+
+_FREQUENCY = {k: _number() for k in ("start", "stop", "step")}  # start > 0: the free beam is singular at 0 Hz
+_MATERIAL = {"elastic_modulus": _number(), "loss_factor": _number(positive=False), "density": _number()}
+_NOISE = {k: _number(positive=False) for k in ("conditioning", "experiment")}
+_ACCELEROMETERS = {k: _number(positive=False) for k in ("mass", "rotary_inertia")}
+_DIRECT = {
+    **{k: _number() for k in ("start", "stop", "step", "amplitude_pp")},
+    "parallel_joints": Field("int", check=lambda v: None if v >= 1 else "out of range", expected="an integer >= 1"),
+}
+_SEED = Field("int", check=lambda v: None if v >= 0 else "out of range", expected="an integer >= 0")
+
+
+def _nodes(n_nodes: int) -> Field:
+    """A non-empty list of beam nodes 1..n_nodes, each once."""
+    return Field("int_list", check=lambda v: None if v and all(1 <= x <= n_nodes for x in v) else "out of range",
+                 expected=f"a non-empty list of beam nodes 1..{n_nodes}")
 
 
 def load_config(path: str | os.PathLike | None = None, seed: int | None = None) -> ReproduceConfig:
@@ -156,84 +178,55 @@ def load_config(path: str | os.PathLike | None = None, seed: int | None = None) 
     return cfg
 
 
-def _table(where: str, v: Any) -> Mapping[str, Any]:
-    if not isinstance(v, Mapping):
-        raise StudyError(f"{where}: expected a table, got {v!r}")
-    return v
-
-
 def _apply(cfg: ReproduceConfig, data: Mapping[str, Any]) -> ReproduceConfig:
     allowed = {"seed", "frequency", "layouts", "materials", "noise", "noise_robustness", "accelerometers", "direct"}
     for key in data:
         if key not in allowed:
             raise StudyError(f"unknown key {key!r}; expected one of: {', '.join(sorted(allowed))}")
         if key != "seed":
-            _table(f"[{key}]", data[key])
+            table(f"[{key}]", data[key])
     for key in ("layouts", "materials"):
         for name, value in data.get(key, {}).items():
-            _table(f"[{key}.{name}]", value)
+            table(f"[{key}.{name}]", value)
     changes: dict[str, Any] = {}
     if "seed" in data:
-        if not isinstance(data["seed"], int) or isinstance(data["seed"], bool) or data["seed"] < 0:
-            raise StudyError(f"seed: expected an integer >= 0, got {data['seed']!r}")
-        changes["seed"] = data["seed"]
-    fr = data.get("frequency", {})
-    for k in fr:
-        if k not in ("start", "stop", "step"):
-            raise StudyError(f"[frequency]: unknown key {k!r}; expected start, stop, step")
-        changes[k] = _num(f"[frequency].{k}", fr[k])  # start > 0: the free beam is singular at 0 Hz
+        changes["seed"] = typed(None, "seed", _SEED, data["seed"])
+    changes.update(_given(data.get("frequency", {}), "frequency", _FREQUENCY))
     if changes.get("start", cfg.start) >= changes.get("stop", cfg.stop):
         raise StudyError("[frequency]: start must be below stop")
     n_nodes = cfg.beam.nodes
     if "layouts" in data:
         layouts = dict(cfg.layouts)
+        fields = {"observed": _nodes(n_nodes), "excited": _nodes(n_nodes)}
         for name, lay in data["layouts"].items():
-            for k in lay:
-                if k not in ("observed", "excited"):
-                    raise StudyError(f"[layouts.{name}]: unknown key {k!r}; expected observed, excited")
             base = layouts.get(name, Layout(name.replace("_", " ").title(), (), ()))
-            new = {}
-            for k in ("observed", "excited"):
-                v = lay.get(k, getattr(base, k))
-                if not isinstance(v, (list, tuple)) or not v or not all(isinstance(x, int) and 1 <= x <= n_nodes for x in v):
-                    raise StudyError(f"[layouts.{name}].{k}: expected a non-empty list of beam nodes 1..{n_nodes}, got {v!r}")
-                new[k] = tuple(v)
+            given = _given(lay, f"layouts.{name}", fields)
+            new = {k: given.get(k, getattr(base, k)) for k in fields}
+            for k, v in new.items():
+                if not v:  # a new layout must give both lists
+                    typed(f"layouts.{name}", k, fields[k], [])
             layouts[name] = Layout(base.name, new["observed"], new["excited"])
         changes["layouts"] = layouts
     if "materials" in data:
         mats = dict(cfg.materials)
         for name, m in data["materials"].items():
-            for k in m:
-                if k not in ("elastic_modulus", "loss_factor", "density"):
-                    raise StudyError(f"[materials.{name}]: unknown key {k!r}; expected elastic_modulus, loss_factor, density")
             base = mats.get(name)
-            vals = {k: _num(f"[materials.{name}].{k}", m[k], positive=k != "loss_factor") for k in m}
+            vals = _given(m, f"materials.{name}", _MATERIAL)
             if base is None and len(vals) < 3:
                 raise StudyError(f"[materials.{name}]: a new material needs elastic_modulus, loss_factor and density")
-            mats[name] = replace(base, **vals) if base else ElastomerMaterialSpec(**vals)
+            if base is None:
+                from ..physics.elastomer_material import ElastomerMaterial
+
+                mats[name] = ElastomerMaterial(**vals)  # values checked above: no ModelError left
+            else:
+                mats[name] = replace(base, **vals)
         changes["materials"] = mats
-    noise = data.get("noise", {})
-    for k in noise:
-        if k not in ("conditioning", "experiment"):
-            raise StudyError(f"[noise]: unknown key {k!r}; expected conditioning, experiment")
-        changes[f"{k}_noise"] = _num(f"[noise].{k}", noise[k], positive=False)
+    changes.update({f"{k}_noise": v for k, v in _given(data.get("noise", {}), "noise", _NOISE).items()})
     changes.update(_robustness(data.get("noise_robustness", {}), changes.get("layouts", cfg.layouts), n_nodes))
-    acc = data.get("accelerometers", {})
-    for k in acc:
-        if k not in ("mass", "rotary_inertia"):
-            raise StudyError(f"[accelerometers]: unknown key {k!r}; expected mass, rotary_inertia")
-        changes[f"accelerometer_{k}"] = _num(f"[accelerometers].{k}", acc[k], positive=False)
-    direct = data.get("direct", {})
-    for k in direct:
-        if k not in ("start", "stop", "step", "amplitude_pp", "parallel_joints"):
-            raise StudyError(f"[direct]: unknown key {k!r}; expected start, stop, step, amplitude_pp, parallel_joints")
-        if k == "parallel_joints":
-            v = direct[k]
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise StudyError(f"[direct].parallel_joints: expected an integer >= 1, got {v!r}")
-            changes[k] = v
-        else:
-            changes[f"direct_{k}"] = _num(f"[direct].{k}", direct[k])
+    acc = _given(data.get("accelerometers", {}), "accelerometers", _ACCELEROMETERS)
+    changes.update({f"accelerometer_{k}": v for k, v in acc.items()})
+    direct = _given(data.get("direct", {}), "direct", _DIRECT)
+    changes.update({k if k == "parallel_joints" else f"direct_{k}": v for k, v in direct.items()})
     if changes.get("direct_start", cfg.direct_start) >= changes.get("direct_stop", cfg.direct_stop):
         raise StudyError("[direct]: start must be below stop")
     return replace(cfg, **changes)
@@ -241,25 +234,20 @@ def _apply(cfg: ReproduceConfig, data: Mapping[str, Any]) -> ReproduceConfig:
 
 def _robustness(section: Mapping[str, Any], layouts: Mapping[str, Layout], n_nodes: int) -> dict[str, Any]:
     """The ``[noise_robustness]`` keys as ReproduceConfig changes."""
-    changes: dict[str, Any] = {}
-    for k, v in section.items():
-        where = f"[noise_robustness].{k}"
-        if k == "levels":
-            if not isinstance(v, list) or not v:
-                raise StudyError(f"{where}: expected a non-empty list of positive numbers (relative noise rms), got {v!r}")
-            changes["robustness_levels"] = tuple(sorted({_num(where, x) for x in v}))
-        elif k == "seeds":
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise StudyError(f"{where}: expected an integer >= 1, got {v!r}")
-            changes["robustness_seeds"] = v
-        elif k == "layouts":
-            if not isinstance(v, list) or not v or not all(isinstance(x, str) and x in layouts for x in v):
-                raise StudyError(f"{where}: expected a non-empty list of layout names out of {', '.join(layouts)}, got {v!r}")
-            changes["robustness_layouts"] = tuple(dict.fromkeys(v))
-        elif k == "joint_nodes":
-            if not isinstance(v, list) or not v or not all(isinstance(x, int) and not isinstance(x, bool) and 1 <= x <= n_nodes for x in v):
-                raise StudyError(f"{where}: expected a non-empty list of beam nodes 1..{n_nodes}, got {v!r}")
-            changes["robustness_joint_nodes"] = tuple(dict.fromkeys(v))
-        else:
-            raise StudyError(f"[noise_robustness]: unknown key {k!r}; expected levels, seeds, layouts, joint_nodes")
+    names = ", ".join(layouts)
+    fields = {
+        "levels": Field("number_list", check=lambda v: None if v else "empty",
+                        expected="a non-empty list of positive numbers (relative noise rms)"),
+        "seeds": Field("int", check=lambda v: None if v >= 1 else "out of range", expected="an integer >= 1"),
+        "layouts": Field("str_list", check=lambda v: None if v and all(x in layouts for x in v) else "out of range",
+                         expected=f"a non-empty list of layout names out of {names}"),
+        "joint_nodes": _nodes(n_nodes),
+    }
+    given = _given(section, "noise_robustness", fields)
+    keys = {"levels": "robustness_levels", "seeds": "robustness_seeds", "layouts": "robustness_layouts",
+            "joint_nodes": "robustness_joint_nodes"}
+    changes = {keys[k]: v for k, v in given.items()}
+    if "robustness_levels" in changes:
+        level = _number()
+        changes["robustness_levels"] = tuple(sorted(typed("noise_robustness", "levels", level, x) for x in changes["robustness_levels"]))
     return changes

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..methods.material_fit import fit_material, static_estimate
-from ..methods.stepsine import process_stepsine
-from ..methods.stepsine_synth import synthesize_stepsine
+from ..measurement.stepsine import process_stepsine
+from ..measurement.stepsine_synth import synthesize_stepsine
 from ..plots.direct import plot_direct_stiffness
 from ..plots.studies import plot_terms
 from ..report.html import Table

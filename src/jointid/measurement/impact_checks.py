@@ -11,7 +11,7 @@ Per hit, on the raw force and response:
   (what a saturated ADC or amplifier produces).
 
 Bad hits are dropped from the averages by
-:func:`jointid.methods.impact.estimate_frfs` and listed, with every finding
+:func:`jointid.measurement.impact.estimate_frfs` and listed, with every finding
 (:class:`HitProblem`: check, channel, value and threshold), in
 ``ImpactFRF.rejected``; :func:`rejected_hits_table` turns them into columns.
 """

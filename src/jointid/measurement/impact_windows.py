@@ -1,7 +1,7 @@
 """Force and exponential windows of impact tests, and the exponential-window correction.
 
-Processing steps 2-4 of :func:`jointid.methods.impact.estimate_frfs`; ``t_start`` is the
-start of the main force pulse (:func:`jointid.methods.impact_checks.main_pulse`).
+Processing steps 2-4 of :func:`jointid.measurement.impact.estimate_frfs`; ``t_start`` is the
+start of the main force pulse (:func:`jointid.measurement.impact_checks.main_pulse`).
 
 2. **Force window** (optional, ``force_window_s``): 1 on
    ``[t_start - force_pretrigger_s, t_start - force_pretrigger_s + force_window_s]``

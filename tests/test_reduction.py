@@ -8,7 +8,7 @@ from jointid.frequency import Frequency
 from jointid.frf import FRF
 from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
 from jointid.physics import FrameSection, Material, build_frame
-from jointid.physics.craig_bampton import craig_bampton
+from jointid.physics.reduction import craig_bampton
 from jointid.physics.sparse_model import SparseModel
 
 STEEL = Material(210e9, 7850.0, loss_factor=0.002, poisson_ratio=0.3)

@@ -126,7 +126,7 @@ def example_stepsine(seed: int = EXAMPLE["seed"]) -> tuple[StepSineBlock, ...]:
     seed : int
         Random seed.
     """
-    from .joint_model import ElastomerJoint
+    from ..physics.elastomer_joint import ElastomerJoint
 
     e = EXAMPLE
     f = np.arange(e["start_hz"], e["stop_hz"] + 1e-9, e["step_hz"])

@@ -50,17 +50,8 @@ Both condensations are dynamic (exact for the FE model):
 ``S = D_bb - D_bi D_ii^-1 D_ib``, evaluated as one batched solve over all
 frequency lines.
 
-End caps (fixture assumption): steel discs 2.54 cm diameter x 3 mm,
-density 7850 kg/m^3: mass 11.9 g, rotary inertia about a diameter through
-their centroid ``m (r^2/4 + t^2/12)`` = 4.9e-7 kg*m^2.
-
-Built-in materials
-------------------
-:data:`MATERIALS` holds the two elastomers of the benchmark. The source
-study's material table is not public: these values are documented
-assumptions chosen to give realistic rubber properties and the internal-mode
-frequencies the study reports (Material A: blocked internal mode about
-1.2 kHz; Material B: about 950 Hz for the 2.54 cm x 2.54 cm cylinder).
+End caps (:class:`EndCap`) and the built-in elastomers (:data:`MATERIALS`) are defined in
+:mod:`jointid.physics.elastomer_material` (re-exported here).
 """
 
 from __future__ import annotations
@@ -74,8 +65,9 @@ from scipy.linalg import eigh
 
 from ..dofs import Dof
 from ..errors import ModelError
-from ..physics.elements import Material, Section, require_positive
-from ..physics.structure import ComplexStiffness, beam_structure
+from .elastomer_material import DEFAULT_DIAMETER_M, DEFAULT_LENGTH_M, DEFAULT_POISSON, MATERIALS, ElastomerMaterial, EndCap
+from .elements import Material, Section, require_positive
+from .structure import ComplexStiffness, beam_structure
 
 __all__ = [
     "ElastomerMaterial",
@@ -87,114 +79,11 @@ __all__ = [
     "elastomer_joint_from_parameters",
 ]
 
-#: Default elastomer length and diameter, m (1 in x 1 in).
-DEFAULT_LENGTH_M = 0.0254
-DEFAULT_DIAMETER_M = 0.0254
-#: Default Poisson ratio of the elastomer (nearly incompressible rubber).
-DEFAULT_POISSON = 0.49
-
 
 def circle_shear_coefficient(poisson_ratio: float) -> float:
     """Timoshenko shear coefficient of a solid circle, ``6 (1 + nu) / (7 + 6 nu)`` (Cowper)."""
     nu = float(poisson_ratio)
     return 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu)
-
-
-@dataclass(frozen=True)
-class ElastomerMaterial:
-    """An elastomer with a constant complex modulus.
-
-    Parameters
-    ----------
-    E : float
-        Storage Young's modulus E', Pa.
-    eta : float
-        Loss factor (E* = E' (1 + j eta)), dimensionless.
-    rho : float
-        Density, kg/m^3.
-    nu : float
-        Poisson ratio (default 0.49).
-    """
-
-    E: float
-    eta: float
-    rho: float
-    nu: float = DEFAULT_POISSON
-
-    def __post_init__(self) -> None:
-        require_positive("elastomer elastic modulus E", self.E, "Pa")
-        require_positive("elastomer density rho", self.rho, "kg/m^3")
-        if not (math.isfinite(self.eta) and self.eta >= 0):
-            raise ModelError(f"elastomer loss factor eta must be >= 0, got {self.eta!r}")
-        if not (-1.0 < self.nu < 0.5):
-            raise ModelError(f"elastomer Poisson ratio must lie in (-1, 0.5), got {self.nu!r}")
-
-    @property
-    def G(self) -> float:
-        """Storage shear modulus G' = E' / (2 (1 + nu)), Pa."""
-        return self.E / (2.0 * (1.0 + self.nu))
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict (Pa, -, kg/m^3, -)."""
-        return {"elastic_modulus_pa": self.E, "loss_factor": self.eta, "density_kg_m3": self.rho, "poisson_ratio": self.nu}
-
-
-#: Built-in elastomers of the benchmark (assumed values: the source's table is not public).
-MATERIALS: Mapping[str, ElastomerMaterial] = {
-    "A": ElastomerMaterial(E=15e6, eta=0.10, rho=1200.0),
-    "B": ElastomerMaterial(E=8.8e6, eta=0.15, rho=1100.0),
-}
-
-
-@dataclass(frozen=True)
-class EndCap:
-    """A rigid steel end cap (disc) bonded to an end face of the elastomer.
-
-    Parameters
-    ----------
-    diameter_m : float
-        Disc diameter, m (default 2.54 cm).
-    thickness_m : float
-        Disc thickness along the cylinder axis, m (default 3 mm).
-    density_kg_m3 : float
-        Density, kg/m^3 (default steel, 7850).
-    """
-
-    diameter_m: float = 0.0254
-    thickness_m: float = 0.003
-    density_kg_m3: float = 7850.0
-
-    def __post_init__(self) -> None:
-        require_positive("end cap diameter", self.diameter_m, "m")
-        require_positive("end cap thickness", self.thickness_m, "m")
-        require_positive("end cap density", self.density_kg_m3, "kg/m^3")
-
-    @property
-    def mass_kg(self) -> float:
-        """Cap mass, kg."""
-        return self.density_kg_m3 * math.pi * self.diameter_m**2 / 4.0 * self.thickness_m
-
-    @property
-    def rotary_inertia_kg_m2(self) -> float:
-        """Rotary inertia about a diameter through the centroid, ``m (r^2/4 + t^2/12)``, kg*m^2."""
-        r = self.diameter_m / 2.0
-        return self.mass_kg * (r**2 / 4.0 + self.thickness_m**2 / 12.0)
-
-    @property
-    def offset_m(self) -> float:
-        """Distance from the elastomer face to the cap's centroid, m (``t / 2``)."""
-        return self.thickness_m / 2.0
-
-    def mass_matrix(self, outward: float = 1.0) -> np.ndarray:
-        """Rigid-body mass matrix (2, 2) on (w, theta) of the elastomer face node.
-
-        Parameters
-        ----------
-        outward : {+1, -1}
-            Direction of the cap's centroid from the face along the cylinder's x.
-        """
-        m, e = self.mass_kg, outward * self.offset_m
-        return np.array([[m, m * e], [m * e, self.rotary_inertia_kg_m2 + m * e**2]])
 
 
 @dataclass(frozen=True)
@@ -266,21 +155,16 @@ class ElastomerJoint:
     _M: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        E = require_positive("elastomer elastic modulus", self.elastic_modulus, "Pa")
-        rho = require_positive("elastomer density", self.density, "kg/m^3")
+        material = self.material  # checks E, density, loss factor, Poisson ratio
         L = require_positive("elastomer length", self.length_m, "m")
         require_positive("elastomer diameter", self.diameter_m, "m")
-        if not (math.isfinite(self.loss_factor) and self.loss_factor >= 0):
-            raise ModelError(f"elastomer loss factor must be >= 0, got {self.loss_factor!r}")
-        if not (-1.0 < self.poisson_ratio < 0.5):
-            raise ModelError(f"elastomer Poisson ratio must lie in (-1, 0.5), got {self.poisson_ratio!r}")
         if not isinstance(self.elements, (int, np.integer)) or isinstance(self.elements, bool) or self.elements < 2:
             raise ModelError(f"joint model: elements must be an integer >= 2, got {self.elements!r}")
         if self.modulus is not None and not callable(self.modulus):
             raise ModelError("joint model: modulus must be a callable E*(f_hz) -> complex Pa, or None")
         kappa = self.kappa
         require_positive("shear coefficient", kappa, "(dimensionless)")
-        mat = Material(E, rho, 0.0, poisson_ratio=self.poisson_ratio)
+        mat = replace(material, loss_factor=0.0)
         cylinder = beam_structure(L, self.section, mat, int(self.elements) + 1, kappa)  # undamped: eta is applied per line
         K, M = cylinder.K.real, cylinder.M
         object.__setattr__(self, "_K", K)
@@ -288,20 +172,28 @@ class ElastomerJoint:
 
     # ------------------------------------------------------------ constructors
     @classmethod
-    def from_material(cls, material: "ElastomerMaterial | str", **kwargs) -> "ElastomerJoint":
-        """A joint of a built-in (``"A"``, ``"B"``) or given :class:`ElastomerMaterial`; ``kwargs`` set geometry etc."""
+    def from_material(cls, material: "Material | str", **kwargs) -> "ElastomerJoint":
+        """A joint of a built-in (``"A"``, ``"B"``) or given material (an :class:`ElastomerMaterial`, or any
+        :class:`~jointid.physics.elements.Material` with a Poisson ratio); ``kwargs`` set geometry etc."""
         if isinstance(material, str):
             if material not in MATERIALS:
                 raise ModelError(f"unknown elastomer material {material!r}; built-in materials: {', '.join(MATERIALS)}")
             material = MATERIALS[material]
-        kwargs.setdefault("poisson_ratio", material.nu)
-        return cls(material.E, material.eta, material.rho, **kwargs)
+        if material.shear_modulus is not None:  # the joint takes G from E and nu: never ignore a given G
+            raise ModelError("elastomer material: give poisson_ratio (G = E / (2 (1 + nu))), not shear_modulus")
+        kwargs.setdefault("poisson_ratio", material.poisson_ratio)
+        return cls(material.elastic_modulus, material.loss_factor, material.density, **kwargs)
 
     def with_material(self, elastic_modulus: float, loss_factor: float, density: float) -> "ElastomerJoint":
         """A copy with another constant complex modulus and density (same geometry, mesh and caps)."""
         return replace(self, elastic_modulus=elastic_modulus, loss_factor=loss_factor, density=density, modulus=None)
 
     # ------------------------------------------------------------ properties
+    @property
+    def material(self) -> ElastomerMaterial:
+        """The elastomer's constant-modulus material (E', eta, rho, nu) of this joint."""
+        return ElastomerMaterial(self.elastic_modulus, self.density, self.loss_factor, self.poisson_ratio)
+
     @property
     def kappa(self) -> float:
         """Shear coefficient used."""
@@ -582,9 +474,9 @@ def elastomer_joint_from_parameters(node: int, dofs: Sequence[str], parameters: 
             p.get("cap_density", default_cap.density_kg_m3),
         )
     joint = ElastomerJoint(
-        elastic_modulus=p.get("elastic_modulus", base.E),
-        loss_factor=p.get("loss_factor", base.eta),
-        density=p.get("density", base.rho),
+        elastic_modulus=p.get("elastic_modulus", base.elastic_modulus),
+        loss_factor=p.get("loss_factor", base.loss_factor),
+        density=p.get("density", base.density),
         length_m=p.get("length", DEFAULT_LENGTH_M),
         diameter_m=p.get("diameter", DEFAULT_DIAMETER_M),
         poisson_ratio=p.get("poisson_ratio", base.nu),

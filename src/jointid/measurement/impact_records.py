@@ -11,7 +11,7 @@ One :class:`ImpactRecord` holds the repeated hits at **one excited node**:
 Sample 0 of every channel of a hit is the same instant (simultaneous
 sampling); the trigger position within the record is free.
 :class:`ImpactOptions` holds the windows, hit checks, band and FFT length
-used by :func:`jointid.methods.impact.estimate_frfs` (see that module for the
+used by :func:`jointid.measurement.impact.estimate_frfs` (see that module for the
 algorithms).
 """
 

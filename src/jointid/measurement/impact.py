@@ -1,20 +1,20 @@
 """Impact-test FRF estimation: hammer force and response time histories to H1/H2 and coherence.
 
 The records (:class:`ImpactRecord`, one per excited node) and settings
-(:class:`ImpactOptions`) are defined in :mod:`jointid.methods.impact_records`;
+(:class:`ImpactOptions`) are defined in :mod:`jointid.measurement.impact_records`;
 files: :mod:`jointid.io.impact_files` (NumPy ``.npz``, long CSV, UFF58 time
 records). Every public name of the impact modules is importable from here.
 
 Processing (:func:`estimate_frf`, :func:`estimate_frfs`)
 --------------------------------------------------------
-1. **Hit quality** (:mod:`jointid.methods.impact_checks`): double hits and
+1. **Hit quality** (:mod:`jointid.measurement.impact_checks`): double hits and
    overloads, per hit, on the raw data. Bad hits are dropped and listed in
    ``ImpactFRF.rejected``; if every hit of an excited node is bad,
    :class:`~jointid.errors.DataError` is raised.
 2. **Force window** (optional, ``force_window_s``), 3. **exponential window**
    (optional, ``exp_tau_s``; it adds the decay rate ``1/tau`` to every mode,
    ``H_windowed(j w) = H(j w + 1/tau)``) and 4. its **correction**
-   (``correct_exponential=True``, mode by mode): :mod:`jointid.methods.impact_windows`.
+   (``correct_exponential=True``, mode by mode): :mod:`jointid.measurement.impact_windows`.
 5. **Estimators**: one batched real FFT over hits (and channels), then averaged
    over accepted hits::
 
@@ -28,7 +28,7 @@ Processing (:func:`estimate_frf`, :func:`estimate_frfs`)
 
 Roving sensor
 -------------
-:func:`roving_sensor_correction` (:mod:`jointid.methods.sensor_correction`)
+:func:`roving_sensor_correction` (:mod:`jointid.measurement.sensor_correction`)
 removes the mass of a single accelerometer that was moved to each response
 point (Sherman-Morrison on the added mass).
 """

@@ -33,6 +33,9 @@ from ..errors import ModelError
 
 __all__ = ["CraigBamptonModel", "craig_bampton"]
 
+#: ``K_ii`` counts as singular when its smallest LU pivot is below this fraction of the largest.
+SINGULAR_PIVOT = 1e-12
+
 
 @dataclass(frozen=True, eq=False)
 class CraigBamptonModel:
@@ -120,8 +123,9 @@ def craig_bampton(
         lu = spla.splu(sp.csc_array(Kii))
     except RuntimeError:
         raise ModelError("craig_bampton: K_ii is singular; the boundary must restrain every rigid-body motion of the interior") from None
+    pivots = np.abs(lu.U.diagonal())
     Psi = -lu.solve(Kib.toarray())
-    if not np.all(np.isfinite(Psi)):
+    if not np.all(np.isfinite(Psi)) or pivots.min() <= SINGULAR_PIVOT * pivots.max():
         raise ModelError("craig_bampton: K_ii is singular; the boundary must restrain every rigid-body motion of the interior")
     n_int = interior.size
     if cutoff_hz is not None:
