@@ -140,9 +140,10 @@ def simulate_hits(
 
     Parameters
     ----------
-    structure : Structure
-        The test article (beam, accelerometer masses, joint to ground); must have
-        no rigid-body mode (the response must decay).
+    structure : Structure or model with ``receptance(frequency, rows, cols)``
+        The test article (beam, accelerometer masses, joint to ground; or any
+        constrained model giving its receptance in m/N, shape (F, rows, cols));
+        must have no rigid-body mode (the response must decay).
     responses, references : sequence of Dof or labels
     settings : HammerSettings
     rng : numpy.random.Generator
@@ -162,7 +163,11 @@ def simulate_hits(
     npad = n if s.pad == 1 else int(2 ** np.ceil(np.log2(n * s.pad)))
     fk = np.fft.rfftfreq(npad, 1.0 / s.sample_rate)
     acc = np.zeros((fk.size, len(responses), len(references)), complex)
-    acc[1:] = synthesize_frf(structure, Frequency(fk[1:]), responses, references, kind="accelerance").data
+    grid = Frequency(fk[1:])
+    if isinstance(structure, Structure):
+        acc[1:] = synthesize_frf(structure, grid, responses, references, kind="accelerance").data
+    else:  # accelerance = -w^2 receptance
+        acc[1:] = -((2.0 * np.pi * grid.hz) ** 2)[:, None, None] * structure.receptance(grid, responses, references)
     out = []
     for j, ref in enumerate(references):
         amp = s.pulse_amplitude * (1.0 + 0.1 * rng.uniform(-1, 1, s.averages))

@@ -11,6 +11,7 @@ The main API, re-exported here (imported on first use)::
 * :mod:`.frame` -- ``build_frame`` (3-D Timoshenko frames, 6 DOFs per node, sparse),
   ``FrameModel``, ``Member``, ``PointMass``; :mod:`.frame_sections` -- ``FrameSection``;
 * :mod:`.reduction` -- ``craig_bampton``, ``CraigBamptonModel`` (boundary DOFs + modal scalar points);
+* :mod:`.jointed_model` -- ``JointedModel`` (free model + joints by receptance coupling: the test article of any structure);
 * :mod:`.elastomer_joint` -- ``ElastomerJoint`` (FE model of the elastomer cylinder between
   end caps), ``JointModes``; :mod:`.elastomer_material` -- ``ElastomerMaterial`` (a
   ``Material``), ``EndCap``, ``MATERIALS``;
@@ -36,10 +37,11 @@ __getattr__, __dir__, __all__ = attach(
         ".frame": ("build_frame", "FrameModel", "Member", "PointMass"),
         ".frame_sections": ("FrameSection",),
         ".reduction": ("craig_bampton", "CraigBamptonModel"),
+        ".jointed_model": ("JointedModel",),
         ".free_model": ("FreeModel", "StructureModel", "as_free_model"),
         ".beam_mesh": ("elements_per_segment", "bending_wavelength_m"),
         ".synthesis": ("synthesize_frf", "receptance_direct", "receptance_modal", "choose_method"),
     },
     submodules=("elements", "structure", "joints", "modes", "synthesis", "free_model", "beam_mesh", "banded_receptance",
-                "elastomer_joint", "elastomer_material", "frame", "frame_sections", "reduction"),
+                "elastomer_joint", "elastomer_material", "frame", "frame_sections", "reduction", "jointed_model"),
 )
