@@ -92,6 +92,13 @@ re-exported here. Units are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
 
 Only ``[beam]``, ``[joint]``, ``[measurement]`` and ``[frequency]`` are required.
 
+A *structure study* gives ``[structure]`` (mass and stiffness matrix files and
+a DOF list) instead of ``[beam]``, one or more ``[[joint]]`` tables (named,
+1-6 DOFs per side, grounded or between two DOF sets, ``[joint.model] type =
+"mount"``) and DOF labels in ``[measurement]``; see
+:mod:`jointid.study_structure` for its keys. ``Study.beam`` and ``Study.joint``
+are then ``None``, ``Study.structure`` and ``Study.joints`` hold it.
+
 Limits (so that a typo cannot exhaust the memory): ``[beam].nodes`` at most
 :data:`MAX_NODES` (10 000), the ``[frequency]`` grid at most
 :data:`MAX_LINES` (1 000 000) lines.

@@ -12,6 +12,10 @@ Conventions
   (two flips cancel). Records in any other direction (triaxial X/Y channels,
   rotations, scalar) are skipped and counted: rotational DOFs are not
   measured, and this module never guesses how they map onto ``theta``.
+  With ``axis=None`` (3-D models, a ``[structure]`` study) every record's
+  direction code 1-6 is the DOF's component ``x, y, z, rx, ry, rz``, a
+  negative code (e.g. -X) flips the sign; the writer writes ``w`` as +Z and
+  ``x .. rz`` as codes 1-6.
 * **Kind** comes from record 9 (ordinate numerator) and record 10 (ordinate
   denominator) *specific data type*: numerator 8 = displacement
   (receptance), 11 = velocity (mobility), 12 = acceleration (accelerance);
