@@ -71,7 +71,7 @@ def grounded_study(tmp_path, observed=None, excited=None, extra="") -> "Path":
         [frequency]
         start = 10.0
         stop = 400.0
-        step = 10.0
+        step = 20.0
         """) + extra
     p = tmp_path / "study.toml"
     p.write_text(text)
@@ -104,7 +104,7 @@ def between_study(tmp_path) -> "Path":
         [frequency]
         start = 10.0
         stop = 400.0
-        step = 10.0
+        step = 20.0
         """)
     p = tmp_path / "study.toml"
     p.write_text(text)
@@ -146,9 +146,9 @@ def test_two_grounded_mounts_recovered_exactly_through_the_cli(tmp_path):
     assert not (out / "joint_stiffness.csv").exists()
     comp = ["x", "y", "z", "rx", "ry", "rz"]
     for name, truth in (
-        ("front", _mount_truth(np.arange(10.0, 401.0, 10.0), 1, [3e6, 2e6, 4e6, 3e3, 2.5e3, 1.5e3],
+        ("front", _mount_truth(np.arange(10.0, 401.0, 20.0), 1, [3e6, 2e6, 4e6, 3e3, 2.5e3, 1.5e3],
                                [("x", "ry", 2e4), ("y", "rx", -1.5e4), ("x", "y", 4e5)], 0.12, 0.3, 100.0, 0.8)),
-        ("rear", _mount_truth(np.arange(10.0, 401.0, 10.0), 10, [1.5e6, 2.5e6, 3e6, 2e3, 3e3, 2e3],
+        ("rear", _mount_truth(np.arange(10.0, 401.0, 20.0), 10, [1.5e6, 2.5e6, 3e6, 2e3, 3e3, 2e3],
                               [("z", "rz", 1e4), ("rx", "ry", 300.0)], 0.08, 0.5)),
     ):
         table = read_table(out / f"joint_stiffness_{name}.csv")
@@ -175,7 +175,7 @@ def test_mount_between_two_parts_recovered_exactly_through_the_cli(tmp_path):
     names = labels(5) + labels(6)
     assert "K_5x_6x_real" in table and "K_x_x_real" not in table
     K = _matrix(table, names)
-    f = np.arange(10.0, 401.0, 10.0)
+    f = np.arange(10.0, 401.0, 20.0)
     truth = _mount_truth(f, 5, [3e6, 2e6, 4e6, 3e3, 2.5e3, 1.5e3], [("x", "ry", 2e4), ("y", "rx", -1.5e4), ("x", "y", 4e5)],
                          0.12, 0.3, 100.0, 0.8, other=True)
     assert K.shape[1:] == (12, 12)
@@ -322,3 +322,30 @@ def test_term_names_never_collide_and_split_per_joint():
     cols = stiffness_columns(Frequency.from_range(1.0, 2.0, 1.0), two, np.ones((2, 2, 2)))
     assert list(cols) == ["frequency_hz", "K_1x_1x_real", "K_1x_1x_imag", "K_1x_2x_real", "K_1x_2x_imag",
                           "K_2x_1x_real", "K_2x_1x_imag", "K_2x_2x_real", "K_2x_2x_imag"]
+
+
+def test_point_map_and_flipped_axis_of_a_real_export(tmp_path):
+    """[measurement.points] maps file ids to model nodes; a record along -Y is read sign-flipped as y."""
+    import pyuff
+
+    from jointid.pipeline import identify, read_measured, simulate
+    from jointid.io.uff import write_uff_frf
+
+    study_path = grounded_study(tmp_path)
+    nodes = (1, 2, 4, 5, 6, 7, 9, 10)
+    points = "\n[measurement.points]\n" + "\n".join(f"{1000 + n} = {n}" for n in nodes) + "\n"
+    study_path.write_text(study_path.read_text().replace("\n[identification]", points + "\n[identification]"))
+    study = load_study(study_path)
+    test = simulate(study)
+    write_uff_frf(tmp_path / "model.uff", test.frf)
+    sets = pyuff.UFF(str(tmp_path / "model.uff")).read_sets()
+    for s in sets[1:]:
+        s["rsp_node"] += 1000
+        s["ref_node"] += 1000
+        if s["rsp_dir"] == 2:
+            s["rsp_dir"], s["data"] = -2, -s["data"]
+    pyuff.UFF(str(tmp_path / "export.uff")).write_sets(sets, mode="add")
+    measured = read_measured(study, tmp_path / "export.uff")
+    np.testing.assert_allclose(measured.select(test.frf.responses, test.frf.references).data, test.frf.data, rtol=1e-10)
+    K = identify(study, measured).stiffness
+    assert np.abs(K - test.truth).max() / np.abs(test.truth).max() < 1e-8

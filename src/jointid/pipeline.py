@@ -32,6 +32,9 @@ __all__ = [
 def free_model(study: Study, with_accelerometers: bool | None = None, refined: bool = True) -> Structure:
     """The free beam ``Do`` of the study, with the ``[accelerometers]`` added when asked.
 
+    A ``[structure]`` study: its :class:`~jointid.physics.sparse_model.SparseModel`
+    (:func:`jointid.pipeline_structure.structure_model`; the options do not apply).
+
     Parameters
     ----------
     with_accelerometers : bool, optional
@@ -41,6 +44,10 @@ def free_model(study: Study, with_accelerometers: bool | None = None, refined: b
         (``[beam].elements_per_segment``, or :mod:`jointid.physics.beam_mesh`'s criterion);
         False: one element per segment (the paper's model on the measurement grid).
     """
+    if study.is_structure:  # matrices from files: a SparseModel (no accelerometers, no mesh refinement)
+        from .pipeline_structure import structure_model
+
+        return structure_model(study)
     beam = study.beam.structure(study.frequency.stop if refined else None)
     if with_accelerometers is None:
         with_accelerometers = study.identification.model_accelerometers

@@ -13,7 +13,10 @@ from ..methods.inverse import dof_term_labels, term_unit
 from ..pipeline import identify, read_measured
 from .common import add_out_argument, add_study_argument, study_from_args
 
-__all__ = ["add_parser", "run", "summary", "write_identification", "stiffness_file"]
+__all__ = ["add_parser", "run", "summary", "write_identification", "stiffness_file", "MAX_PRINTED_FINDINGS"]
+
+#: Findings printed on the console (all of them are in summary.json): a 12 x 12 joint may have dozens.
+MAX_PRINTED_FINDINGS = 8
 
 
 def add_parser(sub) -> None:
@@ -179,6 +182,9 @@ def run(args: argparse.Namespace) -> int:
         f"({f[0]:g}-{f[-1]:g} Hz); {100 * np.mean(result.reliable):.0f}% of lines reliable; "
         f"wrote {', '.join(str(out.path(x)) for x in files)}"
     )
-    for finding in getattr(result, "findings", lambda: [])():
+    findings = getattr(result, "findings", lambda: [])()
+    for finding in findings[:MAX_PRINTED_FINDINGS]:
         print(finding)
+    if len(findings) > MAX_PRINTED_FINDINGS:
+        print(f"... and {len(findings) - MAX_PRINTED_FINDINGS} more findings in {out.path('summary.json')}")
     return 0
