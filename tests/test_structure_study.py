@@ -349,3 +349,15 @@ def test_point_map_and_flipped_axis_of_a_real_export(tmp_path):
     np.testing.assert_allclose(measured.select(test.frf.responses, test.frf.references).data, test.frf.data, rtol=1e-10)
     K = identify(study, measured).stiffness
     assert np.abs(K - test.truth).max() / np.abs(test.truth).max() < 1e-8
+
+
+def test_single_joint_table_in_a_structure_study_is_one_joint(tmp_path):
+    p = between_study(tmp_path)
+    p.write_text(p.read_text().replace("[[joint]]", "[joint]"))
+    study = load_study(p)
+    assert [j.name for j in study.joints] == ["link"] and len(study.joint_dofs) == 12
+    assert study.beam is None and study.joint is None and study.is_structure
+    assert study.measurement.observed_dofs[:3] == (Dof(1, "x"), Dof(1, "y"), Dof(1, "z"))
+    mount = study.joints[0].mount()
+    K = mount([100.0])[0]
+    assert K.shape == (12, 12) and K[0, 4] == pytest.approx(1.3 * (1 + 0.12j) * 2e4)  # growth 0.3 at the reference frequency
