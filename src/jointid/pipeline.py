@@ -32,6 +32,9 @@ __all__ = [
 def free_model(study: Study, with_accelerometers: bool | None = None, refined: bool = True) -> Structure:
     """The free beam ``Do`` of the study, with the ``[accelerometers]`` added when asked.
 
+    A ``[structure]`` study: its :class:`~jointid.physics.sparse_model.SparseModel`
+    (:func:`jointid.pipeline_structure.structure_model`; the options do not apply).
+
     Parameters
     ----------
     with_accelerometers : bool, optional
@@ -41,6 +44,10 @@ def free_model(study: Study, with_accelerometers: bool | None = None, refined: b
         (``[beam].elements_per_segment``, or :mod:`jointid.physics.beam_mesh`'s criterion);
         False: one element per segment (the paper's model on the measurement grid).
     """
+    if study.is_structure:  # matrices from files: a SparseModel (no accelerometers, no mesh refinement)
+        from .pipeline_structure import structure_model
+
+        return structure_model(study)
     beam = study.beam.structure(study.frequency.stop if refined else None)
     if with_accelerometers is None:
         with_accelerometers = study.identification.model_accelerometers
@@ -92,7 +99,13 @@ def simulate(study: Study, frequency: Frequency | None = None) -> VirtualTest:
         Needs ``[joint.model]``; ``[accelerometers]`` (if present) load the test article.
     frequency : Frequency, optional
         Default: the study's ``[frequency]`` grid.
+
+    A ``[structure]`` study goes to :func:`jointid.pipeline_structure.simulate_structure`.
     """
+    if study.is_structure:
+        from .pipeline_structure import simulate_structure
+
+        return simulate_structure(study, frequency)
     frequency = frequency or study.grid
     joint = true_joint(study)
     article = free_model(study, with_accelerometers=True).with_joint(joint)
@@ -140,9 +153,16 @@ def read_measured(study: Study, path: str | os.PathLike) -> FRF:
     ------
     DataError
         A record the study needs cannot be read (naming the file and the record).
+
+    A ``[structure]`` study reads 3-D directions
+    (:func:`jointid.pipeline_structure.read_measured_structure`).
     """
     from .io.frf_files import read_frf
 
+    if study.is_structure:
+        from .pipeline_structure import read_measured_structure
+
+        return read_measured_structure(study, path)
     m = study.measurement
     return read_frf(
         path,
@@ -177,7 +197,16 @@ def identify(
         If the file lacks one of the study's coordinates or has no line in the band.
     IdentificationError
         If the layout has too few coordinates.
+
+    A ``[structure]`` study identifies all its joints at once
+    (:func:`jointid.pipeline_structure.identify_structure`; receptance method only).
     """
+    if study.is_structure:
+        from .pipeline_structure import identify_structure
+
+        if isinstance(options, InverseOptions):
+            raise DataError("the Hong & Lee method needs the dense model of a [beam] study; use the receptance method")
+        return identify_structure(study, measured, options)
     m = study.measurement
     check_layout(len(study.joint.dofs), m.observed, m.excited)
     for what, have, want in (("response", measured.responses, m.observed_dofs), ("reference", measured.references, m.excited_dofs)):

@@ -92,6 +92,13 @@ re-exported here. Units are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
 
 Only ``[beam]``, ``[joint]``, ``[measurement]`` and ``[frequency]`` are required.
 
+A *structure study* gives ``[structure]`` (mass and stiffness matrix files and
+a DOF list) instead of ``[beam]``, one or more ``[[joint]]`` tables (named,
+1-6 DOFs per side, grounded or between two DOF sets, ``[joint.model] type =
+"mount"``) and DOF labels in ``[measurement]``; see
+:mod:`jointid.study_structure` for its keys. ``Study.beam`` and ``Study.joint``
+are then ``None``, ``Study.structure`` and ``Study.joints`` hold it.
+
 Limits (so that a typo cannot exhaust the memory): ``[beam].nodes`` at most
 :data:`MAX_NODES` (10 000), the ``[frequency]`` grid at most
 :data:`MAX_LINES` (1 000 000) lines.
@@ -114,6 +121,7 @@ from .schema import nonneg as _nonneg
 from .schema import positive as _positive
 from .schema import section as _section
 from .schema import typed as _typed  # noqa: F401 - importable from here (study_sections, other modules)
+from .study_structure import parse_dof_list_key, parse_joints, parse_structure
 from .study_sections import (
     TRUTH_KEYS,
     AccelerometerSpec,
@@ -243,7 +251,7 @@ _EXPERIMENT = {
     "seed": _Field("int", False, 0, check=lambda v: None if v >= 0 else "an integer >= 0"),
 }
 _TRUTH = {k: replace(_BEAM[k], required=False, default=None) for k in TRUTH_KEYS}
-_TOP = ("beam", "joint", "measurement", "frequency", "accelerometers", "identification", "experiment", "truth")
+_TOP = ("beam", "structure", "joint", "measurement", "frequency", "accelerometers", "identification", "experiment", "truth")
 
 
 def parse_study(data: Mapping[str, Any], source: str = "<study>") -> Study:
@@ -264,9 +272,15 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
     unknown = [k for k in data if k not in _TOP]
     if unknown:
         raise StudyError(f"unknown section [{unknown[0]}]; expected sections: " + ", ".join(f"[{s}]" for s in _TOP))
+    if "beam" in data and "structure" in data:
+        raise StudyError("give either [beam] (the beam factory) or [structure] (matrix files), not both")
+    if "structure" in data:
+        return _parse_structure_study(data, source)
     for sec in ("beam", "joint", "measurement", "frequency"):
         if sec not in data:
             raise StudyError(f"missing section [{sec}]")
+    if isinstance(data["joint"], list):
+        raise StudyError("[[joint]] (several joints) needs a [structure] study; a [beam] study has one [joint] table")
 
     b = _section(data["beam"], "beam", _BEAM)
     if b["diameter"] is None and (b["width"] is None or b["height"] is None):
@@ -313,16 +327,7 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
     points = _points(mdata.get("points"), nn, m["observed"] + m["excited"]) if "points" in mdata else ()
     measurement = MeasurementSpec(m["observed"], m["excited"], m["axis"], points)
 
-    fr = _section(data["frequency"], "frequency", _FREQUENCY)
-    if fr["start"] >= fr["stop"]:
-        raise StudyError(f"[frequency]: start ({fr['start']:g} Hz) must be below stop ({fr['stop']:g} Hz)")
-    lines = (fr["stop"] - fr["start"]) / fr["step"] + 1.0  # may be inf for a tiny step
-    if not lines < MAX_LINES + 1:
-        raise StudyError(
-            f"[frequency].step: {fr['step']:g} Hz gives {lines:.3g} lines from {fr['start']:g} to {fr['stop']:g} Hz; "
-            f"at most {MAX_LINES} lines are allowed: raise step"
-        )
-    frequency = FrequencySpec(**fr)
+    frequency = _frequency(data)
 
     acc = None
     if "accelerometers" in data:
@@ -339,6 +344,69 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
     if "truth" in data:
         truth = TruthSpec(**{k: v for k, v in _section(data["truth"], "truth", _TRUTH).items()})
     return Study(beam, joint, measurement, frequency, acc, ident, exp, source, truth)
+
+
+def _frequency(data: Mapping) -> FrequencySpec:
+    fr = _section(data["frequency"], "frequency", _FREQUENCY)
+    if fr["start"] >= fr["stop"]:
+        raise StudyError(f"[frequency]: start ({fr['start']:g} Hz) must be below stop ({fr['stop']:g} Hz)")
+    lines = (fr["stop"] - fr["start"]) / fr["step"] + 1.0  # may be inf for a tiny step
+    if not lines < MAX_LINES + 1:
+        raise StudyError(
+            f"[frequency].step: {fr['step']:g} Hz gives {lines:.3g} lines from {fr['start']:g} to {fr['stop']:g} Hz; "
+            f"at most {MAX_LINES} lines are allowed: raise step"
+        )
+    return FrequencySpec(**fr)
+
+
+def _parse_structure_study(data: Mapping[str, Any], source: str) -> Study:
+    """A ``[structure]`` study: matrices from files, ``[[joint]]``, DOF-label measurements (see :mod:`jointid.study_structure`)."""
+    for sec in ("joint", "measurement", "frequency"):
+        if sec not in data:
+            raise StudyError(f"missing section [{sec}]" if sec != "joint" else "missing section [[joint]]")
+    for sec in ("accelerometers", "truth"):
+        if sec in data:
+            raise StudyError(f"[{sec}] applies to [beam] studies only; put sensor masses or model changes into the [structure] matrices")
+    base = Path(source).parent if not source.startswith("<") else Path(".")
+    structure = parse_structure(data["structure"], base)
+    model_name = f"structure ({structure.dofs})"
+    joints = parse_joints(data["joint"], structure.dof_array, model_name)
+    mdata = data["measurement"]
+    if not isinstance(mdata, Mapping):
+        raise StudyError(f"[measurement] must be a table, got {mdata!r}")
+    unknown = [k for k in mdata if k not in ("observed", "excited", "points", "axis")]
+    if unknown:
+        raise StudyError(f"[measurement]: unknown key {unknown[0]!r}; expected one of: observed, excited, points")
+    if "axis" in mdata:
+        raise StudyError("[measurement].axis applies to [beam] studies only; in a [structure] study each DOF label names its direction (\"12x\", \"40rz\")")
+    dofs = {}
+    for key in ("observed", "excited"):
+        if key not in mdata:
+            raise StudyError(f"[measurement]: missing key {key!r}")
+        dofs[key] = parse_dof_list_key(f"[measurement].{key}", mdata[key], structure.dof_array, model_name)
+    n_joint = sum(len(j.joint_dofs) for j in joints)
+    for key, what in (("observed", "observed"), ("excited", "excited")):
+        if len(dofs[key]) < n_joint:
+            raise StudyError(
+                f"[measurement].{key}: {len(dofs[key])} {what} DOFs for {n_joint} joint DOFs (all joints together); "
+                f"{what} at least as many DOFs as there are joint DOFs"
+            )
+    points = ()
+    if "points" in mdata:
+        nodes = tuple(d.node for d in dofs["observed"] + dofs["excited"])
+        points = _points(mdata["points"], int(structure.dof_array.node.max()), nodes)
+    measurement = MeasurementSpec(dofs["observed"], dofs["excited"], "+Z", points)
+    frequency = _frequency(data)
+    ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
+    if ident.method == "hong-lee":
+        raise StudyError(
+            "[identification].method = 'hong-lee' needs the dense FE model of a [beam] study (it solves for every "
+            "unobserved DOF); a [structure] study uses method = 'receptance'"
+        )
+    if ident.model_accelerometers:
+        raise StudyError("[identification].model_accelerometers applies to [beam] studies only")
+    exp = ExperimentSpec(**_section(data.get("experiment", {}), "experiment", _EXPERIMENT))
+    return Study(None, None, measurement, frequency, None, ident, exp, source, None, structure, joints)
 
 
 def _points(table: Any, n_nodes: int, used: tuple[int, ...]) -> tuple[tuple[int, int], ...]:

@@ -121,15 +121,18 @@ class JointSpec:
 
 @dataclass(frozen=True)
 class MeasurementSpec:
-    """Observed (response, w) and excited (force, w) beam nodes; how the FRF file names them.
+    """Observed (response) and excited (force) coordinates; how the FRF file names them.
+
+    Beam studies: ``observed``/``excited`` are beam node numbers (transverse ``w``);
+    structure studies: :class:`~jointid.dofs.Dof` (any component).
 
     ``axis`` is the FRF file's direction that is the model's ``w``;
     ``points`` pairs (file point id, beam node), empty: the file's point ids
     are node numbers.
     """
 
-    observed: tuple[int, ...]
-    excited: tuple[int, ...]
+    observed: tuple
+    excited: tuple
     axis: str = "+Z"
     points: tuple[tuple[int, int], ...] = ()
 
@@ -140,13 +143,13 @@ class MeasurementSpec:
 
     @property
     def observed_dofs(self) -> tuple[Dof, ...]:
-        """Observed coordinates m (transverse w)."""
-        return tuple(Dof(n, "w") for n in self.observed)
+        """Observed coordinates m (beam: transverse w)."""
+        return tuple(n if isinstance(n, Dof) else Dof(n, "w") for n in self.observed)
 
     @property
     def excited_dofs(self) -> tuple[Dof, ...]:
-        """Excited coordinates e (transverse force)."""
-        return tuple(Dof(n, "w") for n in self.excited)
+        """Excited coordinates e (beam: transverse force)."""
+        return tuple(n if isinstance(n, Dof) else Dof(n, "w") for n in self.excited)
 
 
 @dataclass(frozen=True)
@@ -238,10 +241,16 @@ TRUTH_KEYS = ("elastic_modulus", "density", "loss_factor", "elements_per_segment
 
 @dataclass(frozen=True)
 class Study:
-    """A validated study: beam, joint, measurement, frequency grid and optional sections."""
+    """A validated study: beam, joint, measurement, frequency grid and optional sections.
 
-    beam: BeamSpec
-    joint: JointSpec
+    A structure study (``[structure]`` instead of ``[beam]``) has ``beam = None``,
+    ``joint = None``, its free structure in ``structure``
+    (:class:`~jointid.study_structure.StructureSpec`) and its joints in ``joints``
+    (:class:`~jointid.study_structure.NamedJoint`, one or more).
+    """
+
+    beam: BeamSpec | None
+    joint: JointSpec | None
     measurement: MeasurementSpec
     frequency: FrequencySpec
     accelerometers: AccelerometerSpec | None = None
@@ -249,6 +258,20 @@ class Study:
     experiment: ExperimentSpec = ExperimentSpec()
     source: str = "<study>"
     truth: TruthSpec | None = None
+    structure: Any = None
+    joints: tuple = ()
+
+    @property
+    def is_structure(self) -> bool:
+        """True for a ``[structure]`` study (matrices from files, ``[[joint]]``), False for a ``[beam]`` study."""
+        return self.structure is not None
+
+    @property
+    def joint_dofs(self) -> tuple[Dof, ...]:
+        """Every joint DOF: the beam joint's, or every ``[[joint]]``'s in order (identified together)."""
+        if self.structure is None:
+            return self.joint.joint_dofs
+        return tuple(d for j in self.joints for d in j.joint_dofs)
 
     @property
     def grid(self) -> Frequency:

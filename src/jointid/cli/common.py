@@ -12,9 +12,10 @@ import argparse
 from pathlib import Path
 
 from ..benchmark import benchmark_study_path
+from ..errors import StudyError
 from ..study import Study, load_study
 
-__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "OUT_HELP"]
+__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "OUT_HELP", "STRUCTURE_COMMANDS"]
 
 #: Help text of ``--out DIR``.
 OUT_HELP = (
@@ -34,9 +35,26 @@ def add_study_argument(p: argparse.ArgumentParser, required: bool = True) -> Non
         )
 
 
+#: Subcommands that take a ``[structure]`` study (the others need a ``[beam]`` study).
+STRUCTURE_COMMANDS = ("simulate", "identify")
+
+
 def study_from_args(args: argparse.Namespace) -> Study:
-    """Load and validate the study named on the command line (or the benchmark)."""
-    return load_study(args.study if args.study else benchmark_study_path())
+    """Load and validate the study named on the command line (or the benchmark).
+
+    Raises
+    ------
+    StudyError
+        A ``[structure]`` study given to a subcommand not in :data:`STRUCTURE_COMMANDS`.
+    """
+    study = load_study(args.study if args.study else benchmark_study_path())
+    command = getattr(args, "command", None)
+    if study.is_structure and command is not None and command not in STRUCTURE_COMMANDS:
+        raise StudyError(
+            f"{study.source}: `jointid {command}` needs a [beam] study; a [structure] study works with "
+            + " and ".join(f"`jointid {c}`" for c in STRUCTURE_COMMANDS)
+        )
+    return study
 
 
 def add_out_argument(p: argparse.ArgumentParser) -> None:

@@ -39,6 +39,41 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+def _noisy(frf, noise: float, seed: int):
+    """``frf`` with relative complex Gaussian noise ``H (1 + noise n)`` (unchanged for noise 0)."""
+    if noise <= 0:
+        return frf
+    import numpy as np
+
+    from ..frf import FRF
+
+    rng = np.random.default_rng(seed)
+    n = (rng.standard_normal(frf.data.shape) + 1j * rng.standard_normal(frf.data.shape)) / np.sqrt(2.0)
+    return FRF(frf.frequency, frf.data * (1.0 + noise * n), frf.responses, frf.references, frf.kind)
+
+
+def _run_structure(args: argparse.Namespace, study) -> int:
+    """A structure study: FRFs of the structure on all its [[joint]] mounts; one true_joint[_<name>].csv per joint."""
+    from ..io.uff import write_uff_frf
+
+    with OutputSet(args.out, command="simulate") as out:
+        test = simulate(study)
+        frf = _noisy(test.frf, args.noise, args.seed)
+        uff = out.write_file("frf.uff", lambda p: write_uff_frf(p, frf, kind="accelerance", description="jointid structure test"))
+        written, i = [], 0
+        for joint in study.joints:
+            k = len(joint.joint_dofs)
+            name = "true_joint.csv" if len(study.joints) == 1 else f"true_joint_{joint.name}.csv"
+            written.append(out.write_csv(name, stiffness_columns(test.frequency, joint.joint_dofs, test.truth[:, i:i + k, i:i + k])))
+            i += k
+    f = test.frequency.hz
+    print(
+        f"wrote {uff} ({len(frf.responses)} x {len(frf.references)} accelerances, {f.size} lines {f[0]:g}-{f[-1]:g} Hz, "
+        f"{len(study.joints)} joint(s), noise {args.noise:g}) and {', '.join(map(str, written))}"
+    )
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
 
@@ -47,6 +82,10 @@ def run(args: argparse.Namespace) -> int:
     if args.seed < 0:
         raise StudyError(f"--seed: expected an integer >= 0, got {args.seed}")
     study = study_from_args(args)
+    if study.is_structure and (args.free or args.truth):
+        raise StudyError(f"{study.source}: --free and --truth apply to [beam] studies only")
+    if study.is_structure:
+        return _run_structure(args, study)
     other = load_study(args.truth) if args.truth else None
     true = true_beam_study(study, other)
     if args.free:

@@ -12,6 +12,10 @@ Conventions
   (two flips cancel). Records in any other direction (triaxial X/Y channels,
   rotations, scalar) are skipped and counted: rotational DOFs are not
   measured, and this module never guesses how they map onto ``theta``.
+  With ``axis=None`` (3-D models, a ``[structure]`` study) every record's
+  direction code 1-6 is the DOF's component ``x, y, z, rx, ry, rz``, a
+  negative code (e.g. -X) flips the sign; the writer writes ``w`` as +Z and
+  ``x .. rz`` as codes 1-6.
 * **Kind** comes from record 9 (ordinate numerator) and record 10 (ordinate
   denominator) *specific data type*: numerator 8 = displacement
   (receptance), 11 = velocity (mobility), 12 = acceleration (accelerance);
@@ -79,6 +83,8 @@ UFF_KIND_CODES: dict[str, int] = {"receptance": 8, "mobility": 11, "accelerance"
 _FORCE = 13
 _FREQUENCY = 18
 _Z = 3
+#: UFF direction code written for each DOF direction (the beam's ``w`` is +Z).
+_DIR_CODES = {"w": _Z, "x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6}
 _NUM_LABELS = {"receptance": ("Displacement", "m"), "mobility": ("Velocity", "m/s"), "accelerance": ("Acceleration", "m/s^2")}
 
 
@@ -89,7 +95,7 @@ def read_uff_frf(
     kind: str | None = None,
     *,
     points: Mapping[int, int] | None = None,
-    axis: str = "+Z",
+    axis: str | None = "+Z",
     responses: Iterable | None = None,
     references: Iterable | None = None,
     attach: bool = False,
@@ -109,9 +115,12 @@ def read_uff_frf(
     points : mapping of int to int, optional
         File point id -> model node. Records at points it does not list are
         skipped. Default: point ids are node numbers.
-    axis : {"+Z", "-Z", "+X", "-X", "+Y", "-Y"}
+    axis : {"+Z", "-Z", "+X", "-X", "+Y", "-Y"} or None
         The file's direction that is the model's ``w``; records along the
         opposite direction are sign-flipped, records in other directions skipped.
+        ``None`` (3-D models): each record's direction code 1-6 is the DOF's
+        component ``x, y, z, rx, ry, rz``; a negative code flips the sign
+        (scalar records, code 0, are skipped).
     responses, references : iterables of DOF labels, optional
         Keep only FRFs between these (model) DOFs; default: every mapped record.
     attach : bool
@@ -158,7 +167,7 @@ def read_uff_frf(
         if any(k.startswith("in ") for k in sel.skipped):
             hint = "; if the beam was measured along another direction, give that axis (the study's [measurement].axis)"
         raise DataError(
-            f"{path} holds no FRF record to read (UFF dataset 58, function type 4, along {axis[1]})"
+            f"{path} holds no FRF record to read (UFF dataset 58, function type 4, along {axis[1] if axis else 'X/Y/Z/RX/RY/RZ'})"
             + (f"; {skipped}" if skipped else "") + hint
         )
     base = frf_records[0].kind
@@ -208,7 +217,8 @@ def write_uff_frf(
 
     The file starts with a units dataset 164 (SI), then the FRF records
     (function type 4, abscissa frequency in Hz, response and reference
-    direction +Z, ordinate numerator displacement/velocity/acceleration over
+    direction +Z for the beam's ``w`` and the UFF codes 1-6 for the 3-D
+    components ``x, y, z, rx, ry, rz``, ordinate numerator displacement/velocity/acceleration over
     excitation force according to ``kind``, complex double precision), then,
     if given, the coherence records (function type 6, real).
 
@@ -217,7 +227,8 @@ def write_uff_frf(
     path : path-like
         Destination (conventionally ``.uff``).
     frf : FRF
-        FRFs between ``w`` DOFs (rotational DOFs cannot be written).
+        FRFs between ``w`` DOFs or 3-D DOFs (``x .. rz``); the beam's ``theta``
+        and scalar points cannot be written (UFF has no code for them).
     kind : {"receptance", "mobility", "accelerance"}
         Kind written to the file; the data are converted exactly.
     coherence : ndarray, shape (F, r, c), real, optional
@@ -244,9 +255,9 @@ def write_uff_frf(
 
     if kind not in KINDS:
         raise DataError(f"unknown FRF kind {kind!r}; expected one of {KINDS}")
-    bad = [str(d) for d in (*frf.responses, *frf.references) if d.direction != "w"]
+    bad = [str(d) for d in (*frf.responses, *frf.references) if d.direction not in _DIR_CODES]
     if bad:
-        raise DataError(f"UFF58 FRF files carry only transverse (w, +Z) DOFs; cannot write {bad}")
+        raise DataError(f"UFF58 FRF files carry transverse (w, +Z) and 3-D (x, y, z, rx, ry, rz) DOFs only; cannot write {bad}")
     if len(description) > 80:
         raise DataError("UFF ID lines hold at most 80 characters; shorten the description")
     out = frf.to(kind)
@@ -311,9 +322,9 @@ def write_uff_frf(
                 d = pyuff.prepare_58(
                     func_type=func_type,
                     rsp_node=int(r.node),
-                    rsp_dir=_Z,
+                    rsp_dir=_DIR_CODES[r.direction],
                     ref_node=int(c.node),
-                    ref_dir=_Z,
+                    ref_dir=_DIR_CODES[c.direction],
                     ordinate_spec_data_type=ord_type,
                     ordinate_axis_units_lab=ord_unit,
                     orddenom_spec_data_type=den_type,

@@ -47,6 +47,7 @@ _FORCE = 13
 _FREQUENCY = 18
 _DATA_TYPES = {8: "displacement", 9: "reaction force", 11: "velocity", 12: "acceleration", 13: "excitation force", 0: "unknown", 1: "general"}
 _DIRS = {0: "scalar", 1: "X", 2: "Y", 3: "Z", 4: "RX", 5: "RY", 6: "RZ"}
+_COMPONENTS = {1: "x", 2: "y", 3: "z", 4: "rx", 5: "ry", 6: "rz"}
 
 
 @dataclass
@@ -74,7 +75,7 @@ class Selection:
 
     n_nodes: int | None = None
     points: Mapping[int, int] | None = None
-    axis: str = "+Z"
+    axis: str | None = "+Z"  # None: 3-D, each record's direction code names the component
     responses: Collection[Dof] | None = None
     references: Collection[Dof] | None = None
     coherence: bool = False
@@ -102,12 +103,26 @@ def _describe(path: Path, index: int, d: dict) -> str:
 
 
 def _map(d: dict, sel: Selection, where: str) -> tuple[Dof, Dof, float] | str:
-    """The record's (response, reference, sign) or the reason to skip it."""
-    code = AXES[sel.axis]
+    """The record's (response, reference, sign) or the reason to skip it.
+
+    ``sel.axis`` ``None`` (3-D models): direction codes 1-6 are the components
+    ``x, y, z, rx, ry, rz`` and their negatives the same components sign-flipped;
+    code 0 (scalar) is skipped.
+    """
     dirs = (d.get("rsp_dir"), d.get("ref_dir"))
-    off = sorted({_DIRS.get(abs(x), f"direction {x}") for x in dirs if not isinstance(x, (int, np.integer)) or abs(x) != abs(code)})
-    if off:
-        return "in " + "/".join(off)
+    if sel.axis is None:
+        off = sorted({_DIRS.get(abs(x), f"direction {x}") if isinstance(x, (int, np.integer)) else f"direction {x}"
+                      for x in dirs if not isinstance(x, (int, np.integer)) or not 1 <= abs(x) <= 6})
+        if off:
+            return "in " + "/".join(off)
+        comps = [_COMPONENTS[abs(int(x))] for x in dirs]
+        code = None
+    else:
+        code = AXES[sel.axis]
+        off = sorted({_DIRS.get(abs(x), f"direction {x}") for x in dirs if not isinstance(x, (int, np.integer)) or abs(x) != abs(code)})
+        if off:
+            return "in " + "/".join(off)
+        comps = ["w", "w"]
     dofs = []
     for side, what in (("rsp", "response"), ("ref", "reference")):
         node = d.get(f"{side}_node")
@@ -127,12 +142,15 @@ def _map(d: dict, sel: Selection, where: str) -> tuple[Dof, Dof, float] | str:
                 f"{where}: {what} node {node} is outside the beam (nodes {rng}); if the file numbers its points "
                 "otherwise, map them to beam nodes (the study's [measurement.points])"
             )
-        dofs.append(Dof(node, "w"))
+        dofs.append(Dof(node, comps[len(dofs)]))
     if (sel.responses is not None and dofs[0] not in sel.responses) or (
         sel.references is not None and dofs[1] not in sel.references
     ):
         return "at points not in the study"
-    sign = (1.0 if dirs[0] == code else -1.0) * (1.0 if dirs[1] == code else -1.0)
+    if code is None:
+        sign = (1.0 if dirs[0] > 0 else -1.0) * (1.0 if dirs[1] > 0 else -1.0)
+    else:
+        sign = (1.0 if dirs[0] == code else -1.0) * (1.0 if dirs[1] == code else -1.0)
     return dofs[0], dofs[1], sign
 
 
@@ -179,7 +197,7 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
     """The FRF and the coherence records ``sel`` keeps, in file order; skipped ones are counted in ``sel.skipped``."""
     import pyuff
 
-    if sel.axis not in AXES:
+    if sel.axis is not None and sel.axis not in AXES:
         raise DataError(f"unknown measurement axis {sel.axis!r}; expected one of {', '.join(AXES)}")
     try:
         uff = pyuff.UFF(str(path))

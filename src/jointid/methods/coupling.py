@@ -45,7 +45,7 @@ from ..physics.free_model import as_free_model
 from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration
 from .coupling_lines import coupling_per_line, relinearize
 from .frf_variance import WEIGHTINGS, frf_variance
-from .inverse import check_layout, joint_term, stiffness_columns
+from .inverse import check_layout, dof_term_labels, joint_term, stiffness_columns
 from .smoothing import smooth_series
 
 __all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS"]
@@ -176,12 +176,35 @@ class CouplingResult:
             return np.hypot(self.std_real, self.std_imag) / np.abs(self.stiffness)
 
     def term_names(self) -> list[tuple[int, int, str]]:
-        """``(i, j, "K_{i}_{j}")`` for every ordered pair of joint DOFs."""
-        return [(a, b, f"K_{da.direction}_{db.direction}") for a, da in enumerate(self.joint_dofs) for b, db in enumerate(self.joint_dofs)]
+        """``(i, j, "K_{i}_{j}")`` for every ordered pair of joint DOFs (labels: :func:`~jointid.methods.inverse.dof_term_labels`)."""
+        return _term_names(self.joint_dofs)
 
     def term(self, i: str, j: str) -> np.ndarray:
-        """Stiffness term ``K_ij`` (directions ``"w"``/``"theta"``) vs frequency, shape (F,)."""
+        """Stiffness term ``K_ij`` vs frequency, shape (F,); ``i``, ``j`` directions (``"w"``, ``"x"``) or, for a joint on several nodes, labels (``"101x"``)."""
         return joint_term(self.stiffness, self.joint_dofs, i, j)
+
+    def subset(self, indices) -> "CouplingResult":
+        """The result on a subset of the joint DOFs (e.g. one of several joints identified together).
+
+        Every (F, n, n) array is cut to the ``indices`` block and ``passive`` to
+        those diagonal terms; per-line diagnostics (condition, residual scale,
+        calibration) are those of the joint estimate. Term names follow the
+        subset's own DOFs (:func:`~jointid.methods.inverse.dof_term_labels`).
+        """
+        idx = np.asarray(list(indices), dtype=int)
+        blk = np.ix_(np.arange(self.stiffness.shape[0]), idx, idx)
+        dofs = tuple(self.joint_dofs[i] for i in idx)
+        old = {(a, b): name for a, b, name in self.term_names()}
+        edf = {}
+        for a, b, name in _term_names(dofs):
+            key = old[(int(idx[a]), int(idx[b]))]
+            if key in self.smoothing_edf:
+                edf[name] = self.smoothing_edf[key]
+        return CouplingResult(
+            self.frequency, dofs, self.stiffness[blk], self.std_real[blk], self.std_imag[blk], self.per_line[blk],
+            self.per_line_std[blk], self.reliable_terms[blk], self.passive[:, idx], self.condition, self.residual_scale,
+            self.weighting, edf, self.options, self.calibration, self.calibration_applied,
+        )
 
     def columns(self) -> dict[str, np.ndarray]:
         """Table columns: stiffness, ``_real_std``/``_imag_std`` and ``reliable_{i}_{j}`` per term, ``reliable``."""
@@ -228,6 +251,11 @@ class CouplingResult:
         from ..plots.joint_stiffness import plot_joint_stiffness
 
         return plot_joint_stiffness(self, truth=truth)
+
+
+def _term_names(joint_dofs) -> list[tuple[int, int, str]]:
+    labels = dof_term_labels(joint_dofs)
+    return [(a, b, f"K_{la}_{lb}") for a, la in enumerate(labels) for b, lb in enumerate(labels)]
 
 
 def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: CouplingOptions | None = None) -> CouplingResult:
@@ -312,8 +340,9 @@ def _smooth_terms(freq: Frequency, n_dofs, lines, options: CouplingOptions):
     edf: dict = {}
     # symmetric: the upper triangle carries every term (mirrored); otherwise each entry on its own
     pairs = [(a, b) for a in range(n) for b in range(a if options.symmetric else 0, n)]
+    labels = dof_term_labels(n_dofs)
     for a, b in pairs:
-        name = f"K_{n_dofs[a].direction}_{n_dofs[b].direction}"
+        name = f"K_{labels[a]}_{labels[b]}"
         y, v = lines.stiffness[:, a, b], lines.variance[:, a, b]
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = np.sqrt(v) / np.abs(y)

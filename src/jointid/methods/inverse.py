@@ -85,6 +85,8 @@ __all__ = [
     "check_layout",
     "joint_term",
     "stiffness_columns",
+    "dof_term_labels",
+    "term_unit",
 ]
 
 _CHUNK_LINES = 250
@@ -220,22 +222,40 @@ class InverseResult:
         return plot_identification(self, truth=truth)
 
 
+def dof_term_labels(joint_dofs: Sequence[Dof]) -> list[str]:
+    """The label of each joint DOF in term names: its direction when all are on one node, else its full label.
+
+    ``["w", "theta"]`` for the beam's joint, ``["x", ..., "rz"]`` for a 3-D joint on
+    one node (``K_x_ry``), ``["101x", ..., "201x"]`` for a joint on several nodes
+    (``K_101x_201x``), so that names never collide.
+    """
+    if len({d.node for d in joint_dofs}) <= 1:
+        return [d.direction for d in joint_dofs]
+    return [str(d) for d in joint_dofs]
+
+
+def term_unit(di: Dof, dj: Dof) -> str:
+    """SI unit of the stiffness term ``K_ij`` (force at ``di`` per displacement at ``dj``), e.g. ``"N/rad"``."""
+    return f"{di.force_unit}/{dj.unit}"
+
+
 def joint_term(stiffness: np.ndarray, joint_dofs: Sequence[Dof], i: str, j: str) -> np.ndarray:
-    """Term ``K_ij`` of ``stiffness`` (F, n, n) by joint directions (``"w"``/``"theta"``), shape (F,)."""
-    dirs = [d.direction for d in joint_dofs]
+    """Term ``K_ij`` of ``stiffness`` (F, n, n) by term label (``"w"``, ``"theta"``, ``"x"`` or ``"101x"``; see :func:`dof_term_labels`), shape (F,)."""
+    labels = dof_term_labels(joint_dofs)
     try:
-        return stiffness[:, dirs.index(i), dirs.index(j)]
+        return stiffness[:, labels.index(i), labels.index(j)]
     except ValueError:
-        raise IdentificationError(f"joint term K_{i}_{j} was not identified (joint DOFs: {dirs})") from None
+        raise IdentificationError(f"joint term K_{i}_{j} was not identified (joint DOFs: {labels})") from None
 
 
 def stiffness_columns(frequency: Frequency, joint_dofs: Sequence[Dof], stiffness: np.ndarray) -> dict[str, np.ndarray]:
-    """``frequency_hz`` then ``K_{i}_{j}_real``, ``K_{i}_{j}_imag`` for every ordered pair of joint DOFs."""
+    """``frequency_hz`` then ``K_{i}_{j}_real``, ``K_{i}_{j}_imag`` for every ordered pair of joint DOFs (labels: :func:`dof_term_labels`)."""
     cols: dict[str, np.ndarray] = {"frequency_hz": frequency.hz}
-    for a, da in enumerate(joint_dofs):
-        for b, db in enumerate(joint_dofs):
-            cols[f"K_{da.direction}_{db.direction}_real"] = stiffness[:, a, b].real
-            cols[f"K_{da.direction}_{db.direction}_imag"] = stiffness[:, a, b].imag
+    labels = dof_term_labels(joint_dofs)
+    for a, la in enumerate(labels):
+        for b, lb in enumerate(labels):
+            cols[f"K_{la}_{lb}_real"] = stiffness[:, a, b].real
+            cols[f"K_{la}_{lb}_imag"] = stiffness[:, a, b].imag
     return cols
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..methods.coupling import Z90 as _Z90
-from .inverse import TERM_UNITS
+from ..methods.inverse import dof_term_labels, term_unit
 from .style import new_figure
 
 __all__ = ["plot_joint_stiffness"]
@@ -14,7 +14,10 @@ __all__ = ["plot_joint_stiffness"]
 def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
     """Plot a :class:`~jointid.methods.coupling.CouplingResult`.
 
-    One column per independent term (upper triangle). Top: the real and
+    A joint of more than 3 DOFs (a 3-D mount) gets the compact figure of
+    :func:`jointid.plots.joint_matrix.plot_joint_terms` instead (diagonal terms
+    and the largest couplings); below, up to 3 DOFs (the beam's joint):
+    one column per independent term (upper triangle). Top: the real and
     imaginary parts with their 90 % bands (+-1.645 sigma) and the per-line
     estimates as faint dots; lines where the term is unreliable are shaded.
     Bottom: the loss factor ``Im/Re`` on the lines where the storage part is
@@ -33,6 +36,11 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
     """
     f = result.frequency.hz
     dofs = result.joint_dofs
+    if len(dofs) > 3 and axes is None:
+        from .joint_matrix import plot_joint_terms
+
+        return plot_joint_terms(result, truth=truth)
+    labels = dof_term_labels(dofs)
     terms = [(i, j) for i in range(len(dofs)) for j in range(i, len(dofs))]
     if axes is None:
         fig, axes = new_figure(2, len(terms), figsize=(4.4 * len(terms) + 1, 6.5), height_ratios=[2, 1.2])
@@ -40,7 +48,7 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
         fig = np.asarray(axes).flat[0].figure
     axes = np.asarray(axes).reshape(2, len(terms))
     for c, (i, j) in enumerate(terms):
-        di, dj = dofs[i].direction, dofs[j].direction
+        di, dj = labels[i], labels[j]
         k, sr, si = result.stiffness[:, i, j], result.std_real[:, i, j], result.std_imag[:, i, j]
         ax, ax_l = axes[:, c]
         for part, val, sd, color in (("Re", k.real, sr, "C0"), ("Im", k.imag, si, "C1")):
@@ -63,7 +71,7 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
             if bad.any():
                 a.fill_between(f, 0, 1, where=bad, transform=a.get_xaxis_transform(), color="0.88", lw=0, step="mid", zorder=0)
         ax.set_title(f"K_{di}_{dj} ({100 * (~bad).mean():.0f} % of lines reliable)")
-        ax.set_ylabel(f"K_{di}_{dj} [{TERM_UNITS.get((di, dj), '')}]")
+        ax.set_ylabel(f"K_{di}_{dj} [{term_unit(dofs[i], dofs[j])}]")
         ax_l.set_ylabel("loss factor [-]")
         ax_l.set_title(f"loss factor where Re K > 0 ({int(storage.sum())} of {f.size} lines)", fontsize="small")
         ax_l.set_xlabel("frequency [Hz]")

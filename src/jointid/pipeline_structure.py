@@ -1,0 +1,191 @@
+"""From a ``[structure]`` study to virtual tests and identifications of several joints at once.
+
+The general path behind ``jointid simulate`` / ``jointid identify`` for studies
+whose free structure comes from matrix files (:mod:`jointid.study_structure`);
+:mod:`jointid.pipeline` dispatches here. The free model is a
+:class:`~jointid.physics.sparse_model.SparseModel`; only its receptance on the
+observed, joint and excited DOFs (m, n, e) is ever computed.
+
+**Simulation** (the constrained structure's FRFs, exactly): with every joint's
+true matrix on the diagonal blocks of ``Du`` (n x n, block diagonal; a joint
+between two sets contributes ``[[K, -K], [-K, K]]``), the Woodbury identity on
+the free receptance gives::
+
+    H[m, e] = Y[m, e] - Y[m, n] (I + Du Y[n, n])^-1 Du Y[n, e]
+
+vectorized over lines (a batched n x n solve per line); ``Du`` may be singular.
+
+**Identification**: all joints at once,
+:func:`~jointid.methods.coupling.identify_joint_coupling` with the joint DOFs of
+every joint concatenated (a full symmetric ``Du``: the terms between joints are
+estimated too, and should vanish); the result is split into one
+:class:`~jointid.methods.coupling.CouplingResult` per joint
+(:func:`split_joints`), and :func:`cross_joint_ratio` reports how large the
+terms between joints came out relative to the joints' own terms (a diagnostic
+of model error or of a joint the study does not list).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .errors import DataError, StudyError
+from .frequency import Frequency
+from .frf import FRF
+from .methods.coupling import CouplingOptions, CouplingResult, identify_joint_coupling
+from .study import Study
+
+__all__ = [
+    "structure_model", "true_joint_matrix", "constrained_receptance", "simulate_structure",
+    "read_measured_structure", "identify_structure", "split_joints", "cross_joint_ratio",
+]
+
+
+def structure_model(study: Study):
+    """The study's free structure (``[structure]``) as a :class:`~jointid.physics.sparse_model.SparseModel`.
+
+    Raises
+    ------
+    StudyError
+        A matrix file that cannot be read or does not fit the DOF list (one line naming the key and file).
+    """
+    if not study.is_structure:
+        raise StudyError(f"{study.source}: a [structure] study is needed here; this one has [beam]")
+    try:
+        return study.structure.model()
+    except StudyError as exc:
+        raise StudyError(f"{study.source}: {exc}") from None
+
+
+def true_joint_matrix(study: Study, frequency_hz) -> np.ndarray:
+    """Every joint's true matrix (``[joint.model]``) on ``study.joint_dofs``, block diagonal, shape (F, n, n), complex."""
+    f = np.atleast_1d(np.asarray(frequency_hz, dtype=float))
+    n = len(study.joint_dofs)
+    Du = np.zeros((f.size, n, n), dtype=complex)
+    i = 0
+    for joint in study.joints:
+        try:
+            block = joint.mount()(f)
+        except StudyError as exc:
+            raise StudyError(f"{study.source}: {exc}") from None
+        k = block.shape[1]
+        Du[:, i:i + k, i:i + k] = block
+        i += k
+    return Du
+
+
+def constrained_receptance(free, frequency, observed, excited, joint_dofs, Du: np.ndarray) -> np.ndarray:
+    """Receptance of the free structure with the joint ``Du`` attached, on observed x excited, shape (F, m, e).
+
+    ``H = Y[m,e] - Y[m,n] (I + Du Y[n,n])^-1 Du Y[n,e]`` (Woodbury; exact for any
+    ``Du``, also singular), from one receptance call of ``free`` on rows
+    ``m + n`` and columns ``n + e``.
+
+    Parameters
+    ----------
+    free : FreeModel
+        Anything with ``receptance(frequency, rows, cols)``.
+    frequency : Frequency or array_like, Hz, shape (F,)
+    observed, excited, joint_dofs : sequences of DOFs
+    Du : ndarray, shape (F, n, n), complex
+        Joint dynamic stiffness on ``joint_dofs``.
+    """
+    m, e, n = tuple(observed), tuple(excited), tuple(joint_dofs)
+    Y = free.receptance(frequency, m + n, n + e)
+    nm, nn = len(m), len(n)
+    Ymn, Yme, Ynn, Yne = Y[:, :nm, :nn], Y[:, :nm, nn:], Y[:, nm:, :nn], Y[:, nm:, nn:]
+    A = np.eye(nn)[None] + Du @ Ynn
+    return Yme - Ymn @ np.linalg.solve(A, Du @ Yne)
+
+
+def simulate_structure(study: Study, frequency: Frequency | None = None):
+    """Exact accelerances of the structure on all its true joints at the study's observed x excited DOFs.
+
+    Parameters
+    ----------
+    frequency : Frequency, optional
+        Default: the study's grid (a 0 Hz line is dropped: the free receptance is singular there).
+
+    Returns
+    -------
+    VirtualTest
+        ``frf`` accelerance ``(m/s^2)/N`` (rotations: rad/s^2, per N*m), ``truth`` (F, n, n) on ``joint_dofs``
+        = every joint's DOFs in study order.
+    """
+    from .pipeline import VirtualTest
+
+    frequency = frequency or study.grid
+    if frequency.hz[0] <= 0:
+        frequency = frequency[frequency.hz > 0]
+    Du = true_joint_matrix(study, frequency.hz)
+    free = structure_model(study)
+    m = study.measurement
+    H = constrained_receptance(free, frequency, m.observed_dofs, m.excited_dofs, study.joint_dofs, Du)
+    frf = FRF(frequency, H, m.observed_dofs, m.excited_dofs, "receptance").to("accelerance")
+    return VirtualTest(frf, Du, study.joint_dofs)
+
+
+def read_measured_structure(study: Study, path: str | os.PathLike) -> FRF:
+    """Read the study's observed x excited FRFs from a file: UFF direction codes 1-6 are x..rz (negative: flipped).
+
+    ``[measurement.points]`` (if given) maps file point ids to model nodes.
+    """
+    from .io.frf_files import read_frf
+
+    m = study.measurement
+    return read_frf(
+        path, points=m.point_map, axis=None, responses=m.observed_dofs, references=m.excited_dofs, coherence=True
+    )
+
+
+def identify_structure(study: Study, measured: FRF, options: CouplingOptions | None = None) -> CouplingResult:
+    """Identify every joint of a structure study at once (one full symmetric ``Du`` on all joint DOFs).
+
+    Uses the lines of ``measured`` inside ``[frequency] start..stop`` (above 0 Hz);
+    responses and references are reordered to the study's observed/excited DOFs.
+    Split the result per joint with :func:`split_joints`.
+
+    Raises
+    ------
+    DataError
+        The file lacks one of the study's DOFs.
+    """
+    from .pipeline import coupling_options
+
+    m = study.measurement
+    for what, have, want in (("response", measured.responses, m.observed_dofs), ("reference", measured.references, m.excited_dofs)):
+        missing = [str(d) for d in want if d not in have]
+        if missing:
+            raise DataError(
+                f"the FRF file has no {what} at {', '.join(missing)} (it has {', '.join(map(str, have))}); "
+                f"measure it or remove it from [measurement] in {study.source}"
+            )
+    data = measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
+    return identify_joint_coupling(structure_model(study), data, study.joint_dofs, options or coupling_options(study))
+
+
+def split_joints(study: Study, result: CouplingResult) -> dict[str, CouplingResult]:
+    """One :class:`CouplingResult` per ``[[joint]]`` (name -> its block of ``result``), in study order."""
+    out, i = {}, 0
+    for joint in study.joints:
+        k = len(joint.joint_dofs)
+        out[joint.name] = result.subset(range(i, i + k))
+        i += k
+    return out
+
+
+def cross_joint_ratio(study: Study, stiffness: np.ndarray) -> float:
+    """Largest ``|K_ij|`` between DOFs of different joints over the largest within-joint ``|K_ij|`` (all lines).
+
+    0 for a single joint. The true ``Du`` is block diagonal, so on exact data
+    this is round-off; a large value points to model error or a joint missing
+    from the study.
+    """
+    owner = np.concatenate([np.full(len(j.joint_dofs), a) for a, j in enumerate(study.joints)])
+    cross = owner[:, None] != owner[None, :]
+    if not cross.any():
+        return 0.0
+    mag = np.abs(stiffness)
+    return float(mag[:, cross].max() / mag[:, ~cross].max())

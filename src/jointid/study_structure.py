@@ -1,0 +1,327 @@
+"""The ``[structure]`` and ``[[joint]]`` sections of a study: any free structure, several joints.
+
+A study describes its free structure either by ``[beam]`` (the planar beam
+factory) or by ``[structure]`` (mass and stiffness matrices and a DOF list read
+from files; exactly one of the two). With ``[structure]`` the joints are an
+array of tables ``[[joint]]`` (a single ``[joint]`` table is one joint), and
+``[measurement] observed/excited`` are DOF labels:
+
+.. code-block:: toml
+
+    [structure]
+    mass = "frame.npz"            # .mtx, .npz (arrays M and K) or .op4 (MXX / KXX), or "file:NAME"
+    stiffness = "frame.npz"       # paths relative to the study file
+    dofs = "frame_dofs.csv"       # node,component per matrix row
+    loss_factor = 0.002           # structural damping K (1 + j eta)
+    method = "auto"               # free receptance: "auto" | "modal" | "direct" (jointid.physics.sparse_model)
+
+    [[joint]]
+    name = "front"                # letters, digits, '-', '_' (names the output file)
+    dofs = ["101x", "101y", "101z", "101rx", "101ry", "101rz"]   # 1-6 DOFs (grounded)
+    [joint.model]                 # the true mount, for `simulate` only
+    type = "mount"
+    stiffness = [2e6, 2e6, 4e6, 800.0, 800.0, 400.0]   # per DOF of `dofs`: N/m, N*m/rad
+    couplings = [["101x", "101ry", 5e3]]                # K0[i,j] = K0[j,i] (N/rad)
+    loss_factor = 0.1
+    growth = 0.2                  # K*(f) = K0 (1 + growth (f/reference_frequency)^exponent) (1 + j loss_factor)
+    reference_frequency = 100.0   # Hz
+    exponent = 1.0
+
+    [[joint]]
+    name = "link"
+    dofs = ["205x", "205y", "205z"]
+    other = ["305x", "305y", "305z"]   # a mount between two parts: 2k x 2k, [[K, -K], [-K, K]]
+
+    [measurement]
+    observed = ["12x", "12y", "12z", "40y"]
+    excited = ["12x", "40y", "40z"]
+
+Every joint DOF, observed and excited DOF must be a DOF of the structure; a
+DOF belongs to at most one joint; all joints are identified at once, so at
+least as many observed and excited DOFs as joint DOFs (of all joints
+together) are needed. Only the receptance method applies (Hong & Lee needs
+the dense model of a ``[beam]`` study).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from .dofs import Dof, DofArray, parse_dof
+from .errors import DataError, DofError, ModelError, StudyError
+
+__all__ = ["StructureSpec", "MountSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key", "MOUNT_KEYS"]
+
+#: Keys of ``[joint.model] type = "mount"``.
+MOUNT_KEYS = ("type", "stiffness", "couplings", "loss_factor", "growth", "reference_frequency", "exponent")
+_STRUCTURE_KEYS = ("mass", "stiffness", "dofs", "loss_factor", "method")
+_JOINT_KEYS = ("name", "dofs", "other", "model")
+_NAME = re.compile(r"^[A-Za-z0-9_-]{1,40}$")
+
+
+@dataclass(frozen=True)
+class StructureSpec:
+    """``[structure]``: the free structure's matrix files and DOF list (as given), damping, receptance method.
+
+    Relative paths are relative to ``base`` (the study file's directory).
+    ``dof_array`` is read at validation (to check the study's DOFs); the
+    matrices are read by :meth:`model`.
+    """
+
+    mass: str
+    stiffness: str
+    dofs: str
+    loss_factor: float = 0.0
+    method: str = "auto"
+    base: str = "."
+    dof_array: DofArray | None = None
+
+    def model(self):
+        """The free structure as a :class:`~jointid.physics.sparse_model.SparseModel`.
+
+        Raises
+        ------
+        StudyError
+            One line naming the ``[structure]`` key and the file that cannot be read.
+        """
+        from .io.matrix_files import check_symmetric, read_matrix
+        from .physics.sparse_model import SparseModel
+
+        mats = []
+        for key in ("mass", "stiffness"):
+            spec = getattr(self, key)
+            try:
+                A = read_matrix(spec, key, Path(self.base))
+                check_symmetric(A, spec)
+            except DataError as exc:
+                raise StudyError(f"[structure].{key}: {exc}") from None
+            if A.shape[0] != len(self.dof_array):
+                raise StudyError(
+                    f"[structure].{key}: the {key} matrix in {spec} is {A.shape[0]} x {A.shape[1]} "
+                    f"but the DOF list {self.dofs} has {len(self.dof_array)} DOFs"
+                )
+            mats.append(A)
+        try:
+            return SparseModel(mats[0], mats[1], self.dof_array, self.loss_factor, method=self.method)
+        except ModelError as exc:
+            raise StudyError(f"[structure]: {exc}") from None
+
+
+@dataclass(frozen=True)
+class MountSpec:
+    """``[joint.model] type = "mount"``: see :class:`~jointid.physics.mount.MountModel`."""
+
+    stiffness: tuple[float, ...]
+    couplings: tuple[tuple[str, str, float], ...] = ()
+    loss_factor: float = 0.1
+    growth: float = 0.0
+    reference_frequency: float = 100.0
+    exponent: float = 1.0
+
+
+@dataclass(frozen=True)
+class NamedJoint:
+    """One ``[[joint]]``: its name, DOFs (side one), ``other`` DOFs (side two, or empty) and true model."""
+
+    name: str
+    dofs: tuple[Dof, ...]
+    other: tuple[Dof, ...] = ()
+    model: MountSpec | None = None
+
+    @property
+    def joint_dofs(self) -> tuple[Dof, ...]:
+        """The joint matrix's DOFs: ``dofs`` (grounded) or ``dofs + other``."""
+        return self.dofs + self.other
+
+    def mount(self):
+        """The true mount (:class:`~jointid.physics.mount.MountModel`).
+
+        Raises
+        ------
+        StudyError
+            No ``[joint.model]``, or a mount that is not passive.
+        """
+        from .physics.mount import MountModel
+
+        spec = self.model
+        if spec is None:
+            raise StudyError(f"[[joint]] {self.name!r} has no [joint.model] table: add one to simulate the joint")
+        k = len(self.dofs)
+        K0 = np.diag(np.asarray(spec.stiffness, dtype=float))
+        pos = {d: i for i, d in enumerate(self.dofs)}
+        for a, b, v in spec.couplings:
+            i, j = pos[parse_dof(a)], pos[parse_dof(b)]
+            K0[i, j] = K0[j, i] = v
+        try:
+            return MountModel(self.dofs, K0.reshape(k, k), spec.loss_factor, spec.growth, spec.reference_frequency, spec.exponent, self.other)
+        except ModelError as exc:
+            raise StudyError(f"[[joint]] {self.name!r} [joint.model]: {exc}") from None
+
+
+def _number(where: str, v: Any, positive: bool = False, nonneg: bool = False) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+        raise StudyError(f"{where}: expected a finite number, got {v!r}")
+    if positive and not v > 0:
+        raise StudyError(f"{where}: expected a positive number, got {v!r}")
+    if nonneg and not v >= 0:
+        raise StudyError(f"{where}: expected a number >= 0, got {v!r}")
+    return float(v)
+
+
+def _path(where: str, v: Any) -> str:
+    if not isinstance(v, str) or not v.strip():
+        raise StudyError(f"{where}: expected a file name (a string), got {v!r}")
+    return v
+
+
+def parse_structure(data: Any, base: Path) -> StructureSpec:
+    """Validate ``[structure]`` (paths relative to ``base``) and read its DOF list.
+
+    Raises
+    ------
+    StudyError
+        A missing or unknown key, a bad value, or an unreadable DOF list (one line naming the key and file).
+    """
+    if not isinstance(data, Mapping):
+        raise StudyError(f"[structure] must be a table, got {data!r}")
+    unknown = [k for k in data if k not in _STRUCTURE_KEYS]
+    if unknown:
+        raise StudyError(f"[structure]: unknown key {unknown[0]!r}; expected one of: " + ", ".join(_STRUCTURE_KEYS))
+    for key in ("mass", "stiffness", "dofs"):
+        if key not in data:
+            raise StudyError(f"[structure]: missing key {key!r} (a file name relative to the study file)")
+    mass, stiffness = _path("[structure].mass", data["mass"]), _path("[structure].stiffness", data["stiffness"])
+    dofs = _path("[structure].dofs", data["dofs"])
+    eta = _number("[structure].loss_factor", data.get("loss_factor", 0.0), nonneg=True)
+    method = data.get("method", "auto")
+    if method not in ("auto", "modal", "direct"):
+        raise StudyError(f"[structure].method: expected one of 'auto', 'modal', 'direct', got {method!r}")
+    from .io.matrix_files import read_dof_list
+
+    try:
+        dof_array = read_dof_list(dofs, base)
+    except DataError as exc:
+        raise StudyError(f"[structure].dofs: {exc}") from None
+    return StructureSpec(mass, stiffness, dofs, eta, method, str(base), dof_array)
+
+
+def parse_dof_list_key(where: str, value: Any, model: DofArray, model_name: str, allow_empty: bool = False) -> tuple[Dof, ...]:
+    """A list of DOF labels (``["101x", "12rz"]``), each once and each a DOF of ``model``.
+
+    Raises
+    ------
+    StudyError
+        ``{where}: ...`` naming the label that is not a DOF, repeated or missing from the model.
+    """
+    if not isinstance(value, list) or not all(isinstance(x, str) for x in value):
+        raise StudyError(f"{where}: expected a list of DOF labels such as [\"101x\", \"101rz\"], got {value!r}")
+    if not value and not allow_empty:
+        raise StudyError(f"{where}: expected at least one DOF label")
+    out = []
+    for label in value:
+        try:
+            d = parse_dof(label)
+        except DofError as exc:
+            raise StudyError(f"{where}: {exc}") from None
+        if d in out:
+            raise StudyError(f"{where}: DOF {d} is listed twice; list each once")
+        out.append(d)
+    if out:
+        try:
+            model.indices(out, model_name)
+        except DofError as exc:
+            raise StudyError(f"{where}: {exc}") from None
+    return tuple(out)
+
+
+def parse_joints(data: Any, model: DofArray, model_name: str) -> tuple[NamedJoint, ...]:
+    """Validate ``[[joint]]`` (or one ``[joint]`` table) of a structure study.
+
+    Raises
+    ------
+    StudyError
+        One line naming the joint and key: unknown key, bad name, a DOF not in the
+        model, 0 or more than 6 DOFs per side, sides of different sizes, a DOF in two
+        joints, a bad ``[joint.model]``.
+    """
+    tables = data if isinstance(data, list) else [data]
+    if not tables:
+        raise StudyError("[[joint]]: expected at least one joint")
+    joints: list[NamedJoint] = []
+    owner: dict[Dof, str] = {}
+    for i, t in enumerate(tables, 1):
+        if not isinstance(t, Mapping):
+            raise StudyError(f"[[joint]] number {i} must be a table, got {t!r}")
+        name = t.get("name", f"joint{i}" if len(tables) > 1 else "joint")
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise StudyError(f"[[joint]] number {i}: name must be 1-40 letters, digits, '-' or '_' (it names the output file), got {name!r}")
+        if any(j.name == name for j in joints):
+            raise StudyError(f"[[joint]] {name!r}: two joints have this name; give each joint its own name")
+        where = f"[[joint]] {name!r}"
+        unknown = [k for k in t if k not in _JOINT_KEYS]
+        if unknown:
+            raise StudyError(f"{where}: unknown key {unknown[0]!r}; expected one of: " + ", ".join(_JOINT_KEYS))
+        if "dofs" not in t:
+            raise StudyError(f"{where}: missing key 'dofs' (DOF labels such as [\"101x\", \"101rz\"])")
+        dofs = parse_dof_list_key(f"{where}.dofs", t["dofs"], model, model_name)
+        other = parse_dof_list_key(f"{where}.other", t["other"], model, model_name) if "other" in t else ()
+        if len(dofs) > 6:
+            raise StudyError(f"{where}.dofs: {len(dofs)} DOFs; a joint has 1-6 DOFs per side")
+        if other and len(other) != len(dofs):
+            raise StudyError(f"{where}.other: {len(other)} DOFs for {len(dofs)} in dofs; a joint between two sets has as many DOFs on each side")
+        for d in dofs + other:
+            if d in owner:
+                same = owner[d] == name
+                raise StudyError(
+                    f"{where}: DOF {d} is " + ("on both sides of this joint" if same else f"already in joint {owner[d]!r}")
+                    + "; a DOF belongs to one joint only"
+                )
+            owner[d] = name
+        model_spec = _mount(f"{where} [joint.model]", t["model"], dofs) if "model" in t else None
+        joints.append(NamedJoint(name, dofs, other, model_spec))
+    return tuple(joints)
+
+
+def _mount(where: str, data: Any, dofs: tuple[Dof, ...]) -> MountSpec:
+    if not isinstance(data, Mapping):
+        raise StudyError(f"{where} must be a table")
+    if data.get("type") != "mount":
+        raise StudyError(f"{where}.type: expected 'mount' for a joint of a [structure] study, got {data.get('type')!r}")
+    unknown = [k for k in data if k not in MOUNT_KEYS]
+    if unknown:
+        raise StudyError(f"{where}: unknown key {unknown[0]!r}; expected one of: " + ", ".join(MOUNT_KEYS))
+    s = data.get("stiffness")
+    if not isinstance(s, list) or len(s) != len(dofs):
+        raise StudyError(f"{where}.stiffness: expected a list of {len(dofs)} stiffnesses (N/m, N*m/rad), one per DOF of dofs, got {s!r}")
+    stiff = tuple(_number(f"{where}.stiffness", v, positive=True) for v in s)
+    couplings = []
+    raw = data.get("couplings", [])
+    if not isinstance(raw, list):
+        raise StudyError(f"{where}.couplings: expected a list of [dof_i, dof_j, value], got {raw!r}")
+    seen = set()
+    for c in raw:
+        if not (isinstance(c, list) and len(c) == 3 and isinstance(c[0], str) and isinstance(c[1], str)):
+            raise StudyError(f"{where}.couplings: expected entries [dof_i, dof_j, value] such as [\"101x\", \"101ry\", 5e3], got {c!r}")
+        try:
+            a, b = parse_dof(c[0]), parse_dof(c[1])
+        except DofError as exc:
+            raise StudyError(f"{where}.couplings: {exc}") from None
+        for d in (a, b):
+            if d not in dofs:
+                raise StudyError(f"{where}.couplings: DOF {d} is not one of the joint's dofs ({', '.join(map(str, dofs))})")
+        if a == b or frozenset((a, b)) in seen:
+            raise StudyError(f"{where}.couplings: [{a}, {b}] is " + ("a diagonal term (give it in stiffness)" if a == b else "given twice"))
+        seen.add(frozenset((a, b)))
+        couplings.append((str(a), str(b), _number(f"{where}.couplings", c[2])))
+    return MountSpec(
+        stiff, tuple(couplings),
+        _number(f"{where}.loss_factor", data.get("loss_factor", 0.1), nonneg=True),
+        _number(f"{where}.growth", data.get("growth", 0.0), nonneg=True),
+        _number(f"{where}.reference_frequency", data.get("reference_frequency", 100.0), positive=True),
+        _number(f"{where}.exponent", data.get("exponent", 1.0), positive=True),
+    )
