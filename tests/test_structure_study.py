@@ -285,13 +285,14 @@ def test_not_positive_definite_mount_and_beam_only_commands(tmp_path, capsys):
     assert main(["update", str(p), "--frf", "x.uff", "--out", str(tmp_path / "u")]) == 2
     assert capsys.readouterr().err.strip() == (
         f"jointid update: error: {p}: `jointid update` needs a [beam] study; a [structure] study works with "
-        "`jointid simulate` and `jointid identify`"
+        "`jointid simulate`, `jointid identify` and `jointid experiment`"
     )
 
 
 def test_woodbury_constrained_receptance_matches_a_dense_solve_with_a_singular_joint():
     from jointid.physics.sparse_model import SparseModel
-    from jointid.pipeline_structure import constrained_receptance
+    from jointid.physics.jointed_model import JointedModel
+    from jointid.physics.structure import ComplexStiffness
     from structure_model import chain_matrices
 
     M, K, dofs = chain_matrices(6, breaks=(3,))
@@ -301,7 +302,7 @@ def test_woodbury_constrained_receptance_matches_a_dense_solve_with_a_singular_j
     K0 = np.diag([2e6, 1e6, 3e6, 2e3, 1e3, 3e3]) * (1 + 0.1j)
     Du = np.tile(np.block([[K0, -K0], [-K0, K0]]), (f.size, 1, 1))  # singular (rigid relative motion)
     m, e = labels(1, ("x", "z")) + labels(6, ("y",)), labels(2, ("x",)) + labels(5, ("rz",))
-    H = constrained_receptance(free, f, m, e, n, Du)
+    H = JointedModel(free, [ComplexStiffness(n, lambda fh: np.broadcast_to(Du[0], (fh.size, 12, 12)), "between")]).receptance(f, m, e)
     idx = dofs.indices
     D = K.toarray() * (1 + 1j * eta)
     ni = idx(n)

@@ -62,8 +62,14 @@ def true_joint(study: Study) -> ComplexStiffness:
     return joint_from_spec(study.joint)
 
 
-def constrained_model(study: Study) -> Structure:
-    """The test article: beam with its accelerometers (if any) on the true joint to ground."""
+def constrained_model(study: Study):
+    """The test article: beam with its accelerometers (if any) on the true joint to ground
+    (a :class:`Structure`); for a ``[structure]`` study the free model with every true joint
+    (:func:`jointid.pipeline_structure.constrained_structure`)."""
+    if study.is_structure:
+        from .pipeline_structure import constrained_structure
+
+        return constrained_structure(study)
     return free_model(study, with_accelerometers=True).with_joint(true_joint(study))
 
 
@@ -287,6 +293,10 @@ def experiment(study: Study, seed: int | None = None, *, periodic: bool = False)
     records, options = virtual_hits(study, seed, periodic=periodic)
     impact = estimate_frfs(records, options)
     frf = impact.to_frf("h1")
+    if study.is_structure:
+        from .pipeline_structure import true_joint_matrix
+
+        return ExperimentResult(impact, frf, true_joint_matrix(study, frf.frequency.hz))
     return ExperimentResult(impact, frf, true_joint(study)(frf.frequency.hz))
 
 

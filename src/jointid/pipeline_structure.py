@@ -6,14 +6,12 @@ whose free structure comes from matrix files (:mod:`jointid.study_structure`);
 :class:`~jointid.physics.sparse_model.SparseModel`; only its receptance on the
 observed, joint and excited DOFs (m, n, e) is ever computed.
 
-**Simulation** (the constrained structure's FRFs, exactly): with every joint's
-true matrix on the diagonal blocks of ``Du`` (n x n, block diagonal; a joint
-between two sets contributes ``[[K, -K], [-K, K]]``), the Woodbury identity on
-the free receptance gives::
-
-    H[m, e] = Y[m, e] - Y[m, n] (I + Du Y[n, n])^-1 Du Y[n, e]
-
-vectorized over lines (a batched n x n solve per line); ``Du`` may be singular.
+**Simulation** (the constrained structure's FRFs, exactly): every joint's true
+matrix (a joint between two sets contributes ``[[K, -K], [-K, K]]``) is attached
+to the free model by :class:`~jointid.physics.jointed_model.JointedModel`
+(Woodbury: ``H[m,e] = Y[m,e] - Y[m,n] (I + Du Y[n,n])^-1 Du Y[n,e]``, vectorized
+over lines; ``Du`` may be singular). The same test article serves the virtual
+roving-hammer experiment (:func:`jointid.pipeline.experiment`).
 
 **Identification**: all joints at once,
 :func:`~jointid.methods.coupling.identify_joint_coupling` with the joint DOFs of
@@ -38,7 +36,7 @@ from .methods.coupling import CouplingOptions, CouplingResult, identify_joint_co
 from .study import Study
 
 __all__ = [
-    "structure_model", "true_joint_matrix", "constrained_receptance", "simulate_structure",
+    "structure_model", "true_joint_matrix", "constrained_structure", "simulate_structure",
     "read_measured_structure", "identify_structure", "split_joints", "cross_joint_ratio",
 ]
 
@@ -76,28 +74,26 @@ def true_joint_matrix(study: Study, frequency_hz) -> np.ndarray:
     return Du
 
 
-def constrained_receptance(free, frequency, observed, excited, joint_dofs, Du: np.ndarray) -> np.ndarray:
-    """Receptance of the free structure with the joint ``Du`` attached, on observed x excited, shape (F, m, e).
+def constrained_structure(study: Study):
+    """The test article: the free structure with every true joint attached, as a
+    :class:`~jointid.physics.jointed_model.JointedModel` (receptance by Woodbury coupling).
 
-    ``H = Y[m,e] - Y[m,n] (I + Du Y[n,n])^-1 Du Y[n,e]`` (Woodbury; exact for any
-    ``Du``, also singular), from one receptance call of ``free`` on rows
-    ``m + n`` and columns ``n + e``.
-
-    Parameters
-    ----------
-    free : FreeModel
-        Anything with ``receptance(frequency, rows, cols)``.
-    frequency : Frequency or array_like, Hz, shape (F,)
-    observed, excited, joint_dofs : sequences of DOFs
-    Du : ndarray, shape (F, n, n), complex
-        Joint dynamic stiffness on ``joint_dofs``.
+    Raises
+    ------
+    StudyError
+        A joint without ``[joint.model]`` or with a mount that is not passive.
     """
-    m, e, n = tuple(observed), tuple(excited), tuple(joint_dofs)
-    Y = free.receptance(frequency, m + n, n + e)
-    nm, nn = len(m), len(n)
-    Ymn, Yme, Ynn, Yne = Y[:, :nm, :nn], Y[:, :nm, nn:], Y[:, nm:, :nn], Y[:, nm:, nn:]
-    A = np.eye(nn)[None] + Du @ Ynn
-    return Yme - Ymn @ np.linalg.solve(A, Du @ Yne)
+    from .physics.jointed_model import JointedModel
+    from .physics.structure import ComplexStiffness
+
+    joints = []
+    for joint in study.joints:
+        try:
+            mount = joint.mount()
+        except StudyError as exc:
+            raise StudyError(f"{study.source}: {exc}") from None
+        joints.append(ComplexStiffness(joint.joint_dofs, mount, joint.name))
+    return JointedModel(structure_model(study), joints)
 
 
 def simulate_structure(study: Study, frequency: Frequency | None = None):
@@ -120,9 +116,8 @@ def simulate_structure(study: Study, frequency: Frequency | None = None):
     if frequency.hz[0] <= 0:
         frequency = frequency[frequency.hz > 0]
     Du = true_joint_matrix(study, frequency.hz)
-    free = structure_model(study)
     m = study.measurement
-    H = constrained_receptance(free, frequency, m.observed_dofs, m.excited_dofs, study.joint_dofs, Du)
+    H = constrained_structure(study).receptance(frequency, m.observed_dofs, m.excited_dofs)
     frf = FRF(frequency, H, m.observed_dofs, m.excited_dofs, "receptance").to("accelerance")
     return VirtualTest(frf, Du, study.joint_dofs)
 

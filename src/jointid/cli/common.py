@@ -36,7 +36,7 @@ def add_study_argument(p: argparse.ArgumentParser, required: bool = True) -> Non
 
 
 #: Subcommands that take a ``[structure]`` study (the others need a ``[beam]`` study).
-STRUCTURE_COMMANDS = ("simulate", "identify")
+STRUCTURE_COMMANDS = ("simulate", "identify", "experiment")
 
 
 def study_from_args(args: argparse.Namespace) -> Study:
@@ -52,7 +52,7 @@ def study_from_args(args: argparse.Namespace) -> Study:
     if study.is_structure and command is not None and command not in STRUCTURE_COMMANDS:
         raise StudyError(
             f"{study.source}: `jointid {command}` needs a [beam] study; a [structure] study works with "
-            + " and ".join(f"`jointid {c}`" for c in STRUCTURE_COMMANDS)
+            + ", ".join(f"`jointid {c}`" for c in STRUCTURE_COMMANDS[:-1]) + f" and `jointid {STRUCTURE_COMMANDS[-1]}`"
         )
     return study
 

@@ -52,6 +52,17 @@ def _noisy(frf, noise: float, seed: int):
     return FRF(frf.frequency, frf.data * (1.0 + noise * n), frf.responses, frf.references, frf.kind)
 
 
+def write_true_joints(out, study, frequency, truth) -> list:
+    """One ``true_joint[_<name>].csv`` per ``[[joint]]`` of a structure study (its block of ``truth``); returns the paths."""
+    written, i = [], 0
+    for joint in study.joints:
+        k = len(joint.joint_dofs)
+        name = "true_joint.csv" if len(study.joints) == 1 else f"true_joint_{joint.name}.csv"
+        written.append(out.write_csv(name, stiffness_columns(frequency, joint.joint_dofs, truth[:, i:i + k, i:i + k])))
+        i += k
+    return written
+
+
 def _run_structure(args: argparse.Namespace, study) -> int:
     """A structure study: FRFs of the structure on all its [[joint]] mounts; one true_joint[_<name>].csv per joint."""
     from ..io.uff import write_uff_frf
@@ -60,12 +71,7 @@ def _run_structure(args: argparse.Namespace, study) -> int:
         test = simulate(study)
         frf = _noisy(test.frf, args.noise, args.seed)
         uff = out.write_file("frf.uff", lambda p: write_uff_frf(p, frf, kind="accelerance", description="jointid structure test"))
-        written, i = [], 0
-        for joint in study.joints:
-            k = len(joint.joint_dofs)
-            name = "true_joint.csv" if len(study.joints) == 1 else f"true_joint_{joint.name}.csv"
-            written.append(out.write_csv(name, stiffness_columns(test.frequency, joint.joint_dofs, test.truth[:, i:i + k, i:i + k])))
-            i += k
+        written = write_true_joints(out, study, test.frequency, test.truth)
     f = test.frequency.hz
     print(
         f"wrote {uff} ({len(frf.responses)} x {len(frf.references)} accelerances, {f.size} lines {f[0]:g}-{f[-1]:g} Hz, "

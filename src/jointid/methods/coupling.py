@@ -318,7 +318,7 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     for _ in range(RELINEARIZATIONS if any(v is not None for v in edf.values()) else 0):
         lines_k = relinearize(lines, K)
         K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines_k, options)
-    std_re, std_im = np.sqrt(var_re), np.sqrt(var_im)
+    std_re, std_im = np.sqrt(np.maximum(var_re, 0.0)), np.sqrt(np.maximum(var_im, 0.0))  # round-off of a singular design can go below 0
     diag = np.arange(lines.stiffness.shape[1])
     passive = ~(K[:, diag, diag].imag < -Z90 * std_im[:, diag, diag])
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -326,7 +326,7 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     reliable = (rel <= options.max_relative_std) & (lines.condition <= MAX_CONDITION)[:, None, None]
     reliable[:, diag, diag] &= passive
     return CouplingResult(
-        freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0)),
+        freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(np.maximum(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0), 0.0)),
         reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied,
     )
 

@@ -37,6 +37,8 @@ __all__ = ["SmoothedSeries", "smooth_series", "MAX_BASIS"]
 
 #: Most basis functions of the spline (knot spacing = band / MAX_BASIS at most).
 MAX_BASIS = 200
+#: Order of the difference penalty on the spline coefficients.
+PENALTY_ORDER = 2
 _LOG_LAMBDA = np.linspace(-10.0, 8.0, 73)
 
 
@@ -91,7 +93,7 @@ def _smooth(x: np.ndarray, y: np.ndarray, variance: np.ndarray, n_basis: int | N
     BW = B.multiply(w[:, None]).tocsr()
     BWB = (B.T @ BW).toarray()
     BWy = B.T @ (w * yz)
-    D = np.diff(np.eye(K), 2, axis=0)
+    D = np.diff(np.eye(K), PENALTY_ORDER, axis=0)
     P = D.T @ D
     # generalized eigenproblem P u = s BWB u with BWB = L L^T: one decomposition serves every lambda
     jitter = 1e-12 * np.trace(BWB) / K
