@@ -53,10 +53,12 @@ entries, ``var Z_kl = s^2 mu_k``, and ``X = X^T`` iff ``Z = Z^T``. The
 minimum-variance symmetric ``Z`` combines each pair by inverse variance::
 
     Z_kl = (mu_l Z_u,kl + mu_k Z_u,lk) / (mu_k + mu_l),   var = s^2 v_kl,  v_kl = mu_k mu_l / (mu_k + mu_l)
-    X = U Z U^T
+    X = U Z U^T = X_p + U (Z_a,kl (mu_l - mu_k) / (mu_k + mu_l)) U^T
 
-(the diagonal keeps ``Z_kk``, var ``mu_k = 2 v_kk``). The variance of each ``Du``
-term follows without any p x p array: with ``L = I + Du Y[n,n]``, ``R = I + Y[n,n] Du``
+with ``X_p = (X_u + X_u^T) / 2`` and ``Z_a = U^-1 X_a U^-T`` of the antisymmetric part
+``X_a = (X_u - X_u^T) / 2``: computed so, the round-off of the basis change touches
+only ``X_a`` (zero for exact data), not all of X. The diagonal keeps ``Z_kk``, var
+``mu_k = 2 v_kk``. The variance of each ``Du`` term follows without any p x p array: with ``L = I + Du Y[n,n]``, ``R = I + Y[n,n] Du``
 (``dDu = L dX R``), ``Lt = L U`` and ``Rt = U^T R``::
 
     E|dDu_ij|^2 = s^2 [ sum_kl v_kl |Lt_ik|^2 |Rt_lj|^2 + Re sum_kl v_kl a_ikj conj(a_ilj) ],   a_ikj = Lt_ik conj(Rt_kj)
@@ -347,10 +349,11 @@ def _kronecker_per_line(Ymn, Yne, Ynn, change, variance, symmetric, pool_lines) 
     Bp, Gb, cond_b = _pinv_factors(B, "right")
     X = Ap @ Cw @ Bp
     U, mu = kronecker_basis(Gr, np.conj(Gb))
-    if symmetric:
-        Z = np.swapaxes(np.linalg.solve(U, np.swapaxes(np.linalg.solve(U, X), 1, 2)), 1, 2)  # U^-1 X U^-T
-        Z = (mu[:, None, :] * Z + mu[:, :, None] * np.swapaxes(Z, 1, 2)) / (mu[:, :, None] + mu[:, None, :])
-        X = U @ Z @ np.swapaxes(U, 1, 2)
+    if symmetric:  # X_p + U (Z_a (mu_l - mu_k) / (mu_k + mu_l)) U^T: only the antisymmetric part X_a goes through U
+        Xa = 0.5 * (X - np.swapaxes(X, 1, 2))
+        Za = np.swapaxes(np.linalg.solve(U, np.swapaxes(np.linalg.solve(U, Xa), 1, 2)), 1, 2)  # U^-1 X_a U^-T
+        Za = Za * (mu[:, None, :] - mu[:, :, None]) / (mu[:, :, None] + mu[:, None, :])
+        X = (X - Xa) + U @ Za @ np.swapaxes(U, 1, 2)
     resid = Cw - A @ X @ B
     p = n * (n + 1) // 2 if symmetric else n * n
     dof = m * e - p
