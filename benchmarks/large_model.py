@@ -1,29 +1,46 @@
 """Large sparse model: 4 grounded 6-DOF mounts on a >= 1e5-DOF free grillage, 2000 lines.
 
-Run: ``python3 benchmarks/large_model.py [--nodes 130] [--lines 2000] [--chunk 40]``.
+Run: ``python3 benchmarks/large_model.py [--nodes 4200] [--lines 2000] [--smoothing none|gcv]``.
 
-The free structure is a square grillage of steel bars (3-D Euler-Bernoulli frame
-elements, 6 DOFs per node, lumped masses and rotary inertias) of
-``nodes x nodes`` nodes: 130 x 130 = 101 400 DOFs, built with ``scipy.sparse``
-in under a second. Four grounded mounts near the corners, each a
-frequency-dependent symmetric 6x6 complex stiffness with translation-rotation
-couplings, make 24 joint DOFs. Translations x, y, z are observed at 12 points
-(the mount nodes and one neighbour of each: 36 DOFs) and excited at 8 points (24 DOFs).
+The free structure is a grillage of steel bars in the x-y plane (3-D
+Euler-Bernoulli frame elements, 6 DOFs per node, lumped masses and rotary
+inertias), ``nodes x 4`` nodes: 4200 x 4 = 100 800 DOFs, built with
+``scipy.sparse`` in under a second. Four grounded mounts on the outer rails,
+each a frequency-dependent symmetric 6x6 complex stiffness with
+translation-rotation couplings, make 24 joint DOFs. Translations x, y, z are
+observed at 16 points (each mount node, 5 cm and 20 cm along its rail, across
+on the other rail: 48 DOFs) and excited at 12 points (6 cm and 20 cm along the
+rail, across: 36 DOFs).
 
-Steps, each timed:
+The layout matters: a plane structure decouples the out-of-plane motion (z, rx,
+ry) from the in-plane one (x, y, rz), so the 12 out-of-plane joint DOFs need at
+least 12 z measurements and 12 z hits. The first layout had 8 z hits: Y[n,e]
+had rank 20 < 24 and the weighted design a condition of 1e12-1e16, whatever
+the units (column equilibration already removes the scaling of rotations vs
+translations) or the modal truncation (which sets the accuracy floor against
+the direct reference, 2e-4, not the conditioning).
+
+Steps, each timed (wall and cpu):
 
 1. **free receptance** on m, n, e at every line from :class:`jointid.physics.sparse_model.SparseModel`
-   (modal with residual compensation);
+   (modal with residual compensation): the modes (one sparse factorization and
+   shift-invert Lanczos), the residual moments of every DOF used (cached per DOF),
+   the modal sum over the lines;
 2. **constrained FRFs** by Woodbury, ``H = Y[m,e] - Y[m,n] (Y[n,n] + Du^-1)^-1 Y[n,e]``;
-3. **identification** with :func:`jointid.methods.coupling.identify_joint_coupling`,
-   called on chunks of lines (its per-line design for 24 joint DOFs is
-   ``|m||e| x 24^2`` per line, 16 GB for all 2000 lines at once);
-4. **accuracy** on a subset of lines against an independent reference: the
+3. **identification** with :func:`jointid.methods.coupling.identify_joint_coupling`
+   on all lines at once: 24 joint DOFs take the Kronecker path of
+   :func:`jointid.methods.coupling_lines.coupling_per_line` (the exact per-line
+   path would need ~100 GB here); its error against the Du the FRFs were made with;
+4. **Kronecker vs exact path** on a few lines with noisy FRFs (0.1 % plus a floor per hit),
+   where the exact per-line weighted fit also runs;
+5. **accuracy** on a subset of lines against an independent reference: the
    constrained FRFs from a direct sparse solve of the whole constrained model
    (``K (1 + j eta) - w^2 M + Du``) identified with the same (modal) free model,
    compared with the true Du -- so the modal truncation error is in the figure.
 
-Prints the time of each step, the peak memory (``ru_maxrss``) and the errors.
+Errors are ``|K - Du| / sqrt|Du_ii Du_jj|``, worst per term type: translational
+and rotational diagonal terms, the couplings of each mount, the other (zero) terms.
+Prints the peak memory (``ru_maxrss``) and the load average.
 """
 
 from __future__ import annotations
