@@ -96,7 +96,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-__all__ = ["LineEstimates", "coupling_per_line", "symmetric_parametrization", "relinearize", "uses_kronecker", "DENSE_PATH_BYTES"]
+__all__ = [
+    "LineEstimates", "coupling_per_line", "symmetric_parametrization", "relinearize", "uses_kronecker", "DENSE_PATH_BYTES",
+    "separable_weights", "kronecker_basis", "kronecker_variance",
+]
 
 #: The exact per-line path is taken while its arrays (the design, its weighted and Q copies, the p x p
 #: covariance and Jacobian per line) fit in this many bytes; above it, the Kronecker path.
