@@ -43,7 +43,7 @@ from ..frequency import Frequency
 from ..frf import FRF
 from ..physics.free_model import as_free_model
 from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration
-from .coupling_lines import coupling_per_line, relinearize
+from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
 from .frf_variance import WEIGHTINGS, frf_variance
 from .inverse import check_layout, dof_term_labels, joint_term, stiffness_columns
 from .smoothing import smooth_series
@@ -301,7 +301,10 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     Ymn, Yme, Ynn, Yne = (np.ascontiguousarray(b) for b in (Y[:, :nm, :nn], Y[:, :nm, nn:], Y[:, nm:, :nn], Y[:, nm:, nn:]))
     variance, source = frf_variance(H, getattr(measured, "coherence", None), options.weighting, options.averages)
     cal, applied = None, False
-    if options.calibration != "none":
+    if uses_kronecker(freq.size, nm, len(e_dofs), nn, options.symmetric):  # many joint DOFs: no full design, no calibration
+        if options.calibration == "columns":
+            raise IdentificationError(f"calibration = 'columns' needs the full per-line design, too large for {nn} joint DOFs on {freq.size} lines; use 'auto' or 'none'")
+    elif options.calibration != "none":
         cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, options.calibration_basis)
         applied = cal is not None and (options.calibration == "columns" or cal.significant)
     common = None

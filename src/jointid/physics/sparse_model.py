@@ -32,7 +32,10 @@ solve over the band: 3.0 without residual, 7.7e-2 with the static term only,
 elements, 60 mm deep) the floor is the factorization's: ~7e-5, like a direct
 solve's own change under refinement (9e-6). Cost: one real sparse factorization, ``k`` Lanczos
 modes, two block solves per requested DOF set; then every line is a product of
-``(r x k)`` and ``(k x c)`` blocks, vectorized over frequency.
+``(r x k)`` and ``(k x c)`` blocks, vectorized over frequency. Measured on the
+100 800-DOF grillage of ``benchmarks/large_model.py`` (one core): factorization
+and 114 modes 15 s, residual moments of 84 DOFs 5.5 s, the modal sum on
+72 x 60 DOFs for 2000 lines 1.1 s; the basis and the cached moments take ~300 MB.
 
 **direct**: one complex sparse LU (``scipy.sparse.linalg.splu``) of
 ``K (1 + j eta) - w^2 M`` per line, solved for the smaller of the row and
