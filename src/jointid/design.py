@@ -18,7 +18,7 @@ from typing import Mapping, Sequence
 from .errors import StudyError
 from .frequency import Frequency
 from .methods.design import LayoutDesign, Sensors, design_layout
-from .pipeline import free_model, true_joint
+from .pipeline import coupling_options, free_model, true_joint
 from .study import Study
 
 __all__ = ["design_study", "study_sensors", "with_layout", "design_band"]
@@ -65,7 +65,7 @@ def design_band(study: Study, band_hz: tuple[float, float] | None = None) -> Fre
 def design_study(
     study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence[int] | None = None,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
-    search_lines: int = 200,
+    search_lines: int = 300, monte_carlo: int = 0,
 ) -> LayoutDesign:
     """Choose ``observed`` and ``excited`` nodes of the study's beam for the best-determined joint.
 
@@ -85,6 +85,9 @@ def design_study(
         Default: ``[frequency] start..stop``.
     search_lines : int
         Lines of the search grid.
+    monte_carlo : int
+        Seeds of the final Monte Carlo check of the best layouts with the study's identification
+        options (0: none; see :mod:`jointid.methods.design_check`).
 
     Returns
     -------
@@ -122,4 +125,5 @@ def design_study(
         noise=noise, weights=weights, sensors=study_sensors(study),
         symmetric=True if spec.symmetric is None else bool(spec.symmetric),
         current=(m.observed, m.excited), search_lines=search_lines,
+        monte_carlo=monte_carlo, coupling_options=coupling_options(study),
     )

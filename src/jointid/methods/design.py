@@ -1,26 +1,43 @@
 """Test design: choose where to measure and where to hit so that the joint is best determined.
 
-The criterion is the covariance that the default (receptance-coupling)
-identification propagates (:mod:`jointid.methods.coupling_lines`), evaluated
-*before* any test, on exact FRFs, for a stated FRF noise level. Per line, with
-``Y`` the free receptance of the identification's model and ``H`` the exact
-constrained receptance of the test article::
+The criterion is the error that the default identification
+(:func:`~jointid.methods.coupling.identify_joint_coupling`) is predicted to make,
+evaluated *before* any test, on exact FRFs, for a stated FRF noise level. Three
+parts, each computed for every layout:
 
-    Y[m,e] - H[m,e] = Y[m,n] X Y[n,e],   X = (Y[n,n] + Du^-1)^-1
-    A   = (Y[n,e]^T (x) Y[m,n]) P                     (P: upper triangle of X if symmetric)
-    W   = diag(1 / var H[m,e]),   var H = (noise |H|)^2  (relative noise, circular complex)
-    cov(x)  = (A^H W A)^-1                            (scale s^2 = 1: the stated noise)
-    cov(Du) = J cov(x) J^H,   J = d vec(Du) / dx = ((I + Du Y[n,n])^T (x) (I + Y[n,n] Du)) P
+1. **Per line** (the covariance :mod:`jointid.methods.coupling_lines` propagates).
+   With ``Y`` the free receptance of the identification's model and ``H`` the
+   exact constrained receptance of the test article::
 
-(the same algebra as :func:`~jointid.methods.coupling_lines.coupling_per_line`,
-whose ``variance / scale`` it equals on exact FRFs, but without the residual
-scale, which is ~1e-27 on exact data). The predicted relative standard
-deviation of a term is ``sqrt(E|dK_ij|^2) / |K_ij|``; an off-diagonal term is
-referred to ``sqrt(|K_ii K_jj|)`` on lines where ``|K_ij|`` is below 1e-3 of it
-(a joint without coupling). These are *per-line* figures: the identification's
-smoothing over frequency lowers every term's error by roughly the number of
-lines in a correlation band, about equally for any layout, so the ranking holds
-but the smoothed errors are smaller.
+       Y[m,e] - H[m,e] = Y[m,n] X Y[n,e],   X = (Y[n,n] + Du^-1)^-1
+       A   = (Y[n,e]^T (x) Y[m,n]) P                     (P: upper triangle of X if symmetric)
+       W   = diag(1 / var H[m,e])                        (noise model, below)
+       cov(x)  = (A^H W A)^-1                            (scale s^2 = 1: the stated noise)
+       cov(Du) = J cov(x) J^H,   J = d vec(Du) / dx = ((I + Du Y[n,n])^T (x) (I + Y[n,n] Du)) P
+
+   (equal to :func:`~jointid.methods.coupling_lines.coupling_per_line`'s ``variance /
+   scale`` on exact FRFs).
+2. **Smoothed over frequency** as the estimator smooths (P-spline per term, lambda
+   minimizing the *expected* GCV score): expected squared error = smoothing bias
+   on the expected joint + the smoother's variance
+   (:mod:`jointid.methods.design_estimator`). This is what a test's error is:
+   the per-line median (the criterion before) ranks layouts differently, because
+   smoothing pools the information of the best lines of a band.
+3. **Column calibration**: with force noise the estimator estimates a smooth
+   calibration error per excitation column, whose uncertainty is common to all
+   lines and dominates K_theta_theta (:func:`~jointid.methods.design_estimator.common_variance`).
+
+**Scenarios** (:class:`Scenario`): the FRF noise model -- ``"relative"``
+(``var H = (noise |H|)^2``) or ``"additive"`` (a noise floor per FRF, constant in
+accelerance: a roving-hammer test, see :meth:`LayoutPredictor.frf_variance`) -- and
+whether the column calibration is applied. The default uses all four
+combinations (:data:`DEFAULT_SCENARIOS`), because one test layout meets all of
+them: relative noise is what synthetic studies assume, additive is the hammer's
+response noise, calibration is what the estimator does when there is force noise.
+A term's predicted relative error on a line is ``sqrt(E|dK_ij|^2) / |K_ij|``
+(an off-diagonal term is referred to ``sqrt(|K_ii K_jj|)`` on lines where
+``|K_ij|`` is below 1e-3 of it), and ``relative_std`` is its geometric mean over
+the scenarios.
 
 Layouts differ only in which rows and columns of the same receptances they
 use, so the free receptance on the w and theta DOFs of every candidate node
@@ -32,10 +49,15 @@ the cost of one small solve per observed set), and the joint the same way,
 ``H = Y_a - Y_a[:,n] Du (I + Y_a[n,n] Du)^-1 Y_a[n,:]``. All of it is batched
 over frequency.
 
-Criterion: ``J = exp(sum_t w_t log med_t / sum_t w_t)``, the weighted geometric
-mean over the terms t of the median (over lines) predicted relative standard
-deviation ``med_t``; weights default to 1 and say which terms matter
-(``{"K_theta_theta": 4}`` puts the rotational term first; 0 ignores a term).
+Criterion: ``J = exp(mean_s sum_t w_t log med_st / sum_t w_t)``, the geometric
+mean over scenarios s and the weighted geometric mean over terms t of the median
+(over lines) predicted relative error ``med_st``; weights default to 1 and say
+which terms matter (``{"K_theta_theta": 4}`` puts the rotational term first; 0
+ignores a term, and its smoothing is then not even computed in the search). With
+a current layout (``dominate=True``), a layout predicted worse than it in a
+scenario by a ratio ``r > 1`` (of the weighted per-scenario criterion) has its
+``J`` multiplied by ``r ** DOMINANCE_PENALTY``: the design should not trade one
+kind of test for another.
 
 Search (observed set O of size K, excited set E of size L, both drawn from the
 candidate nodes; they may share nodes):
@@ -43,26 +65,42 @@ candidate nodes; they may share nodes):
 1. **greedy forward, observed**: with every candidate excited, the best |n|-node
    observed set (|n| joint DOFs, the fewest that can identify them) by
    evaluating every |n|-subset (at most :data:`MAX_SEED_SETS`, else a fixed-seed
-   random sample of that many), then add the node that lowers J most until |O| = K;
+   random sample of that many), then add the node that lowers J most until |O| = K
+   (this step leaves the calibration scenarios out: with every candidate a
+   column they are costly, and no real layout excites them all);
 2. **greedy forward, excited**: with that O, the same for E up to L;
 3. **pairwise exchange**: evaluate every swap of one member of O or E for one
    non-member; apply the best if it lowers J (by more than 1e-9 relatively) and
    repeat until no swap improves (at most :data:`MAX_EXCHANGE_PASSES` passes).
-   The result is a local optimum under single exchanges, not a certified global one.
+   The result is a local optimum under single exchanges, not a certified global one;
+4. **re-rank**: the ``rerank`` best layouts of the search are evaluated again on
+   every line of the band with the estimator's own smoother, and the best is chosen.
 
-The search runs on at most ``search_lines`` lines (default 200) spread evenly over
-the band (the median over 200 lines is a stable statistic of a 1000-line
-band); the chosen and the current layout are then evaluated on every line.
+Steps 1-3 run on ``search_lines`` lines (default 300) spread evenly over the
+band; each stands for ``F / search_lines`` lines of the band (its variance is
+divided by that) and the smoother has :data:`SEARCH_BASIS` functions. That grid
+samples the narrow resonances of a lightly damped beam by luck (the smoothed
+prediction of one layout moved by up to 2x between a 300-line grid and the
+full band), hence step 4. Cost on the benchmark (7 x 3 of 19 nodes, 901 lines,
+K_theta_theta only): about 800 layouts, 25-40 s on one loaded core.
 
-Caveats: the noise model is relative, uncorrelated response noise (no force noise,
-which correlates the errors of a whole FRF column and which no layout removes);
-the linearization holds while the relative errors are small; the FE model is
-assumed right (unmodelled accelerometers bias the identification, and the bias
-is not in the criterion).
+Caveats: the prediction is linear in the FRF errors (at the true joint) and
+uses the *expected* GCV lambda; on data lambda scatters with the noise, and
+with it the error of one test (the benchmark's K_theta_theta, synthetic 1 %
+noise, Model 3: 1.4-9.3 % between seeds, median 2.9 %, which the prediction
+reproduces when the scatter of lambda is simulated). Per-line errors of 100 %
+and more (the rotational term on most lines) make the estimator nonlinear: for
+layouts other than Model 3 the actual error of the uncalibrated settings came out
+up to 1.5x the linear prediction, so differences below that between layouts are
+not resolved; the differences that the column calibration makes (3x on the
+benchmark) are. The FE model is assumed right (unmodelled accelerometers bias
+the identification, and the bias is not in the criterion).
 """
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import itertools
 import math
 import time
@@ -76,11 +114,21 @@ from ..errors import IdentificationError
 from ..frequency import Frequency
 from ..physics.free_model import as_free_model
 from .coupling_lines import symmetric_parametrization
+from .design_estimator import SmootherPrediction, common_variance
+from .smoothing import MAX_BASIS
 
 __all__ = [
     "Sensors", "LayoutPredictor", "LayoutDesign", "design_layout", "term_names", "MAX_SEED_SETS", "MAX_EXCHANGE_PASSES",
 ]
 
+#: FRF noise models of :meth:`LayoutPredictor.frf_variance`.
+NOISE_MODELS = ("relative", "additive")
+#: What the prediction is of: the per-line estimate, or the default estimator's smoothed one.
+ESTIMATORS = ("per-line", "smoothed")
+#: B-spline functions of the smoother predicted on the search grid (the estimator's own on the final evaluation).
+SEARCH_BASIS = 60
+#: With a current layout, a layout predicted worse than it in a scenario by the ratio r pays r**DOMINANCE_PENALTY.
+DOMINANCE_PENALTY = 10.0
 #: Largest number of |n|-node seed sets evaluated exhaustively (more: a fixed-seed random sample).
 MAX_SEED_SETS = 2000
 #: Largest number of exchange passes.
@@ -155,9 +203,22 @@ class LayoutPredictor:
     """
 
     def __init__(self, free, joint, joint_dofs, frequency: Frequency, nodes: Sequence[int], noise: float,
-                 sensors: Sensors | None = None, symmetric: bool = True):
+                 sensors: Sensors | None = None, symmetric: bool = True, *, noise_model: str = "relative",
+                 estimator: str = "per-line", calibration: bool = False, estimator_lines: int | None = None,
+                 smoother_basis: int | None = None):
         if not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise > 0):
             raise IdentificationError(f"noise: expected a relative FRF noise level > 0 (0.01 = 1 %), got {noise!r}")
+        if noise_model not in NOISE_MODELS:
+            raise IdentificationError(f"noise model: expected one of {', '.join(NOISE_MODELS)}, got {noise_model!r}")
+        if estimator not in ESTIMATORS:
+            raise IdentificationError(f"estimator: expected one of {', '.join(ESTIMATORS)}, got {estimator!r}")
+        self.noise_model, self.estimator, self.calibration = noise_model, estimator, bool(calibration)
+        self._smoother = None
+        # a search grid stands for the estimator's lines: each grid line carries the information of
+        # estimator_lines / F lines, so its variance is divided by that (smoothing and calibration only)
+        self._lines = int(estimator_lines or frequency.hz.size)
+        self._thin = self._lines / frequency.hz.size
+        self._basis = smoother_basis
         model = as_free_model(free)
         self.joint_dofs = tuple(parse_dofs(joint_dofs))
         self.frequency = frequency
@@ -184,6 +245,12 @@ class LayoutPredictor:
                 geo = np.sqrt(diag[:, i] * diag[:, j])
                 ref[:, i, j] = np.where(ref[:, i, j] < _COUPLING_FLOOR * geo, geo, ref[:, i, j])
         self._reference = ref
+
+    def variant(self, scenario: "Scenario") -> "LayoutPredictor":
+        """The same predictor (receptances shared, not recomputed) for another scenario."""
+        other = copy.copy(self)
+        other.noise_model, other.estimator, other.calibration = scenario.noise_model, scenario.estimator, scenario.calibration
+        return other
 
     def _w(self, nodes: Sequence[int]) -> list[int]:
         return [self._index[Dof(k, "w")] for k in nodes]
@@ -212,18 +279,52 @@ class LayoutPredictor:
         Y = Ya if self.sensors is not None and self.sensors.modelled else self._loaded((), rows)
         return H, _sub(Y, im, in_), _sub(Y, in_, ie), _sub(Y, in_, in_)
 
+    @property
+    def reference(self) -> np.ndarray:
+        """``|K_ij|`` (off-diagonal terms floored as in the module docstring), shape (F, n, n)."""
+        return self._reference
+
+    def identification_model(self, observed: Sequence[int], excited: Sequence[int]):
+        """The identification's free model on the layout's DOFs, and its observed and excited DOFs.
+
+        Returns ``(BlockModel, m_dofs, e_dofs)`` (:class:`~jointid.methods.design_check.BlockModel`).
+        """
+        from .design_check import BlockModel
+
+        m = [Dof(k, "w") for k in observed]
+        e = [Dof(k, "w") for k in excited]
+        dofs = list(dict.fromkeys(m + list(self.joint_dofs) + e))
+        rows = [self._index[d] for d in dofs]
+        modelled = self.sensors is not None and self.sensors.modelled
+        Y = self._loaded(self.sensors.at(observed) if modelled else (), rows)
+        return BlockModel(dofs, self.frequency.hz, Y), m, e
+
     def exact_receptance(self, observed: Sequence[int], excited: Sequence[int]) -> np.ndarray:
         """Exact constrained receptance ``H[m,e]`` of the test article (sensors and joint), shape (F, m, e)."""
         return self._blocks(observed, excited)[0]
 
-    def variance(self, observed: Sequence[int], excited: Sequence[int]) -> np.ndarray:
+    def frf_variance(self, H: np.ndarray) -> np.ndarray:
+        """``E|dH|^2`` of each measured receptance value under the noise model, shape (F, m, e).
+
+        ``"relative"``: ``(noise |H|)^2``. ``"additive"``: a noise floor per FRF,
+        constant in accelerance, ``noise^2 mean_f |w^2 H|^2 / w^4`` (a roving-hammer
+        test: response noise proportional to the response's rms, divided by a flat
+        force spectrum; the mean is over this predictor's lines).
+        """
+        if self.noise_model == "relative":
+            return (self.noise * np.abs(H)) ** 2
+        w2 = (self.frequency.omega**2)[:, None, None]
+        level = np.mean(np.abs(w2 * H) ** 2, axis=0, keepdims=True)
+        return self.noise**2 * level / w2**2
+
+    def variance(self, observed: Sequence[int], excited: Sequence[int], blocks=None) -> np.ndarray:
         """Predicted ``E|dDu_ij|^2`` per line for the stated noise, shape (F, n, n)."""
         n = len(self._n)
-        H, Ymn, Yne, Ynn = self._blocks(observed, excited)
+        H, Ymn, Yne, Ynn = blocks if blocks is not None else self._blocks(observed, excited)
         m, e = len(observed), len(excited)
         F = H.shape[0]
         A = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * e, n * n) @ self._P
-        sigma = self.noise * np.abs(H).reshape(F, -1)
+        sigma = np.sqrt(self.frf_variance(H)).reshape(F, -1)
         with np.errstate(divide="ignore", invalid="ignore"):
             Aw = A / sigma[:, :, None]
         Aw = np.where(np.isfinite(Aw), Aw, 0.0)
@@ -245,13 +346,132 @@ class LayoutPredictor:
             V = np.real(np.einsum("fab,fbc,fac->fa", J, C, J.conj())).reshape(F, n, n)
         return V
 
+    def scenario_variances(self, observed: Sequence[int], excited: Sequence[int], scenarios: Sequence["Scenario"],
+                           terms: Sequence[int] | None = None) -> list[np.ndarray]:
+        """Predicted ``E|dDu_ij|^2`` per line for each scenario, each shape (F, n, n).
+
+        Parts shared by scenarios (the blocks, the per-line variance of a noise model,
+        its smoothed error) are computed once. ``terms``: indices into :attr:`terms` to
+        predict (others are NaN in the smoothed scenarios; default all).
+        """
+        blocks = self._blocks(observed, excited)
+        H, Ymn, Yne, Ynn = blocks
+        active = [self.terms[k] for k in (range(len(self.terms)) if terms is None else terms)]
+        per_line, smoothed, common, out = {}, {}, {}, []
+        for sc in scenarios:
+            nm = sc.noise_model
+            if nm not in per_line:
+                saved, self.noise_model = self.noise_model, nm
+                try:
+                    per_line[nm] = self.variance(observed, excited, blocks)
+                finally:
+                    self.noise_model = saved
+            if sc.estimator == "per-line":
+                out.append(per_line[nm])
+                continue
+            if nm not in smoothed:
+                if self._smoother is None:
+                    K = self._basis or min(max(self._lines // 2, 4), MAX_BASIS)
+                    self._smoother = SmootherPrediction(self.frequency.hz, min(K, self.frequency.hz.size - 1))
+                V = np.full_like(per_line[nm], np.nan)
+                for i, j, _ in active:
+                    V[:, i, j] = self._smoother.squared_error(self.Du[:, i, j], per_line[nm][:, i, j] / self._thin)
+                    V[:, j, i] = V[:, i, j]
+                smoothed[nm] = V
+            V = smoothed[nm]
+            if sc.calibration:
+                if nm not in common:
+                    saved, self.noise_model = self.noise_model, nm
+                    try:
+                        var_h = self.frf_variance(H) / self._thin
+                    finally:
+                        self.noise_model = saved
+                    common[nm] = common_variance(self.frequency.hz, Ymn, Yne, Ynn, H, var_h, self.Du, self.symmetric)
+                V = V + common[nm]
+            out.append(V)
+        return out
+
     def relative_std(self, observed: Sequence[int], excited: Sequence[int]) -> np.ndarray:
-        """Predicted relative standard deviation per term and line, shape (F, T) in :attr:`terms` order."""
-        V = self.variance(observed, excited)
+        """Predicted relative standard deviation per term and line, shape (F, T) in :attr:`terms` order.
+
+        With ``estimator="per-line"`` the per-line estimate's; with ``"smoothed"`` the
+        default estimator's expected error after smoothing over frequency, plus (with
+        ``calibration``) the common error of its column calibration
+        (:mod:`jointid.methods.design_estimator`).
+        """
+        sc = Scenario(self.noise_model, self.estimator, self.calibration)
+        return self.relative(self.scenario_variances(observed, excited, [sc])[0])
+
+    def relative(self, V: np.ndarray) -> np.ndarray:
+        """``sqrt(V) / |K|`` per term (off-diagonal terms as in the module docstring), shape (F, T)."""
         with np.errstate(all="ignore"):
             rel = np.sqrt(np.abs(V)) / self._reference
             rel = np.where(np.isfinite(rel), rel, np.inf)
         return np.stack([rel[:, i, j] for i, j, _ in self.terms], axis=1)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """What a design predicts: the FRF noise model, the estimator, and whether it calibrates the columns.
+
+    Parameters
+    ----------
+    noise_model : {"relative", "additive"}
+        See :meth:`LayoutPredictor.frf_variance`.
+    estimator : {"per-line", "smoothed"}
+        The per-line estimate, or the default estimator's (smoothed over frequency).
+    calibration : bool
+        Include the common error of the column calibration (what the estimator adds
+        when the test has force noise).
+    """
+
+    noise_model: str = "relative"
+    estimator: str = "smoothed"
+    calibration: bool = False
+
+    @property
+    def name(self) -> str:
+        """E.g. ``"relative, smoothed"`` or ``"additive, smoothed, calibrated"``."""
+        return ", ".join([self.noise_model, self.estimator] + (["calibrated"] if self.calibration else []))
+
+
+#: The default scenarios: relative and additive noise, each without and with column calibration.
+DEFAULT_SCENARIOS = (
+    Scenario("relative", "smoothed", False), Scenario("additive", "smoothed", False),
+    Scenario("relative", "smoothed", True), Scenario("additive", "smoothed", True),
+)
+
+
+class _Combined:
+    """Predictors of several scenarios; ``relative_std`` is their geometric mean per line and term."""
+
+    def __init__(self, free, joint, joint_dofs, frequency, nodes, noise, sensors, symmetric, scenarios, lines=None,
+                 basis=None, terms=None):
+        self.predictor = LayoutPredictor(free, joint, joint_dofs, frequency, nodes, noise, sensors, symmetric,
+                                         estimator_lines=lines, smoother_basis=basis)
+        self.scenarios = tuple(scenarios)
+        self.terms = terms
+
+    def without_calibration(self) -> "_Combined":
+        """The same predictor for the scenarios without column calibration (all of them if none is left)."""
+        other = copy.copy(self)
+        other.scenarios = tuple(s for s in self.scenarios if not s.calibration) or tuple(
+            dataclasses.replace(s, calibration=False) for s in self.scenarios)
+        return other
+
+    def each(self, observed, excited) -> list[np.ndarray]:
+        """Relative std per scenario, each (F, T)."""
+        p = self.predictor
+        return [p.relative(V) for V in p.scenario_variances(observed, excited, self.scenarios, self.terms)]
+
+    def relative_std(self, observed, excited) -> np.ndarray:
+        return geometric_mean(self.each(observed, excited))
+
+
+def geometric_mean(rels: Sequence[np.ndarray]) -> np.ndarray:
+    """Geometric mean over scenarios, per line and term (NaN terms stay NaN)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.exp(np.mean([np.log(r) for r in rels], axis=0))
 
 
 def _criterion(rel: np.ndarray, weights: np.ndarray) -> tuple[float, np.ndarray]:
@@ -292,6 +512,16 @@ class LayoutDesign:
         Layouts evaluated.
     seconds : float
         Wall time of the search and the final evaluation.
+    history : tuple of (step, criterion)
+    scenarios : tuple of Scenario
+        What was predicted; ``relative_std`` is the geometric mean over them per line and term.
+    scenario_relative_std, current_scenario_relative_std : tuple of ndarray, shape (F, T) each
+        The prediction per scenario, chosen and current layout.
+    ranked : tuple of (criterion, observed, excited)
+        The re-ranked layouts (on every line), best first: alternatives to the chosen one.
+    checked : tuple of (criterion, observed, excited, medians)
+        The layouts checked by Monte Carlo (and last the current one, criterion None):
+        median over seeds of the actual median relative error per term.
     """
 
     observed: tuple[int, ...]
@@ -311,6 +541,18 @@ class LayoutDesign:
     evaluations: int
     seconds: float
     history: tuple = field(default=())
+    scenarios: tuple = field(default=())
+    scenario_relative_std: tuple = field(default=())
+    current_scenario_relative_std: tuple = field(default=())
+    ranked: tuple = field(default=())
+    checked: tuple = field(default=())
+    monte_carlo: int = 0
+
+    def scenario_medians(self, current: bool = False) -> dict[str, dict[str, float]]:
+        """Scenario name -> term -> median over lines of the predicted relative error."""
+        rels = self.current_scenario_relative_std if current else self.scenario_relative_std
+        return {sc.name: {t: float(v) for t, v in zip(self.terms, np.median(rel, axis=0))}
+                for sc, rel in zip(self.scenarios, rels or ())}
 
     def median(self, current: bool = False) -> dict[str, float]:
         """Median over lines of the predicted relative standard deviation, per term."""
@@ -330,6 +572,7 @@ class LayoutDesign:
                 "observed": list(obs), "excited": list(exc),
                 "median_relative_std": {k: num(v) for k, v in self.median(current).items()},
                 "criterion": num(crit),
+                "scenarios": {name: {k: num(v) for k, v in med.items()} for name, med in self.scenario_medians(current).items()},
             }
 
         f = self.frequency.hz
@@ -343,9 +586,21 @@ class LayoutDesign:
             "current": None if self.current_observed is None else layout(
                 self.current_observed, self.current_excited, self.current_criterion, True),
             "search": {"lines": self.search_lines, "evaluations": self.evaluations, "seconds": round(self.seconds, 3),
-                       "steps": [list(h) for h in self.history]},
-            "note": "per-line predicted relative standard deviation (before smoothing over frequency) for "
-                    "relative, uncorrelated FRF noise; criterion = weighted geometric mean of the per-term medians",
+                       "steps": [list(h) for h in self.history],
+                       "alternatives": [{"observed": list(o), "excited": list(e), "criterion": num(c)}
+                                        for c, o, e in self.ranked[1:6]]},
+            "scenarios": [dataclasses.asdict(sc) | {"name": sc.name} for sc in self.scenarios],
+            "monte_carlo": {
+                "seeds": self.monte_carlo, "noise_model": "relative",
+                "checked": [{"observed": list(o), "excited": list(e), "criterion": None if c is None else num(c),
+                             "current": c is None, "median_error": {t: num(v) for t, v in zip(self.terms, med)}}
+                            for c, o, e, med in self.checked],
+            },
+            "note": "predicted relative error of the default identification per term (median over lines): per "
+                    "scenario (FRF noise model; smoothed over frequency as the estimator does; with or without its "
+                    "column calibration), and median_relative_std = their geometric mean per line; criterion = "
+                    "weighted geometric mean over terms and scenarios, layouts predicted worse than the current one in "
+                    "a scenario penalized",
         }
         return out
 
@@ -394,7 +649,9 @@ def _search_grid(frequency: Frequency, lines: int) -> Frequency:
 def design_layout(
     free, joint, joint_dofs, frequency: Frequency, candidates: Sequence[int], n_observed: int, n_excited: int, *,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, sensors: Sensors | None = None,
-    symmetric: bool = True, current: tuple[Sequence[int], Sequence[int]] | None = None, search_lines: int = 200,
+    symmetric: bool = True, current: tuple[Sequence[int], Sequence[int]] | None = None, search_lines: int = 300,
+    scenarios: Sequence[Scenario] | None = None, dominate: bool = True, rerank: int = 30,
+    monte_carlo: int = 0, monte_carlo_layouts: int = 6, coupling_options=None,
 ) -> LayoutDesign:
     """Choose observed and excited nodes that minimize the predicted uncertainty of the joint terms.
 
@@ -446,13 +703,31 @@ def design_layout(
     free = as_free_model(free)  # built once (its modes), used by the search and the final evaluation
     cur_nodes = set(current[0]) | set(current[1]) if current is not None else set()
     grid = _search_grid(frequency, search_lines)
-    pred = LayoutPredictor(free, joint, joint_dofs, grid, sorted(set(cands) | cur_nodes), noise, sensors, symmetric)
+    scenarios = tuple(DEFAULT_SCENARIOS if scenarios is None else scenarios)
+    if not scenarios or not all(isinstance(s, Scenario) for s in scenarios):
+        raise IdentificationError("scenarios: expected at least one Scenario")
+    pred = _Combined(free, joint, joint_dofs, grid, sorted(set(cands) | cur_nodes), noise, sensors, symmetric, scenarios,
+                     frequency.hz.size, SEARCH_BASIS, [k for k in range(len(terms)) if w[k] > 0])
+    seeding = pred.without_calibration()
     cache: dict = {}
+    cur_grid = None
+    if current is not None and dominate:
+        cur_grid = [_criterion(r, w)[0] for r in pred.each(sorted(current[0]), sorted(current[1]))]
 
     def cost(obs, exc) -> float:
         key = (frozenset(obs), frozenset(exc))
         if key not in cache:
-            cache[key] = _criterion(pred.relative_std(sorted(obs), sorted(exc)), w)[0]
+            if len(exc) == len(cands) and len(cands) > n_excited:
+                # every candidate excited (the first greedy step): the calibration scenarios are left out,
+                # costly with many columns, and no real layout excites them all
+                cache[key] = _criterion(seeding.relative_std(sorted(obs), sorted(exc)), w)[0]
+            else:
+                each = [_criterion(r, w)[0] for r in pred.each(sorted(obs), sorted(exc))]
+                c = math.exp(sum(math.log(x) for x in each) / len(each)) if all(0 < x < math.inf for x in each) else math.inf
+                if cur_grid is not None and len(obs) == n_observed and len(exc) == n_excited and c < math.inf:
+                    # not predicted worse than the current layout in any scenario, else penalized
+                    c *= math.prod(max(1.0, x / y) ** DOMINANCE_PENALTY for x, y in zip(each, cur_grid))
+                cache[key] = c
         return cache[key]
 
     n = len(joint_dofs)
@@ -495,18 +770,67 @@ def design_layout(
         history.append(("exchange", best))
     evaluations = len(cache)
 
-    final = LayoutPredictor(
-        free, joint, joint_dofs, frequency, sorted(set(obs) | set(exc) | cur_nodes), noise, sensors, symmetric
+    # re-rank the best layouts of the search on every line, with the estimator's own smoother: the
+    # search grid samples narrow resonances by luck, which moves the smoothed prediction by up to 2x
+    pool = sorted((c, tuple(sorted(o)), tuple(sorted(e))) for (o, e), c in cache.items()
+                  if len(o) == n_observed and len(e) == n_excited and c < math.inf)[:rerank]
+    active = [k for k in range(len(terms)) if w[k] > 0]
+    ranker = _Combined(free, joint, joint_dofs, frequency, sorted(set(cands) | cur_nodes), noise, sensors, symmetric,
+                       scenarios, terms=active)
+    full_cur = None
+    if current is not None and dominate:
+        full_cur = [_criterion(r, w)[0] for r in ranker.each(sorted(current[0]), sorted(current[1]))]
+    reranked = []
+    for _, o, e in pool:
+        each = [_criterion(r, w)[0] for r in ranker.each(o, e)]
+        c = math.exp(sum(math.log(x) for x in each) / len(each)) if all(0 < x < math.inf for x in each) else math.inf
+        if full_cur is not None and c < math.inf:
+            c *= math.prod(max(1.0, x / y) ** DOMINANCE_PENALTY for x, y in zip(each, full_cur))
+        reranked.append((c, o, e))
+    if reranked:
+        best_full, obs, exc = min(reranked)
+        history.append(("re-rank", best_full))
+    checked: tuple = ()
+    if monte_carlo and reranked:
+        # the estimator itself on synthetic noisy FRFs of the best few (relative noise): a sixth "scenario"
+        from .design_check import monte_carlo_errors
+
+        mc = ranker.predictor.variant(Scenario("relative", "per-line", False))
+
+        def mc_crit(o, e):
+            errs = monte_carlo_errors(mc, o, e, monte_carlo, coupling_options)
+            return _criterion(errs, w)[0], np.median(errs, axis=0)
+
+        cur_mc = mc_crit(sorted(current[0]), sorted(current[1])) if current is not None else None
+        rows = []
+        for c0, o, e in sorted(reranked)[:monte_carlo_layouts]:
+            each = [_criterion(r, w)[0] for r in ranker.each(o, e)]
+            c_mc, med = mc_crit(o, e)
+            both = each + [c_mc]
+            c = math.exp(sum(math.log(x) for x in both) / len(both)) if all(0 < x < math.inf for x in both) else math.inf
+            if full_cur is not None and cur_mc is not None and c < math.inf:
+                c *= math.prod(max(1.0, x / y) ** DOMINANCE_PENALTY for x, y in zip(both, full_cur + [cur_mc[0]]))
+            rows.append((c, o, e, tuple(float(v) for v in med)))
+        best_mc, obs, exc, _ = min(rows)
+        history.append(("monte carlo", best_mc))
+        checked = tuple(rows) + ((None, tuple(sorted(current[0])), tuple(sorted(current[1])),
+                                  tuple(float(v) for v in cur_mc[1])),) if cur_mc is not None else tuple(rows)
+
+    final = _Combined(
+        free, joint, joint_dofs, frequency, sorted(set(obs) | set(exc) | cur_nodes), noise, sensors, symmetric, scenarios
     )
-    rel = final.relative_std(obs, exc)
+    each = final.each(obs, exc)
+    rel = geometric_mean(each)
     crit = _criterion(rel, w)[0]
-    cur_rel = cur_crit = None
+    cur_rel = cur_crit = cur_each = None
     if current is not None:
-        cur_rel = final.relative_std(list(current[0]), list(current[1]))
+        cur_each = final.each(list(current[0]), list(current[1]))
+        cur_rel = geometric_mean(cur_each)
         cur_crit = _criterion(cur_rel, w)[0]
     return LayoutDesign(
         tuple(obs), tuple(exc), frequency, tuple(terms), rel, crit,
         None if current is None else tuple(current[0]), None if current is None else tuple(current[1]),
         cur_rel, cur_crit, dict(zip(terms, w.tolist())), float(noise), cands, grid.hz.size, evaluations,
         time.perf_counter() - t0, tuple((s, float(c)) for s, c in history),
+        scenarios, tuple(each), tuple(cur_each or ()), tuple(sorted(reranked)), checked, int(monte_carlo),
     )
