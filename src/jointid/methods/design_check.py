@@ -12,7 +12,9 @@ identification per layout and seed (about 0.5-1 s for 900 lines).
 Each realization: the exact receptance ``H`` of the test article (from the
 :class:`~jointid.methods.design.LayoutPredictor`, sensors and joint included) with
 complex circular Gaussian noise of the predictor's noise model,
-``H + sqrt(var H) z``, ``E|z|^2 = 1``, identified by
+``H + sqrt(var H) z``, ``E|z|^2 = 1`` (for the additive model with the coherence
+``1 / (1 + var H / |H|^2)`` that a test would measure, so the estimator weights
+by coherence as it does a hammer test's FRFs), identified by
 :func:`~jointid.methods.coupling.identify_joint_coupling` with the identification's
 free model restricted to the layout's DOFs. The same seeds serve every layout of
 the same size (paired noise). The statistic per term is the median over lines of
@@ -79,13 +81,16 @@ def monte_carlo_errors(predictor, observed: Sequence[int], excited: Sequence[int
     """
     model, m_dofs, e_dofs = predictor.identification_model(observed, excited)
     H = predictor.exact_receptance(observed, excited)
-    sd = np.sqrt(predictor.frf_variance(H))
+    var = predictor.frf_variance(H)
+    sd = np.sqrt(var)
+    # additive noise: the coherence a test would measure (one average), so the estimator weights as in a hammer test
+    coherence = 1.0 / (1.0 + var / np.abs(H) ** 2) if predictor.noise_model == "additive" else None
     ref = predictor.reference
     out = np.zeros((seeds, len(predictor.terms)))
     for k in range(seeds):
         rng = np.random.default_rng(k)
         z = (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2.0)
-        frf = FRF(predictor.frequency, H + sd * z, tuple(m_dofs), tuple(e_dofs), "receptance")
+        frf = FRF(predictor.frequency, H + sd * z, tuple(m_dofs), tuple(e_dofs), "receptance", coherence=coherence)
         K = identify_joint_coupling(model, frf, predictor.joint_dofs, options).stiffness
         rel = np.abs(K - predictor.Du) / ref
         out[k] = [np.median(rel[:, i, j]) for i, j, _ in predictor.terms]
