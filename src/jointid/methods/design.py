@@ -470,7 +470,8 @@ def design_layout(
         # the estimator itself on synthetic noisy FRFs of the best few (relative noise): a sixth "scenario"
         from .design_check import monte_carlo_errors
 
-        mcs = [ranker.predictor.variant(Scenario(nm, "per-line", False)) for nm in MONTE_CARLO_NOISE_MODELS]
+        levels = {sc.noise_model: sc.level for sc in scenarios}  # the level the scenarios give each noise model
+        mcs = [ranker.predictor.variant(Scenario(nm, "per-line", False, levels.get(nm))) for nm in MONTE_CARLO_NOISE_MODELS]
 
         def mc_crit(o, e):
             errs = [monte_carlo_errors(mc, o, e, monte_carlo, coupling_options) for mc in mcs]

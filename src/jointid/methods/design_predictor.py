@@ -149,6 +149,8 @@ class LayoutPredictor:
         """The same predictor (receptances shared, not recomputed) for another scenario."""
         other = copy.copy(self)
         other.noise_model, other.estimator, other.calibration = scenario.noise_model, scenario.estimator, scenario.calibration
+        if scenario.level is not None:
+            other.noise = float(scenario.level)
         return other
 
     def _w(self, nodes: Sequence[int]) -> list[int]:
@@ -259,34 +261,37 @@ class LayoutPredictor:
         per_line, smoothed, common, out = {}, {}, {}, []
         for sc in scenarios:
             nm = sc.noise_model
-            if nm not in per_line:
+            level = self.noise if sc.level is None else sc.level
+            key = (nm, level)
+            g = (level / self.noise) ** 2  # variances scale with the square of the noise level
+            if key not in per_line:
                 saved, self.noise_model = self.noise_model, nm
                 try:
-                    per_line[nm] = self.variance(observed, excited, blocks)
+                    per_line[key] = g * self.variance(observed, excited, blocks)
                 finally:
                     self.noise_model = saved
             if sc.estimator == "per-line":
-                out.append(per_line[nm])
+                out.append(per_line[key])
                 continue
-            if nm not in smoothed:
+            if key not in smoothed:
                 if self._smoother is None:
                     K = self._basis or min(max(self._lines // 2, 4), MAX_BASIS)
                     self._smoother = SmootherPrediction(self.frequency.hz, min(K, self.frequency.hz.size - 1))
-                V = np.full_like(per_line[nm], np.nan)
+                V = np.full_like(per_line[key], np.nan)
                 for i, j, _ in active:
-                    V[:, i, j] = self._smoother.squared_error(self.Du[:, i, j], per_line[nm][:, i, j] / self._thin)
+                    V[:, i, j] = self._smoother.squared_error(self.Du[:, i, j], per_line[key][:, i, j] / self._thin)
                     V[:, j, i] = V[:, i, j]
-                smoothed[nm] = V
-            V = smoothed[nm]
+                smoothed[key] = V
+            V = smoothed[key]
             if sc.calibration:
-                if nm not in common:
+                if key not in common:
                     saved, self.noise_model = self.noise_model, nm
                     try:
-                        var_h = self.frf_variance(H) / self._thin
+                        var_h = g * self.frf_variance(H) / self._thin
                     finally:
                         self.noise_model = saved
-                    common[nm] = common_variance(self.frequency.hz, Ymn, Yne, Ynn, H, var_h, self.Du, self.symmetric)
-                V = V + common[nm]
+                    common[key] = common_variance(self.frequency.hz, Ymn, Yne, Ynn, H, var_h, self.Du, self.symmetric)
+                V = V + common[key]
             out.append(V)
         return out
 
@@ -322,16 +327,21 @@ class Scenario:
     calibration : bool
         Include the common error of the column calibration (what the estimator adds
         when the test has force noise).
+    level : float, optional
+        Noise level of this scenario (default: the design's ``noise``), e.g. a hammer
+        test's response noise per FRF line after averaging.
     """
 
     noise_model: str = "relative"
     estimator: str = "smoothed"
     calibration: bool = False
+    level: float | None = None
 
     @property
     def name(self) -> str:
         """E.g. ``"relative, smoothed"`` or ``"additive, smoothed, calibrated"``."""
-        return ", ".join([self.noise_model, self.estimator] + (["calibrated"] if self.calibration else []))
+        level = [] if self.level is None else [f"{100 * self.level:.2g} %"]
+        return ", ".join([self.noise_model] + level + [self.estimator] + (["calibrated"] if self.calibration else []))
 
 
 #: The default scenarios: relative and additive noise, each without and with column calibration.
