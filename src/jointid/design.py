@@ -13,15 +13,16 @@ there, so they move with a new layout; otherwise fixed where the study puts them
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Mapping, Sequence
 
 from .errors import StudyError
 from .frequency import Frequency
-from .methods.design import LayoutDesign, Sensors, design_layout
-from .pipeline import free_model, true_joint
+from .methods.design import LayoutDesign, Scenario, Sensors, design_layout
+from .pipeline import coupling_options, free_model, true_joint
 from .study import Study
 
-__all__ = ["design_study", "study_sensors", "with_layout", "design_band"]
+__all__ = ["design_study", "study_sensors", "with_layout", "design_band", "hammer_noise"]
 
 
 def study_sensors(study: Study) -> Sensors | None:
@@ -65,7 +66,7 @@ def design_band(study: Study, band_hz: tuple[float, float] | None = None) -> Fre
 def design_study(
     study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence[int] | None = None,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
-    search_lines: int = 200,
+    search_lines: int = 300, monte_carlo: int = 0,
 ) -> LayoutDesign:
     """Choose ``observed`` and ``excited`` nodes of the study's beam for the best-determined joint.
 
@@ -85,6 +86,9 @@ def design_study(
         Default: ``[frequency] start..stop``.
     search_lines : int
         Lines of the search grid.
+    monte_carlo : int
+        Seeds of the final Monte Carlo check of the best layouts with the study's identification
+        options (0: none; see :mod:`jointid.methods.design_check`).
 
     Returns
     -------
@@ -111,6 +115,9 @@ def design_study(
             raise StudyError(f"candidates: node {c} is not a node of the beam (nodes 1..{n_nodes})")
     m = study.measurement
     spec = study.identification
+    scenarios = [Scenario("relative", "smoothed", c) for c in (False, True)]
+    scenarios += [Scenario("additive", "smoothed", c, hammer_noise(study, noise)) for c in (False, True)]
+    scenarios = [scenarios[0], scenarios[2], scenarios[1], scenarios[3]]
     return design_layout(
         free_model(study, with_accelerometers=False),
         true_joint(study),
@@ -122,4 +129,21 @@ def design_study(
         noise=noise, weights=weights, sensors=study_sensors(study),
         symmetric=True if spec.symmetric is None else bool(spec.symmetric),
         current=(m.observed, m.excited), search_lines=search_lines,
+        monte_carlo=monte_carlo, coupling_options=coupling_options(study), scenarios=scenarios,
     )
+
+
+def hammer_noise(study: Study, noise: float) -> float:
+    """The additive scenario's noise level: a roving-hammer test's response noise per line of the study's grid.
+
+    ``[experiment].response_noise / sqrt(averages * step * duration)``: the response
+    noise (relative to the response's rms) averaged over the hits and over the
+    ``step * duration`` lines of the test's resolution in one line of the grid
+    (benchmark: 0.01 / sqrt(5 * 1 * 2) = 0.32 %; the virtual test's FRFs have a noise
+    floor of 0.27-0.42 % of each FRF's rms over the band). Without ``[experiment]``: ``noise``.
+    """
+    x = getattr(study, "experiment", None)
+    if x is None:
+        return noise
+    lines = max(1.0, study.frequency.step * x.duration)
+    return float(x.response_noise / math.sqrt(max(1, x.averages) * lines))

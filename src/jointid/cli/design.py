@@ -17,12 +17,14 @@ def add_parser(sub) -> None:
     p = sub.add_parser(
         "design",
         help="choose observed and excited nodes that minimize the predicted uncertainty of the joint terms",
-        description="Search K observed and L excited nodes among the candidates (greedy forward, then pairwise "
-        "exchange) that minimize the weighted geometric mean of the per-term median predicted relative standard "
-        "deviation of the default identification over the study's band, for a stated FRF noise, with the study's "
-        "[joint.model] as the expected joint and its [accelerometers] (on the observed nodes, they move with them). "
-        "Writes DIR/design.json (chosen and current layout, median predicted relative std per term) and "
-        "DIR/design.png (per-term predicted relative std vs frequency, both layouts). See jointid.methods.design.",
+        description="Search K observed and L excited nodes among the candidates (greedy forward, pairwise "
+        "exchange, then the best re-ranked on every line) that minimize the predicted error of the default "
+        "identification (smoothed over frequency, with and without its column calibration, for relative and "
+        "additive FRF noise) over the study's band, weighted per term, for a stated FRF noise, with the study's "
+        "[joint.model] as the expected joint and its [accelerometers] (on the observed nodes, they move with them); "
+        "layouts predicted worse than the study's in any scenario are penalized. "
+        "Writes DIR/design.json (chosen and current layout, median predicted relative error per term and scenario) "
+        "and DIR/design.png (per-term predicted relative error vs frequency, both layouts). See jointid.methods.design.",
     )
     add_study_argument(p, required=False)
     add_out_argument(p)
@@ -35,8 +37,8 @@ def add_parser(sub) -> None:
                    help="term weights, e.g. K_theta_theta=4 (default 1 each; 0 ignores a term)")
     p.add_argument("--band-hz", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="band (default: [frequency] start..stop)")
-    p.add_argument("--search-lines", type=int, default=200, metavar="N",
-                   help="lines of the search grid, spread over the band (default 200)")
+    p.add_argument("--search-lines", type=int, default=300, metavar="N",
+                   help="lines of the search grid, spread over the band (default 300)")
     p.add_argument("--no-plots", action="store_true", help="skip the figure")
     p.set_defaults(func=run)
 
@@ -94,9 +96,14 @@ def run(args: argparse.Namespace) -> int:
         terms = ", ".join(f"{t} {100 * v:.3g} %" for t, v in med.items())
         return f"{name}: observed {','.join(map(str, obs))}; excited {','.join(map(str, exc))}: {terms}"
 
-    print(f"predicted per-line median relative std, {100 * d.noise:g} % relative FRF noise, "
+    print(f"predicted median relative error of the identification, {100 * d.noise:g} % FRF noise, "
           f"{d.frequency.hz[0]:g}-{d.frequency.hz[-1]:g} Hz:")
     print("  " + line("chosen ", d.observed, d.excited, d.median()))
     print("  " + line("current", d.current_observed, d.current_excited, d.median(True)))
+    cur = d.scenario_medians(True)
+    for name, med in d.scenario_medians().items():
+        terms = ", ".join(f"{t} {100 * v:.3g} % ({100 * cur[name][t]:.3g} %)" if name in cur else f"{t} {100 * v:.3g} %"
+                          for t, v in med.items() if d.weights.get(t, 1) > 0)
+        print(f"  {name}: {terms}")
     print(f"searched {d.evaluations} layouts on {d.search_lines} lines in {d.seconds:.1f} s; wrote {path}")
     return 0

@@ -1,4 +1,4 @@
-"""Figure of a test design: predicted relative standard deviation per term vs frequency, two layouts."""
+"""Figure of a test design: predicted relative error per term vs frequency, two layouts."""
 
 from __future__ import annotations
 
@@ -16,9 +16,9 @@ def _nodes(nodes) -> str:
 def plot_layout_design(design, axes=None):
     """Plot a :class:`~jointid.methods.design.LayoutDesign`.
 
-    One panel per term: the predicted per-line relative standard deviation (log
-    scale, %) of the chosen layout (solid) and of the current layout (dashed),
-    with their medians as horizontal lines.
+    One panel per term: the predicted relative error of the default identification
+    (log scale, %; geometric mean over the design's scenarios) of the chosen layout
+    (solid) and of the current layout (dashed), with their medians as horizontal lines.
 
     Parameters
     ----------
@@ -51,6 +51,6 @@ def plot_layout_design(design, axes=None):
         ax.set_title(f"{name} (weight {design.weights.get(name, 1):g})")
         ax.set_xlabel("frequency (Hz)")
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].set_ylabel(f"predicted relative std per line (%), {100 * design.noise:g} % FRF noise")
+    axes[0].set_ylabel(f"predicted relative error (%), {100 * design.noise:g} % FRF noise")
     axes[0].legend(loc="upper left", fontsize=7)
     return fig
