@@ -168,6 +168,16 @@ def test_matrix_market_npz_and_op4_give_the_python_result(tmp_path, frame):
     for key, study in studies.items():
         K = identify(study, read_measured(study, tmp_path / "sim" / "frf.uff")).stiffness
         assert np.abs(K - python.stiffness).max() / np.abs(python.stiffness).max() < 1e-12, key
+    # exact data: every term reliable, zero cross terms included (term_scale), except the 10 Hz line (condition 7e9)
+    assert python.reliable_terms[1:].all() and not python.reliable_terms[0].all()
+
+
+def test_term_scale_judges_zero_couplings_on_the_scale_of_their_dofs():
+    from jointid.methods.coupling import COUPLING_SCALE_FLOOR, term_scale
+
+    K = np.array([[[4.0, 0.0], [0.0, 1.0]], [[4.0, 3.0 + 4.0j], [3.0 + 4.0j, -9.0]]])
+    assert COUPLING_SCALE_FLOOR == 0.05
+    np.testing.assert_allclose(term_scale(K), [[[4.0, 0.1], [0.1, 1.0]], [[4.0, 5.0], [5.0, 9.0]]])
 
 
 def test_a_craig_bampton_model_with_modal_scalar_points_identifies_the_mounts(tmp_path, frame):
