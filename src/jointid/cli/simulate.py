@@ -13,7 +13,7 @@ from ..pipeline import simulate, simulate_free, true_beam_study
 from ..study import load_study
 from .common import add_out_argument, add_study_argument, study_from_args
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "write_true_joints"]
 
 
 def add_parser(sub) -> None:

@@ -48,7 +48,7 @@ from .frf_variance import WEIGHTINGS, frf_variance
 from .inverse import check_layout, dof_term_labels, joint_term, stiffness_columns
 from .smoothing import smooth_series
 
-__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS"]
+__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "term_scale", "COUPLING_SCALE_FLOOR"]
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
