@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import ModelError
 
-__all__ = ["Section", "Material", "timoshenko_element", "require_positive"]
+__all__ = ["Section", "Material", "timoshenko_element", "timoshenko_bending", "require_positive"]
 
 
 def require_positive(name: str, value: float, unit: str) -> float:
@@ -157,22 +157,38 @@ def timoshenko_element(
     L = require_positive("element length", length, "m")
     E, rho = material.elastic_modulus, material.density
     A, I = section.area, section.second_moment
-    if euler_bernoulli:
-        phi = 0.0
-    else:
-        kappa = require_positive("shear coefficient", shear_coefficient, "(dimensionless)")
-        phi = 12.0 * E * I / (kappa * material.G * A * L**2)
+    kappa = 1.0 if euler_bernoulli else require_positive("shear coefficient", shear_coefficient, "(dimensionless)")
+    K, M = timoshenko_bending(L, E, material.G, rho, A, I, kappa, euler_bernoulli)
+    return K[0], M[0]
 
+
+def timoshenko_bending(L, E, G, rho, A, I, kappa, euler_bernoulli: bool = False):
+    """Planar Timoshenko bending elements on (w1, theta1, w2, theta2), vectorized over elements.
+
+    Parameters
+    ----------
+    L, E, G, rho, A, I, kappa : ndarray, shape (n,), or scalars
+        Length (m), Young's and shear moduli (Pa), density (kg/m^3), area (m^2), second
+        moment (m^4), shear coefficient (ignored if ``euler_bernoulli``).
+    euler_bernoulli : bool
+        No shear deformation (``phi = 0``) and no rotary inertia.
+
+    Returns
+    -------
+    K, M : ndarray, shape (n, 4, 4)
+        Stiffness ``E I / ((1 + phi) L^3) [...]``, ``phi = 12 E I / (kappa G A L^2)``, and the
+        consistent translational plus rotary mass (Przemieniecki's interdependent interpolation).
+    """
+    L, E, G, rho, A, I, kappa = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in (L, E, G, rho, A, I, kappa)))
+    phi = np.zeros_like(L) if euler_bernoulli else 12.0 * E * I / (kappa * G * A * L**2)
     k = E * I / ((1.0 + phi) * L**3)
-    K = k * np.array(
-        [
-            [12.0, 6 * L, -12.0, 6 * L],
-            [6 * L, (4 + phi) * L**2, -6 * L, (2 - phi) * L**2],
-            [-12.0, -6 * L, 12.0, -6 * L],
-            [6 * L, (2 - phi) * L**2, -6 * L, (4 + phi) * L**2],
-        ]
-    )
-
+    one = np.ones_like(L)
+    K = np.stack([
+        np.stack([12.0 * one, 6 * L, -12.0 * one, 6 * L], -1),
+        np.stack([6 * L, (4 + phi) * L**2, -6 * L, (2 - phi) * L**2], -1),
+        np.stack([-12.0 * one, -6 * L, 12.0 * one, -6 * L], -1),
+        np.stack([6 * L, (2 - phi) * L**2, -6 * L, (4 + phi) * L**2], -1),
+    ], -2) * k[:, None, None]
     p, p2 = phi, phi**2
     m11 = 13 / 35 + 7 / 10 * p + 1 / 3 * p2
     m12 = (11 / 210 + 11 / 120 * p + 1 / 24 * p2) * L
@@ -180,28 +196,22 @@ def timoshenko_element(
     m14 = -(13 / 420 + 3 / 40 * p + 1 / 24 * p2) * L
     m22 = (1 / 105 + 1 / 60 * p + 1 / 120 * p2) * L**2
     m24 = -(1 / 140 + 1 / 60 * p + 1 / 120 * p2) * L**2
-    Mt = np.array(
-        [
-            [m11, m12, m13, m14],
-            [m12, m22, -m14, m24],
-            [m13, -m14, m11, -m12],
-            [m14, m24, -m12, m22],
-        ]
-    ) * (rho * A * L / (1.0 + p) ** 2)
-
+    M = np.stack([
+        np.stack([m11, m12, m13, m14], -1),
+        np.stack([m12, m22, -m14, m24], -1),
+        np.stack([m13, -m14, m11, -m12], -1),
+        np.stack([m14, m24, -m12, m22], -1),
+    ], -2) * (rho * A * L / (1.0 + p) ** 2)[:, None, None]
     if euler_bernoulli:
-        return K, Mt
-
-    r11 = 6 / 5
+        return K, M
+    r11 = 6 / 5 * one
     r12 = (1 / 10 - 1 / 2 * p) * L
     r22 = (2 / 15 + 1 / 6 * p + 1 / 3 * p2) * L**2
     r24 = (-1 / 30 - 1 / 6 * p + 1 / 6 * p2) * L**2
-    Mr = np.array(
-        [
-            [r11, r12, -r11, r12],
-            [r12, r22, -r12, r24],
-            [-r11, -r12, r11, -r12],
-            [r12, r24, -r12, r22],
-        ]
-    ) * (rho * I / ((1.0 + p) ** 2 * L))
-    return K, Mt + Mr
+    Mr = np.stack([
+        np.stack([r11, r12, -r11, r12], -1),
+        np.stack([r12, r22, -r12, r24], -1),
+        np.stack([-r11, -r12, r11, -r12], -1),
+        np.stack([r12, r24, -r12, r22], -1),
+    ], -2) * (rho * I / ((1.0 + p) ** 2 * L))[:, None, None]
+    return K, M + Mr

@@ -69,7 +69,7 @@ import scipy.sparse as sp
 
 from ..dofs import COMPONENTS, COMPONENT_CODES, DofArray
 from ..errors import ModelError
-from .elements import Material
+from .elements import Material, timoshenko_bending
 from .frame_sections import FrameSection
 
 __all__ = ["Member", "PointMass", "FrameModel", "build_frame", "frame_element", "element_axes"]
@@ -257,48 +257,6 @@ def element_axes(start: np.ndarray, end: np.ndarray, orientation: np.ndarray | N
     return np.stack([ex, ey, ez], axis=1)
 
 
-def _bending(L, E, G, rho, A, I, kappa, euler_bernoulli: bool):
-    """Planar Timoshenko elements on (w1, theta1, w2, theta2), vectorized: K, M of shape (n, 4, 4).
-
-    The same equations as :func:`jointid.physics.elements.timoshenko_element`.
-    """
-    phi = np.zeros_like(L) if euler_bernoulli else 12.0 * E * I / (kappa * G * A * L**2)
-    k = E * I / ((1.0 + phi) * L**3)
-    one = np.ones_like(L)
-    K = np.stack([
-        np.stack([12.0 * one, 6 * L, -12.0 * one, 6 * L], -1),
-        np.stack([6 * L, (4 + phi) * L**2, -6 * L, (2 - phi) * L**2], -1),
-        np.stack([-12.0 * one, -6 * L, 12.0 * one, -6 * L], -1),
-        np.stack([6 * L, (2 - phi) * L**2, -6 * L, (4 + phi) * L**2], -1),
-    ], -2) * k[:, None, None]
-    p, p2 = phi, phi**2
-    m11 = 13 / 35 + 7 / 10 * p + 1 / 3 * p2
-    m12 = (11 / 210 + 11 / 120 * p + 1 / 24 * p2) * L
-    m13 = 9 / 70 + 3 / 10 * p + 1 / 6 * p2
-    m14 = -(13 / 420 + 3 / 40 * p + 1 / 24 * p2) * L
-    m22 = (1 / 105 + 1 / 60 * p + 1 / 120 * p2) * L**2
-    m24 = -(1 / 140 + 1 / 60 * p + 1 / 120 * p2) * L**2
-    M = np.stack([
-        np.stack([m11, m12, m13, m14], -1),
-        np.stack([m12, m22, -m14, m24], -1),
-        np.stack([m13, -m14, m11, -m12], -1),
-        np.stack([m14, m24, -m12, m22], -1),
-    ], -2) * (rho * A * L / (1.0 + p) ** 2)[:, None, None]
-    if euler_bernoulli:
-        return K, M
-    r11 = 6 / 5 * one
-    r12 = (1 / 10 - 1 / 2 * p) * L
-    r22 = (2 / 15 + 1 / 6 * p + 1 / 3 * p2) * L**2
-    r24 = (-1 / 30 - 1 / 6 * p + 1 / 6 * p2) * L**2
-    Mr = np.stack([
-        np.stack([r11, r12, -r11, r12], -1),
-        np.stack([r12, r22, -r12, r24], -1),
-        np.stack([-r11, -r12, r11, -r12], -1),
-        np.stack([r12, r24, -r12, r22], -1),
-    ], -2) * (rho * I / ((1.0 + p) ** 2 * L))[:, None, None]
-    return K, M + Mr
-
-
 #: Local DOFs and signs of the two bending planes: x-y on (v, tz), x-z on (w, -ty).
 _PLANE_XY = (np.array([1, 5, 7, 11]), np.array([1.0, 1.0, 1.0, 1.0]))
 _PLANE_XZ = (np.array([2, 4, 8, 10]), np.array([1.0, -1.0, 1.0, -1.0]))
@@ -341,7 +299,7 @@ def frame_element(
         K[:, [[i], [j]], [i, j]] = k[:, None, None] * bar
         M[:, [[i], [j]], [i, j]] = m[:, None, None] * cons
     for (idx, sign), I, kappa in ((_PLANE_XY, Iz, ky), (_PLANE_XZ, Iy, kz)):
-        Kb, Mb = _bending(L, E, G, rho, A, I, kappa, euler_bernoulli)
+        Kb, Mb = timoshenko_bending(L, E, G, rho, A, I, kappa, euler_bernoulli)
         s = sign[:, None] * sign[None, :]
         K[:, idx[:, None], idx[None, :]] = Kb * s
         M[:, idx[:, None], idx[None, :]] = Mb * s
