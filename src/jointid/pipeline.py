@@ -25,7 +25,7 @@ from .study import Study
 __all__ = [
     "free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "read_measured", "identify",
     "inverse_options", "ExperimentResult", "experiment", "virtual_hits", "coupling_options",
-    "true_beam_study", "simulate_free", "read_free_measured", "free_beam_parameters", "update",
+    "true_beam_study", "simulate_free", "read_free_measured", "free_beam_parameters", "update", "study_frfs",
 ]
 
 
@@ -181,6 +181,26 @@ def read_measured(study: Study, path: str | os.PathLike) -> FRF:
     )
 
 
+def study_frfs(study: Study, measured: FRF) -> FRF:
+    """``measured`` on the study's observed x excited DOFs (in study order) and its ``start..stop`` band (above 0 Hz).
+
+    Raises
+    ------
+    DataError
+        The file lacks one of the study's DOFs (one line naming them and what the file has).
+    """
+    m = study.measurement
+    for what, have, want in (("response", measured.responses, m.observed_dofs), ("reference", measured.references, m.excited_dofs)):
+        missing = [str(d) for d in want if d not in have]
+        if missing:
+            raise DataError(
+                f"the FRF file has no {what} at {', '.join(missing)} (it has {', '.join(map(str, have))}); "
+                f"measure it or remove it from [measurement] in {study.source}"
+            )
+    # a 0 Hz line carries no information (and the free structure is singular there): skip it
+    return measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
+
+
 def identify(
     study: Study, measured: FRF, options: InverseOptions | CouplingOptions | None = None
 ) -> InverseResult | CouplingResult:
@@ -215,15 +235,7 @@ def identify(
         return identify_structure(study, measured, options)
     m = study.measurement
     check_layout(len(study.joint.dofs), m.observed, m.excited)
-    for what, have, want in (("response", measured.responses, m.observed_dofs), ("reference", measured.references, m.excited_dofs)):
-        missing = [str(d) for d in want if d not in have]
-        if missing:
-            raise DataError(
-                f"the FRF file has no {what} at {', '.join(missing)} (it has {', '.join(map(str, have))}); "
-                f"measure it or remove it from [measurement] in {study.source}"
-            )
-    # a 0 Hz line carries no information (and the free beam is singular there): skip it
-    data = measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
+    data = study_frfs(study, measured)
     if isinstance(options, CouplingOptions) or (options is None and study.identification.method == "receptance"):
         return identify_joint_coupling(free_model(study), data, study.joint.joint_dofs, options or coupling_options(study))
     refined = study.beam.elements_per_segment is not None

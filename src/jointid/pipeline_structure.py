@@ -29,14 +29,14 @@ import os
 
 import numpy as np
 
-from .errors import DataError, StudyError
+from .errors import StudyError
 from .frequency import Frequency
 from .frf import FRF
 from .methods.coupling import CouplingOptions, CouplingResult, identify_joint_coupling
 from .study import Study
 
 __all__ = [
-    "structure_model", "true_joint_matrix", "constrained_structure", "simulate_structure",
+    "structure_model", "true_joints", "true_joint_matrix", "constrained_structure", "simulate_structure",
     "read_measured_structure", "identify_structure", "split_joints", "cross_joint_ratio",
 ]
 
@@ -57,21 +57,31 @@ def structure_model(study: Study):
         raise StudyError(f"{study.source}: {exc}") from None
 
 
-def true_joint_matrix(study: Study, frequency_hz) -> np.ndarray:
-    """Every joint's true matrix (``[joint.model]``) on ``study.joint_dofs``, block diagonal, shape (F, n, n), complex."""
-    f = np.atleast_1d(np.asarray(frequency_hz, dtype=float))
-    n = len(study.joint_dofs)
-    Du = np.zeros((f.size, n, n), dtype=complex)
-    i = 0
+def true_joints(study: Study) -> list:
+    """Every ``[[joint]]``'s true mount (``[joint.model]``) as a :class:`~jointid.physics.structure.ComplexStiffness`, in study order.
+
+    Raises
+    ------
+    StudyError
+        A joint without ``[joint.model]`` or with a mount that is not passive.
+    """
+    from .physics.structure import ComplexStiffness
+
+    joints = []
     for joint in study.joints:
         try:
-            block = joint.mount()(f)
+            mount = joint.mount()
         except StudyError as exc:
             raise StudyError(f"{study.source}: {exc}") from None
-        k = block.shape[1]
-        Du[:, i:i + k, i:i + k] = block
-        i += k
-    return Du
+        joints.append(ComplexStiffness(joint.joint_dofs, mount, joint.name))
+    return joints
+
+
+def true_joint_matrix(study: Study, frequency_hz) -> np.ndarray:
+    """Every joint's true matrix on ``study.joint_dofs``, block diagonal, shape (F, n, n), complex."""
+    from .physics.jointed_model import assemble_joints
+
+    return assemble_joints(true_joints(study), frequency_hz)
 
 
 def constrained_structure(study: Study):
@@ -84,16 +94,8 @@ def constrained_structure(study: Study):
         A joint without ``[joint.model]`` or with a mount that is not passive.
     """
     from .physics.jointed_model import JointedModel
-    from .physics.structure import ComplexStiffness
 
-    joints = []
-    for joint in study.joints:
-        try:
-            mount = joint.mount()
-        except StudyError as exc:
-            raise StudyError(f"{study.source}: {exc}") from None
-        joints.append(ComplexStiffness(joint.joint_dofs, mount, joint.name))
-    return JointedModel(structure_model(study), joints)
+    return JointedModel(structure_model(study), true_joints(study))
 
 
 def simulate_structure(study: Study, frequency: Frequency | None = None):
@@ -147,18 +149,9 @@ def identify_structure(study: Study, measured: FRF, options: CouplingOptions | N
     DataError
         The file lacks one of the study's DOFs.
     """
-    from .pipeline import coupling_options
+    from .pipeline import coupling_options, study_frfs
 
-    m = study.measurement
-    for what, have, want in (("response", measured.responses, m.observed_dofs), ("reference", measured.references, m.excited_dofs)):
-        missing = [str(d) for d in want if d not in have]
-        if missing:
-            raise DataError(
-                f"the FRF file has no {what} at {', '.join(missing)} (it has {', '.join(map(str, have))}); "
-                f"measure it or remove it from [measurement] in {study.source}"
-            )
-    data = measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
-    return identify_joint_coupling(structure_model(study), data, study.joint_dofs, options or coupling_options(study))
+    return identify_joint_coupling(structure_model(study), study_frfs(study, measured), study.joint_dofs, options or coupling_options(study))
 
 
 def split_joints(study: Study, result: CouplingResult) -> dict[str, CouplingResult]:

@@ -28,7 +28,30 @@ from ..frequency import Frequency
 from .free_model import as_free_model
 from .structure import ComplexStiffness
 
-__all__ = ["JointedModel"]
+__all__ = ["JointedModel", "joint_dofs", "assemble_joints"]
+
+
+def joint_dofs(joints: Sequence[ComplexStiffness]) -> tuple[Dof, ...]:
+    """Every DOF of ``joints`` once, in order of first appearance."""
+    seen: dict[Dof, None] = {}
+    for j in joints:
+        seen.update(dict.fromkeys(j.dofs))
+    return tuple(seen)
+
+
+def assemble_joints(joints: Sequence[ComplexStiffness], f_hz) -> np.ndarray:
+    """``Du`` on :func:`joint_dofs`: every joint's matrix summed in, shape (F, n, n), complex.
+
+    Joints on disjoint DOFs give a block-diagonal ``Du``; joints sharing a DOF add up there.
+    """
+    n = joint_dofs(joints)
+    pos = {d: i for i, d in enumerate(n)}
+    f_hz = np.atleast_1d(np.asarray(f_hz, float))
+    Du = np.zeros((f_hz.size, len(n), len(n)), complex)
+    for j in joints:
+        idx = np.array([pos[d] for d in j.dofs])
+        Du[:, idx[:, None], idx[None, :]] += j(f_hz)
+    return Du
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,21 +91,11 @@ class JointedModel:
     @property
     def joint_dofs(self) -> tuple[Dof, ...]:
         """Every joint DOF once, in order of first appearance."""
-        seen: dict[Dof, None] = {}
-        for j in self.joints:
-            seen.update(dict.fromkeys(j.dofs))
-        return tuple(seen)
+        return joint_dofs(self.joints)
 
     def joint_stiffness(self, f_hz: np.ndarray) -> np.ndarray:
         """``Du`` on :attr:`joint_dofs`: every joint's matrix summed in, shape (F, n, n), complex."""
-        n = self.joint_dofs
-        pos = {d: i for i, d in enumerate(n)}
-        f_hz = np.asarray(f_hz, float)
-        Du = np.zeros((f_hz.size, len(n), len(n)), complex)
-        for j in self.joints:
-            idx = np.array([pos[d] for d in j.dofs])
-            Du[:, idx[:, None], idx[None, :]] += j(f_hz)
-        return Du
+        return assemble_joints(self.joints, f_hz)
 
     def receptance(self, frequency, rows: Iterable, cols: Iterable) -> np.ndarray:
         """Receptance of the jointed structure ``H[rows, cols]``, m/N (or rad/(N*m), ...), shape (F, r, c)."""
