@@ -82,6 +82,7 @@ __all__ = [
     "InverseOptions",
     "InverseResult",
     "identify_joint",
+    "rotation_scale",
     "check_layout",
     "joint_term",
     "stiffness_columns",
@@ -128,7 +129,7 @@ class InverseOptions:
         Tikhonov regularization of the identification step, lambda per line by
         generalized cross-validation or by the L-curve corner.
     rotation_scale_m : float, optional
-        Length l used to scale rotations (default: mean element length).
+        Length l used to scale rotations (default: :func:`rotation_scale`, the mean element length of a beam).
     reliability : Reliability
         Thresholds of the ``reliable`` flag.
     estimation : {"qr", "svd"}
@@ -362,13 +363,9 @@ def identify_joint(
     n_idx = np.array([pos[d] for d in n_dofs])
     m_idx = np.array([pos[d] for d in m_dofs])
     e_idx = np.array([pos[d] for d in e_dofs])
-    if options.rotation_scale_m is not None:
-        ell = float(options.rotation_scale_m)
-    else:
-        xs = np.array([free.coordinates[k] for k in free.nodes])
-        ell = float(np.mean(np.diff(xs))) if xs.size > 1 else 1.0
+    ell = rotation_scale(free) if options.rotation_scale_m is None else float(options.rotation_scale_m)
     # scaled coordinates: rotation unknowns theta' = ell * theta, moment rows / ell
-    sc = np.array([1.0 if d.direction == "w" else 1.0 / ell for d in dofs])  # D_s = S D S with S = diag(sc)
+    sc = np.array([1.0 / ell if d.unit == "rad" else 1.0 for d in dofs])  # D_s = S D S with S = diag(sc)
     loads = np.zeros((N, len(e_dofs)))
     loads[e_idx, np.arange(len(e_dofs))] = sc[e_idx]
     layout = EstimationLayout(
@@ -438,6 +435,31 @@ def identify_joint(
     )
     estimated = FRF(freq, H_all, dofs, e_dofs, "receptance")
     return InverseResult(freq, n_dofs, Du, estimated, condA, condB, condH, ratio, reliable, lam_out, options, condA_bound)
+
+
+def rotation_scale(free: Structure) -> float:
+    """Default length ``l`` (m) that scales rotations: the mean element length, or a stiffness length.
+
+    A beam (node coordinates spread along x): the mean spacing of its nodes. A
+    model without meaningful coordinates (all nodes at one x, e.g. a 3-D model
+    read from matrix files): ``l = sqrt(median K_rr / median K_tt)`` over the
+    diagonal of ``Re K`` on rotational (r) and translational (t) DOFs, the length
+    that gives a moment row and a force row the same size (for a beam of element
+    length ``h`` it is ``h / sqrt(30)``-ish, the same order as ``h``). 1 m when the
+    model has no rotations or no translations.
+    """
+    xs = np.array([free.coordinates[k] for k in free.nodes], dtype=float)
+    spacing = float(np.mean(np.diff(xs))) if xs.size > 1 else 0.0
+    if spacing > 0:
+        return spacing
+    k = np.abs(np.diagonal(free.K).real)
+    rot = np.array([d.unit == "rad" for d in free.dofs])
+    tra = np.array([d.unit == "m" for d in free.dofs])
+    if rot.any() and tra.any():
+        kr, kt = np.median(k[rot]), np.median(k[tra])
+        if kr > 0 and kt > 0:
+            return float(np.sqrt(kr / kt))
+    return 1.0
 
 
 def _driving_point_receptance(free: Structure, n_idx: np.ndarray):

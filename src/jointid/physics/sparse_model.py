@@ -65,6 +65,7 @@ from ..frequency import Frequency
 
 __all__ = [
     "SparseModel",
+    "DENSE_STRUCTURE_MAX_DOFS",
     "ModalBasis",
     "METHODS",
     "AUTO_DIRECT_WORK",
@@ -122,6 +123,10 @@ class ModalBasis:
     def frequencies_hz(self) -> np.ndarray:
         """Natural frequencies, Hz (negative round-off of rigid-body modes clipped to 0)."""
         return np.sqrt(np.clip(self.eigenvalues, 0.0, None)) / (2.0 * np.pi)
+
+
+#: Largest model :meth:`SparseModel.dense_structure` converts (the plain Hong & Lee method's limit).
+DENSE_STRUCTURE_MAX_DOFS = 3000
 
 
 class SparseModel:
@@ -254,6 +259,31 @@ class SparseModel:
         if how == "direct":
             return self._direct(f, ri, ci)
         return self._modal(f, ri, ci)
+
+    def dense_structure(self, max_dofs: int = DENSE_STRUCTURE_MAX_DOFS):
+        """The model as a dense :class:`~jointid.physics.structure.Structure` (``K (1 + j eta)``, ``M``), for small models.
+
+        What the plain Hong & Lee method needs: it solves with ``Do[nbar, mbar]``,
+        N - |n| rows, on every line. Node coordinates are not known from matrix
+        files: every node is put at x = 0 (the rotation scale then comes from the
+        stiffness, :func:`jointid.methods.inverse.rotation_scale`).
+
+        Raises
+        ------
+        ModelError
+            More than ``max_dofs`` DOFs (one line: the dense N x N arrays would be too large).
+        """
+        from .structure import Structure
+
+        if self.size > max_dofs:
+            raise ModelError(
+                f"the model has {self.size} DOFs; the plain Hong & Lee method needs the dense {self.size} x {self.size} "
+                f"Do[nbar, mbar] on every line and is limited to {max_dofs} DOFs: use method = \"receptance\""
+            )
+        dofs = self.dofs
+        coordinates = {node: 0.0 for node in sorted({d.node for d in dofs})}
+        K = self.stiffness.toarray() * (1.0 + 1j * self.loss_factor)
+        return Structure(dofs, coordinates, self.mass.toarray(), K)
 
     # --------------------------------------------------------------- direct
     def _direct(self, f: np.ndarray, ri: np.ndarray, ci: np.ndarray) -> np.ndarray:

@@ -1,0 +1,63 @@
+"""The plain Hong & Lee method on a small 3-D model read as matrices: exact recovery, and its size limit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jointid.dofs import parse_dofs
+from jointid.errors import ModelError
+from jointid.frequency import Frequency
+from jointid.frf import FRF
+from jointid.methods.inverse import InverseOptions, identify_joint, rotation_scale
+from jointid.physics.jointed_model import JointedModel
+from jointid.physics.mount import MountModel
+from jointid.physics.sparse_model import SparseModel
+from jointid.physics.structure import ComplexStiffness
+
+from structure_model import chain_matrices, labels
+
+
+def _article():
+    M, K, dofs = chain_matrices(10)
+    free = SparseModel(M, K, dofs, 0.002)
+    joint = parse_dofs(labels(1))
+    rng = np.random.default_rng(1)
+    B = rng.standard_normal((6, 6))
+    k = np.array([2e5, 3e5, 4e5, 300.0, 400.0, 500.0])
+    K0 = np.diag(k) + 0.1 * np.sqrt(np.outer(k, k)) * (B + B.T) / 4 * (1 - np.eye(6))
+    mount = MountModel(joint, K0, 0.1, 0.5, 100.0, 1.0)
+    return free, joint, mount, JointedModel(free, [ComplexStiffness(joint, mount, "mount")])
+
+
+def test_hong_lee_recovers_a_6dof_mount_from_translations_on_a_model_read_as_matrices():
+    free, joint, mount, article = _article()
+    f = Frequency(np.arange(10.0, 300.0, 2.0))
+    obs = parse_dofs([f"{n}{c}" for n in (1, 2, 3, 5) for c in "xyz"])  # 12 translations >= 6 joint DOFs
+    exc = parse_dofs([f"{n}{c}" for n in (1, 3, 4) for c in "xyz"])
+    frf = FRF(f, article.receptance(f, obs, exc), obs, exc, "receptance")
+    result = identify_joint(free.dense_structure(), frf, joint, InverseOptions(symmetric=True))
+    truth = mount(f.hz)
+    d = np.sqrt(np.abs(np.diagonal(truth, axis1=1, axis2=2)))
+    err = np.abs(result.stiffness - truth) / (d[:, :, None] * d[:, None, :])
+    assert err.max() < 1e-8
+    # the couplings are real terms of this mount, recovered as well as the diagonal
+    assert np.abs(truth[:, 0, 4]).min() > 1e-3 * d[:, 0].min() * d[:, 4].min()
+
+
+def test_rotation_scale_of_a_model_without_coordinates_comes_from_its_stiffness():
+    free, *_ = _article()
+    s = free.dense_structure()
+    k = np.abs(np.diagonal(s.K).real)
+    rot = np.array([d.unit == "rad" for d in s.dofs])
+    assert rotation_scale(s) == pytest.approx(np.sqrt(np.median(k[rot]) / np.median(k[~rot])), rel=1e-12)
+
+
+def test_dense_structure_refuses_a_model_too_large_for_hong_lee():
+    free, *_ = _article()
+    with pytest.raises(ModelError) as exc:
+        free.dense_structure(max_dofs=50)
+    assert str(exc.value) == (
+        "the model has 60 DOFs; the plain Hong & Lee method needs the dense 60 x 60 Do[nbar, mbar] on every line "
+        'and is limited to 50 DOFs: use method = "receptance"'
+    )
