@@ -221,3 +221,24 @@ def test_models_is_the_one_translation(tmp_path):
     assert len(true_joints(beam)) == 1 and true_joints(beam)[0].dofs == beam.joint.joint_dofs
     with pytest.raises(StudyError, match="use true_joints"):
         true_joint(frame)
+
+
+def test_cli_recovers_an_elastomer_joint_between_two_parts(tmp_path):
+    """Two separate bars along +x, the elastomer joint from node 11 (other, s = 0) to node 10 (dofs, s = L) on (z, ry):
+    the 4x4 two-end condensation with both caps is recovered exactly, and it is not [[K, -K], [-K, K]]."""
+    s = FrameSection.rectangle(B, B, shear_coefficient=5 / 6)
+    nodes = {k: (0.05 * (k - 1), 0.0, 0.0) for k in range(1, 11)} | {k: (0.05 * (k - 1) + 0.03, 0.0, 0.0) for k in range(11, 21)}
+    frame = build_frame(nodes, [(k, k + 1, s, ALU) for k in (*range(1, 10), *range(11, 20))])
+    p = frame_study(tmp_path, other=("11z", "11ry"), frame=frame,
+                    observed=[f"{n}z" for n in (1, 4, 7, 10, 11, 14, 17, 20)], excited=[f"{n}z" for n in (3, 8, 13, 18)])
+    assert main(["simulate", str(p), "--out", str(tmp_path / "sim")]) == 0
+    assert main(["identify", str(p), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id"), "--no-plots"]) == 0
+    K = _matrix(read_table(tmp_path / "id" / "joint_stiffness.csv"), ["10z", "10ry", "11z", "11ry"])
+    f = np.arange(20.0, 1001.0, 20.0)
+    fe = elastomer_joint_model({"material": "B", "elements": 8})
+    from jointid.dofs import Dof
+
+    truth = elastomer_mount(fe, (Dof(10, "z"), Dof(10, "ry")), (0, 1), -1, (Dof(11, "z"), Dof(11, "ry")))(f)
+    np.testing.assert_allclose(true_joints(load_study(p))[0](f), truth, rtol=1e-14, atol=0)
+    assert np.abs(K - truth).max() / np.abs(truth).max() < 1e-8
+    assert np.abs(truth[:, :2, :2] + truth[:, :2, 2:]).max() > 1e-2 * np.abs(truth).max()  # the cylinder's and caps' mass
