@@ -14,7 +14,7 @@ Layers, bottom-up (a module may import its own layer and any lower one):
    ``io.impact_files`` (the files of the impact records);
 3. ``methods`` (inverse, direct material fit, updating, design);
 4. the application: ``study``, ``study_sections``, ``study_structure``, ``study_edit``, ``benchmark``,
-   ``pipeline``, ``pipeline_structure``, ``design``, ``hits``, ``studies``, ``report`` and ``plots``;
+   ``pipeline``, ``pipeline_structure``, ``models``, ``design``, ``hits``, ``studies``, ``report`` and ``plots``;
 5. ``cli``; the package ``jointid/__init__.py`` re-exports every layer by name (lazily,
    no import statement), so it is the top.
 
@@ -54,6 +54,7 @@ RANKS = {
     "benchmark": 4,
     "pipeline": 4,
     "pipeline_structure": 4,
+    "models": 4,
     "study_structure": 4,
     "design": 4,
     "hits": 4,

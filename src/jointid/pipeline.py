@@ -2,7 +2,9 @@
 
 These functions are the API behind ``jointid simulate`` and ``jointid identify``;
 they only translate study settings into calls of :mod:`jointid.physics` and
-:mod:`jointid.methods`.
+:mod:`jointid.methods`. The models of a study (free model, true joints, test
+article) come from :mod:`jointid.models`; ``free_model``, ``true_joint`` and
+``constrained_model`` are re-exported here.
 """
 
 from __future__ import annotations
@@ -17,8 +19,8 @@ from .frequency import Frequency
 from .frf import FRF
 from .methods.coupling import CouplingOptions, CouplingResult, identify_joint_coupling
 from .methods.inverse import InverseOptions, InverseResult, check_layout, identify_joint
-from .physics.joints import joint_from_spec
-from .physics.structure import ComplexStiffness, Structure
+from .models import constrained_model, free_model, true_joint  # the study-to-model translation (re-exported)
+from .physics.structure import Structure
 from .physics.synthesis import synthesize_frf
 from .study import Study
 
@@ -27,50 +29,6 @@ __all__ = [
     "inverse_options", "ExperimentResult", "experiment", "virtual_hits", "coupling_options",
     "true_beam_study", "simulate_free", "read_free_measured", "free_beam_parameters", "update", "study_frfs",
 ]
-
-
-def free_model(study: Study, with_accelerometers: bool | None = None, refined: bool = True) -> Structure:
-    """The free beam ``Do`` of the study, with the ``[accelerometers]`` added when asked.
-
-    A ``[structure]`` study: its :class:`~jointid.physics.sparse_model.SparseModel`
-    (:func:`jointid.pipeline_structure.structure_model`; the options do not apply).
-
-    Parameters
-    ----------
-    with_accelerometers : bool, optional
-        Default: ``[identification].model_accelerometers``.
-    refined : bool
-        Mesh the beam between its grid nodes for FRFs converged up to ``[frequency].stop``
-        (``[beam].elements_per_segment``, or :mod:`jointid.physics.beam_mesh`'s criterion);
-        False: one element per segment (the paper's model on the measurement grid).
-    """
-    if study.is_structure:  # matrices from files: a SparseModel (no accelerometers, no mesh refinement)
-        from .pipeline_structure import structure_model
-
-        return structure_model(study)
-    beam = study.beam.structure(study.frequency.stop if refined else None)
-    if with_accelerometers is None:
-        with_accelerometers = study.identification.model_accelerometers
-    acc = study.accelerometers
-    if with_accelerometers and acc is not None:
-        beam = beam.with_masses(acc.nodes, acc.mass, acc.rotary_inertia)
-    return beam
-
-
-def true_joint(study: Study) -> ComplexStiffness:
-    """The study's true joint (``[joint.model]``) as a complex stiffness on the joint DOFs."""
-    return joint_from_spec(study.joint)
-
-
-def constrained_model(study: Study):
-    """The test article: beam with its accelerometers (if any) on the true joint to ground
-    (a :class:`Structure`); for a ``[structure]`` study the free model with every true joint
-    (:func:`jointid.pipeline_structure.constrained_structure`)."""
-    if study.is_structure:
-        from .pipeline_structure import constrained_structure
-
-        return constrained_structure(study)
-    return free_model(study, with_accelerometers=True).with_joint(true_joint(study))
 
 
 @dataclass(frozen=True, eq=False)
@@ -306,7 +264,7 @@ def experiment(study: Study, seed: int | None = None, *, periodic: bool = False)
     impact = estimate_frfs(records, options)
     frf = impact.to_frf("h1")
     if study.is_structure:
-        from .pipeline_structure import true_joint_matrix
+        from .models import true_joint_matrix
 
         return ExperimentResult(impact, frf, true_joint_matrix(study, frf.frequency.hz))
     return ExperimentResult(impact, frf, true_joint(study)(frf.frequency.hz))

@@ -6,8 +6,13 @@ whose free structure comes from matrix files (:mod:`jointid.study_structure`);
 :class:`~jointid.physics.sparse_model.SparseModel`; only its receptance on the
 observed, joint and excited DOFs (m, n, e) is ever computed.
 
+The models (free structure, true joints, test article) come from
+:mod:`jointid.models`; ``structure_model``, ``true_joints``,
+``true_joint_matrix`` and ``constrained_structure`` are re-exported here.
+
 **Simulation** (the constrained structure's FRFs, exactly): every joint's true
-matrix (a joint between two sets contributes ``[[K, -K], [-K, K]]``) is attached
+matrix (a mount between two sets contributes ``[[K, -K], [-K, K]]``, an
+elastomer joint its two-end condensation) is attached
 to the free model by :class:`~jointid.physics.jointed_model.JointedModel`
 (Woodbury: ``H[m,e] = Y[m,e] - Y[m,n] (I + Du Y[n,n])^-1 Du Y[n,e]``, vectorized
 over lines; ``Du`` may be singular). The same test article serves the virtual
@@ -33,6 +38,7 @@ from .errors import StudyError
 from .frequency import Frequency
 from .frf import FRF
 from .methods.coupling import CouplingOptions, CouplingResult, identify_joint_coupling
+from .models import constrained_model, structure_model, true_joint_matrix, true_joints  # re-exported
 from .study import Study
 
 __all__ = [
@@ -41,61 +47,17 @@ __all__ = [
 ]
 
 
-def structure_model(study: Study):
-    """The study's free structure (``[structure]``) as a :class:`~jointid.physics.sparse_model.SparseModel`.
-
-    Raises
-    ------
-    StudyError
-        A matrix file that cannot be read or does not fit the DOF list (one line naming the key and file).
-    """
-    if not study.is_structure:
-        raise StudyError(f"{study.source}: a [structure] study is needed here; this one has [beam]")
-    try:
-        return study.structure.model()
-    except StudyError as exc:
-        raise StudyError(f"{study.source}: {exc}") from None
-
-
-def true_joints(study: Study) -> list:
-    """Every ``[[joint]]``'s true mount (``[joint.model]``) as a :class:`~jointid.physics.structure.ComplexStiffness`, in study order.
-
-    Raises
-    ------
-    StudyError
-        A joint without ``[joint.model]`` or with a mount that is not passive.
-    """
-    from .physics.structure import ComplexStiffness
-
-    joints = []
-    for joint in study.joints:
-        try:
-            mount = joint.mount()
-        except StudyError as exc:
-            raise StudyError(f"{study.source}: {exc}") from None
-        joints.append(ComplexStiffness(joint.joint_dofs, mount, joint.name))
-    return joints
-
-
-def true_joint_matrix(study: Study, frequency_hz) -> np.ndarray:
-    """Every joint's true matrix on ``study.joint_dofs``, block diagonal, shape (F, n, n), complex."""
-    from .physics.jointed_model import assemble_joints
-
-    return assemble_joints(true_joints(study), frequency_hz)
-
-
 def constrained_structure(study: Study):
-    """The test article: the free structure with every true joint attached, as a
-    :class:`~jointid.physics.jointed_model.JointedModel` (receptance by Woodbury coupling).
+    """The test article of a ``[structure]`` study (:func:`jointid.models.constrained_model`): a
+    :class:`~jointid.physics.jointed_model.JointedModel`.
 
     Raises
     ------
     StudyError
-        A joint without ``[joint.model]`` or with a mount that is not passive.
+        A ``[beam]`` study, or a joint without ``[joint.model]`` or whose model cannot be built.
     """
-    from .physics.jointed_model import JointedModel
-
-    return JointedModel(structure_model(study), true_joints(study))
+    structure_model(study)  # a [structure] study, readable matrices
+    return constrained_model(study)
 
 
 def simulate_structure(study: Study, frequency: Frequency | None = None):

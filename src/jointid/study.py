@@ -95,7 +95,7 @@ Only ``[beam]``, ``[joint]``, ``[measurement]`` and ``[frequency]`` are required
 A *structure study* gives ``[structure]`` (mass and stiffness matrix files and
 a DOF list) instead of ``[beam]``, one or more ``[[joint]]`` tables (named,
 1-6 DOFs per side, grounded or between two DOF sets, ``[joint.model] type =
-"mount"``) and DOF labels in ``[measurement]``; see
+"mount"`` or ``"elastomer"``) and DOF labels in ``[measurement]``; see
 :mod:`jointid.study_structure` for its keys. ``Study.beam`` and ``Study.joint``
 are then ``None``, ``Study.structure`` and ``Study.joints`` hold it.
 

@@ -32,6 +32,27 @@ array of tables ``[[joint]]`` (a single ``[joint]`` table is one joint), and
     dofs = ["205x", "205y", "205z"]
     other = ["305x", "305y", "305z"]   # a mount between two parts: 2k x 2k, [[K, -K], [-K, K]]
 
+    [[joint]]
+    name = "bush"
+    dofs = ["40z", "40ry"]
+    [joint.model]                 # the elastomer joint FE model (jointid.physics.elastomer_mount)
+    type = "elastomer"
+    axes = ["z", "ry"]            # (translation, rotation) of dofs playing (w, theta / sigma)
+    cylinder_axis = "+x"          # optional; default rotation x translation (here +x): theta = -ry
+    material = "A"                # and the beam study's keys: elastic_modulus, loss_factor, density,
+                                  # length, diameter, poisson_ratio, elements, cap, cap_diameter, ...
+
+``type = "elastomer"``: the elastomer cylinder of
+:mod:`jointid.physics.elastomer_joint` (``material`` "A" or "B" and the same
+overrides as a ``[beam]`` study's elastomer joint) on one (translation, rotation)
+pair of the joint's ``dofs`` (components named by ``axes``, each once in ``dofs``,
+both on one node); every other DOF of the joint gets zero stiffness. The cylinder
+lies along ``cylinder_axis`` (from ground, or from the ``other`` side, to ``dofs``);
+``theta = dw/ds = sigma phi_r`` with ``sigma = (r x a) . t``: for a cylinder along +x,
+``w`` along z, ``theta = -ry``. Between two parts the matrix is the cylinder's
+two-end dynamic condensation with both caps (see :mod:`jointid.physics.elastomer_mount`);
+``other`` must then have the same components as ``dofs``.
+
     [measurement]
     observed = ["12x", "12y", "12z", "40y"]
     excited = ["12x", "40y", "40z"]
@@ -55,10 +76,13 @@ import numpy as np
 from .dofs import Dof, DofArray, parse_dof
 from .errors import DataError, DofError, ModelError, StudyError
 
-__all__ = ["StructureSpec", "MountSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key", "MOUNT_KEYS"]
+__all__ = ["StructureSpec", "MountSpec", "ElastomerSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key", "MOUNT_KEYS"]
 
 #: Keys of ``[joint.model] type = "mount"``.
 MOUNT_KEYS = ("type", "stiffness", "couplings", "loss_factor", "growth", "reference_frequency", "exponent")
+#: Keys of ``[joint.model] type = "elastomer"`` (material and overrides as for a ``[beam]`` study's elastomer joint).
+ELASTOMER_KEYS = ("type", "axes", "cylinder_axis", "material", "elastic_modulus", "loss_factor", "density", "length",
+                  "diameter", "poisson_ratio", "elements", "cap", "cap_diameter", "cap_thickness", "cap_density")
 _STRUCTURE_KEYS = ("mass", "stiffness", "dofs", "loss_factor", "method")
 _JOINT_KEYS = ("name", "dofs", "other", "model")
 _NAME = re.compile(r"^[A-Za-z0-9_-]{1,40}$")
@@ -125,13 +149,30 @@ class MountSpec:
 
 
 @dataclass(frozen=True)
+class ElastomerSpec:
+    """``[joint.model] type = "elastomer"``: see :mod:`jointid.physics.elastomer_mount`.
+
+    ``pair``: positions of the translation and rotation of ``axes`` in the joint's ``dofs``;
+    ``sigma``: ``theta = sigma phi_r`` (:func:`~jointid.physics.elastomer_mount.axis_sign`);
+    ``parameters``: ``material`` and overrides for
+    :func:`~jointid.physics.elastomer_joint.elastomer_joint_model`.
+    """
+
+    axes: tuple[str, str]
+    cylinder_axis: str
+    pair: tuple[int, int]
+    sigma: int
+    parameters: Mapping[str, Any]
+
+
+@dataclass(frozen=True)
 class NamedJoint:
     """One ``[[joint]]``: its name, DOFs (side one), ``other`` DOFs (side two, or empty) and true model."""
 
     name: str
     dofs: tuple[Dof, ...]
     other: tuple[Dof, ...] = ()
-    model: MountSpec | None = None
+    model: MountSpec | ElastomerSpec | None = None
 
     @property
     def joint_dofs(self) -> tuple[Dof, ...]:
@@ -151,6 +192,8 @@ class NamedJoint:
         spec = self.model
         if spec is None:
             raise StudyError(f"[[joint]] {self.name!r} has no [joint.model] table: add one to simulate the joint")
+        if not isinstance(spec, MountSpec):
+            raise StudyError(f"[[joint]] {self.name!r}: [joint.model] is not a mount; use jointid.models.true_joints")
         k = len(self.dofs)
         K0 = np.diag(np.asarray(spec.stiffness, dtype=float))
         pos = {d: i for i, d in enumerate(self.dofs)}
@@ -282,16 +325,81 @@ def parse_joints(data: Any, model: DofArray, model_name: str) -> tuple[NamedJoin
                     + "; a DOF belongs to one joint only"
                 )
             owner[d] = name
-        model_spec = _mount(f"{where} [joint.model]", t["model"], dofs) if "model" in t else None
+        model_spec = _joint_model(f"{where} [joint.model]", t["model"], dofs, other) if "model" in t else None
         joints.append(NamedJoint(name, dofs, other, model_spec))
     return tuple(joints)
 
 
-def _mount(where: str, data: Any, dofs: tuple[Dof, ...]) -> MountSpec:
+def _joint_model(where: str, data: Any, dofs: tuple[Dof, ...], other: tuple[Dof, ...]) -> MountSpec | ElastomerSpec:
     if not isinstance(data, Mapping):
         raise StudyError(f"{where} must be a table")
+    if data.get("type") == "elastomer":
+        return _elastomer(where, data, dofs, other)
     if data.get("type") != "mount":
-        raise StudyError(f"{where}.type: expected 'mount' for a joint of a [structure] study, got {data.get('type')!r}")
+        raise StudyError(f"{where}.type: expected 'mount' or 'elastomer' for a joint of a [structure] study, got {data.get('type')!r}")
+    return _mount(where, data, dofs)
+
+
+def _elastomer(where: str, data: Mapping, dofs: tuple[Dof, ...], other: tuple[Dof, ...]) -> ElastomerSpec:
+    from .physics.elastomer_mount import AXIS_DIRECTIONS, ROTATIONS, TRANSLATIONS, axis_sign
+
+    unknown = [k for k in data if k not in ELASTOMER_KEYS]
+    if unknown:
+        raise StudyError(f"{where}: unknown key {unknown[0]!r}; expected one of: " + ", ".join(ELASTOMER_KEYS))
+    axes = data.get("axes")
+    if not (isinstance(axes, list) and len(axes) == 2 and axes[0] in TRANSLATIONS and axes[1] in ROTATIONS):
+        raise StudyError(f"{where}.axes: expected [translation, rotation] playing (w, theta), such as [\"z\", \"ry\"], got {axes!r}")
+    t, r = axes
+    if r[1] == t:
+        raise StudyError(f"{where}.axes: the rotation {r} is about the translation {t}; theta turns about an axis across w: use e.g. [\"{t}\", \"r{'y' if t != 'y' else 'x'}\"]")
+    pair = []
+    for c in axes:
+        at = [i for i, d in enumerate(dofs) if d.direction == c]
+        if len(at) != 1:
+            raise StudyError(
+                f"{where}.axes: {c} is " + ("not a component of" if not at else "the component of several DOFs in")
+                + f" the joint's dofs ({', '.join(map(str, dofs))}); the elastomer joint needs exactly one {c} DOF there"
+            )
+        pair.append(at[0])
+    if dofs[pair[0]].node != dofs[pair[1]].node:
+        raise StudyError(f"{where}.axes: {dofs[pair[0]]} and {dofs[pair[1]]} are on different nodes; the elastomer joint's (w, theta) are on one node")
+    if other:
+        for i in pair:
+            if other[i].direction != dofs[i].direction:
+                raise StudyError(f"{where}.axes: other has {other[i]} opposite {dofs[i]}; an elastomer joint between two parts needs the same components on both sides")
+        if other[pair[0]].node != other[pair[1]].node:
+            raise StudyError(f"{where}.axes: {other[pair[0]]} and {other[pair[1]]} (other) are on different nodes; the elastomer joint's (w, theta) are on one node")
+    cyl = data.get("cylinder_axis")
+    if cyl is not None and cyl not in AXIS_DIRECTIONS:
+        raise StudyError(f"{where}.cylinder_axis: expected one of {', '.join(AXIS_DIRECTIONS)}, got {cyl!r}")
+    try:
+        sigma = axis_sign(t, r, cyl)
+    except ModelError as exc:
+        raise StudyError(f"{where}: {exc}") from None
+    from .physics.elastomer_mount import default_cylinder_axis
+
+    params = {k: v for k, v in data.items() if k not in ("type", "axes", "cylinder_axis")}
+    material = params.get("material", "A")
+    if material not in ("A", "B"):
+        raise StudyError(f"{where}.material: expected 'A' or 'B', got {material!r}")
+    for key, v in params.items():
+        if key == "material":
+            continue
+        if key == "cap":
+            if not isinstance(v, bool):
+                raise StudyError(f"{where}.cap: expected true or false, got {v!r}")
+        elif key == "elements":
+            if isinstance(v, bool) or not isinstance(v, int) or not 2 <= v <= 200:
+                raise StudyError(f"{where}.elements: expected an integer in 2..200, got {v!r}")
+        elif key == "poisson_ratio":
+            if not -1 < _number(f"{where}.poisson_ratio", v) < 0.5:
+                raise StudyError(f"{where}.poisson_ratio: expected a number in (-1, 0.5), got {v!r}")
+        else:
+            _number(f"{where}.{key}", v, positive=key != "loss_factor", nonneg=key == "loss_factor")
+    return ElastomerSpec((t, r), cyl or default_cylinder_axis(t, r), (pair[0], pair[1]), sigma, params)
+
+
+def _mount(where: str, data: Mapping, dofs: tuple[Dof, ...]) -> MountSpec:
     unknown = [k for k in data if k not in MOUNT_KEYS]
     if unknown:
         raise StudyError(f"{where}: unknown key {unknown[0]!r}; expected one of: " + ", ".join(MOUNT_KEYS))

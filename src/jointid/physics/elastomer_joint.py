@@ -77,6 +77,8 @@ __all__ = [
     "MATERIALS",
     "circle_shear_coefficient",
     "elastomer_joint_from_parameters",
+    "elastomer_joint_model",
+    "ELASTOMER_PARAMETERS",
 ]
 
 
@@ -448,23 +450,39 @@ def elastomer_joint_from_parameters(node: int, dofs: Sequence[str], parameters: 
     dofs : sequence of {"w", "theta"}
         Joint DOFs kept.
     parameters : mapping
+        See :func:`elastomer_joint_model`.
+    """
+    joint = elastomer_joint_model(parameters)
+    name = dict(parameters).get("material", "A")
+    return joint.complex_stiffness(node, tuple(dofs), name=f"elastomer joint (material {name})")
+
+
+def elastomer_joint_model(parameters: Mapping) -> ElastomerJoint:
+    """The :class:`ElastomerJoint` of a study's ``[joint.model]`` parameters (type ``"elastomer"``).
+
+    Parameters
+    ----------
+    parameters : mapping
         ``material`` (``"A"`` or ``"B"``, default ``"A"``) and optional overrides
         ``elastic_modulus`` (Pa), ``loss_factor``, ``density`` (kg/m^3),
         ``length`` (m), ``diameter`` (m), ``poisson_ratio``, ``elements``;
-        the beam-side end cap: ``cap`` (bool, default True: the cap belongs to
-        the joint model, not to the beam), ``cap_diameter`` (m),
+        the end cap(s): ``cap`` (bool, default True: the cap belongs to
+        the joint model, not to the structure), ``cap_diameter`` (m),
         ``cap_thickness`` (m), ``cap_density`` (kg/m^3).
+
+    Raises
+    ------
+    ModelError
+        An unknown material or parameter (one line).
     """
     p = dict(parameters)
     name = p.pop("material", "A")
     if name not in MATERIALS:
         raise ModelError(f"[joint.model].material: unknown elastomer {name!r}; built-in materials: {', '.join(MATERIALS)}")
     base = MATERIALS[name]
-    known = {"elastic_modulus", "loss_factor", "density", "length", "diameter", "poisson_ratio", "elements",
-             "cap", "cap_diameter", "cap_thickness", "cap_density"}
-    unknown = sorted(set(p) - known)
+    unknown = sorted(set(p) - set(ELASTOMER_PARAMETERS))
     if unknown:
-        raise ModelError(f"[joint.model]: unknown elastomer parameter {unknown[0]!r}; expected one of {', '.join(sorted(known))}")
+        raise ModelError(f"[joint.model]: unknown elastomer parameter {unknown[0]!r}; expected one of {', '.join(sorted(ELASTOMER_PARAMETERS))}")
     default_cap = EndCap()
     cap = None
     if p.get("cap", True):
@@ -473,7 +491,7 @@ def elastomer_joint_from_parameters(node: int, dofs: Sequence[str], parameters: 
             p.get("cap_thickness", default_cap.thickness_m),
             p.get("cap_density", default_cap.density_kg_m3),
         )
-    joint = ElastomerJoint(
+    return ElastomerJoint(
         elastic_modulus=p.get("elastic_modulus", base.elastic_modulus),
         loss_factor=p.get("loss_factor", base.loss_factor),
         density=p.get("density", base.density),
@@ -483,4 +501,8 @@ def elastomer_joint_from_parameters(node: int, dofs: Sequence[str], parameters: 
         elements=int(p.get("elements", 16)),
         cap=cap,
     )
-    return joint.complex_stiffness(node, tuple(dofs), name=f"elastomer joint (material {name})")
+
+
+#: Optional keys of :func:`elastomer_joint_model` besides ``material``.
+ELASTOMER_PARAMETERS = ("elastic_modulus", "loss_factor", "density", "length", "diameter", "poisson_ratio", "elements",
+                        "cap", "cap_diameter", "cap_thickness", "cap_density")

@@ -96,14 +96,11 @@ def relative_error(identified: np.ndarray, truth: np.ndarray) -> np.ndarray:
 
 
 def elastomer_joint(config, material: str):
-    """The :class:`~jointid.physics.elastomer_joint.ElastomerJoint` of ``config.materials[material]`` without end caps.
+    """The :class:`~jointid.physics.elastomer_joint.ElastomerJoint` of ``config.materials[material]`` without end caps
+    (:func:`jointid.models.config_elastomer_joint`; the beam-side cap belongs to the beam, see :func:`study_beam`)."""
+    from ..models import config_elastomer_joint
 
-    The caps are rigid steel masses; "every mass on one side": in the studies the
-    beam-side cap belongs to the beam (see :func:`study_beam`), not to the joint.
-    """
-    from ..physics.elastomer_joint import ElastomerJoint
-
-    return ElastomerJoint.from_material(config.materials[material], cap=None)
+    return config_elastomer_joint(config, material)
 
 
 def material_joint(config, material: str) -> ComplexStiffness:
@@ -112,23 +109,11 @@ def material_joint(config, material: str) -> ComplexStiffness:
 
 
 def study_beam(config, scale: Mapping[str, float] | None = None):
-    """The free beam of the studies with the joint's beam-side steel cap as a rigid mass at the joint node.
+    """The free beam of the studies with the joint's beam-side steel cap at the joint node
+    (:func:`jointid.models.config_beam`; ``scale``: beam parameter -> factor for model-error variants)."""
+    from ..models import config_beam
 
-    Parameters
-    ----------
-    scale : mapping, optional
-        Beam parameter -> factor (``{"elastic_modulus": 1.01}``) for model-error variants.
-    """
-    from dataclasses import replace
-
-    from ..physics.elastomer_joint import EndCap
-
-    spec = config.beam
-    if scale:
-        spec = replace(spec, **{k: getattr(spec, k) * v for k, v in scale.items()})
-    cap = EndCap()
-    inertia = cap.rotary_inertia_kg_m2 + cap.mass_kg * cap.offset_m**2
-    return spec.structure().with_mass(config.joint_node, cap.mass_kg, inertia)
+    return config_beam(config, scale)
 
 
 def add_noise(frf: FRF, level: float, rng: np.random.Generator) -> FRF:
