@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -61,3 +63,39 @@ def test_dense_structure_refuses_a_model_too_large_for_hong_lee():
         "the model has 60 DOFs; the plain Hong & Lee method needs the dense 60 x 60 Do[nbar, mbar] on every line "
         'and is limited to 50 DOFs: use method = "receptance"'
     )
+
+
+def test_hong_lee_identifies_two_6dof_mounts_of_a_structure_study_through_the_cli(tmp_path):
+    from jointid.cli.main import main
+    from test_structure_study import _matrix, _mount_truth, grounded_study, read_table
+
+    study = grounded_study(tmp_path)
+    study.write_text(study.read_text().replace('smoothing = "none"', 'method = "hong-lee"\nsymmetric = true'))
+    assert main(["simulate", str(study), "--out", str(tmp_path / "sim")]) == 0
+    assert main(["identify", str(study), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id")]) == 0
+    f = np.arange(10.0, 401.0, 20.0)
+    truth = _mount_truth(f, 1, [3e6, 2e6, 4e6, 3e3, 2.5e3, 1.5e3], [("x", "ry", 2e4), ("y", "rx", -1.5e4), ("x", "y", 4e5)],
+                         0.12, 0.3, 100.0, 0.8)
+    K = _matrix(read_table(tmp_path / "id" / "joint_stiffness_front.csv"), ["x", "y", "z", "rx", "ry", "rz"])
+    assert np.abs(K - truth).max() / np.abs(truth).max() < 1e-8
+    summary = json.loads((tmp_path / "id" / "summary.json").read_text())
+    assert summary["method"] == "hong-lee" and set(summary["joints"]) == {"front", "rear"}
+    assert (tmp_path / "id" / "joint_stiffness_rear.png").exists()
+
+
+def test_hong_lee_on_a_model_too_large_for_it_is_one_line(tmp_path, capsys, monkeypatch):
+    import jointid.physics.sparse_model as sparse_model
+    from jointid.cli.main import main
+    from test_structure_study import grounded_study
+
+    study = grounded_study(tmp_path)
+    study.write_text(study.read_text().replace('smoothing = "none"', 'method = "hong-lee"'))
+    assert main(["simulate", str(study), "--out", str(tmp_path / "sim")]) == 0
+    capsys.readouterr()
+    monkeypatch.setattr(sparse_model, "DENSE_STRUCTURE_MAX_DOFS", 50)
+    assert main(["identify", str(study), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id")]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"jointid identify: error: {study}: [identification].method = 'hong-lee': the model has 60 DOFs; the plain Hong & Lee "
+        'method needs the dense 60 x 60 Do[nbar, mbar] on every line and is limited to 50 DOFs: use method = "receptance"'
+    )
+    assert not (tmp_path / "id").exists()

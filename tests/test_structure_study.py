@@ -247,10 +247,6 @@ def test_structure_study_errors_are_one_exact_line(tmp_path):
     assert _error(tmp_path, lambda t: t.replace('mass = "model.npz"', 'mass = "model.npz"\n[beam]\nlength = 1.0')) == (
         "give either [beam] (the beam factory) or [structure] (matrix files), not both"
     )
-    assert _error(tmp_path, lambda t: t.replace('smoothing = "none"', 'method = "hong-lee"')) == (
-        "[identification].method = 'hong-lee' needs the dense FE model of a [beam] study (it solves for every unobserved DOF); "
-        "a [structure] study uses method = 'receptance'"
-    )
     assert _error(tmp_path, lambda t: t.replace('"1x", "1y"', '"1x", "1q"', 1)) == (
         "[[joint]] 'front'.dofs: cannot read a DOF from '1q'; write it as '<node><direction>', e.g. '10w', '10theta', '101z', "
         "'101rx' or '1995001s'"

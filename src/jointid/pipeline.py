@@ -183,13 +183,12 @@ def identify(
         If the layout has too few coordinates.
 
     A ``[structure]`` study identifies all its joints at once
-    (:func:`jointid.pipeline_structure.identify_structure`; receptance method only).
+    (:func:`jointid.pipeline_structure.identify_structure`; Hong & Lee on models of
+    at most 3000 DOFs).
     """
     if study.is_structure:
         from .pipeline_structure import identify_structure
 
-        if isinstance(options, InverseOptions):
-            raise DataError("the Hong & Lee method needs the dense model of a [beam] study; use the receptance method")
         return identify_structure(study, measured, options)
     m = study.measurement
     check_layout(len(study.joint.dofs), m.observed, m.excited)

@@ -99,25 +99,42 @@ def read_measured_structure(study: Study, path: str | os.PathLike) -> FRF:
     )
 
 
-def identify_structure(study: Study, measured: FRF, options: CouplingOptions | None = None) -> CouplingResult:
-    """Identify every joint of a structure study at once (one full symmetric ``Du`` on all joint DOFs).
+def identify_structure(study: Study, measured: FRF, options=None):
+    """Identify every joint of a structure study at once (one ``Du`` on all joint DOFs).
 
     Uses the lines of ``measured`` inside ``[frequency] start..stop`` (above 0 Hz);
     responses and references are reordered to the study's observed/excited DOFs.
     Split the result per joint with :func:`split_joints`.
 
+    The method is ``[identification].method`` unless ``options`` says otherwise: the
+    receptance method (:class:`CouplingOptions`, any model size) or the plain Hong &
+    Lee method (:class:`~jointid.methods.inverse.InverseOptions`) on the dense model,
+    for models of at most :data:`~jointid.physics.sparse_model.DENSE_STRUCTURE_MAX_DOFS`
+    DOFs (it solves with ``Do[nbar, mbar]`` on every line).
+
     Raises
     ------
     DataError
         The file lacks one of the study's DOFs.
+    StudyError
+        Hong & Lee on a model too large for it (one line).
     """
-    from .pipeline import coupling_options, study_frfs
+    from .errors import ModelError
+    from .methods.inverse import InverseOptions, identify_joint
+    from .pipeline import coupling_options, inverse_options, study_frfs
 
-    return identify_joint_coupling(structure_model(study), study_frfs(study, measured), study.joint_dofs, options or coupling_options(study))
+    data = study_frfs(study, measured)
+    if isinstance(options, InverseOptions) or (options is None and study.identification.method == "hong-lee"):
+        try:
+            dense = structure_model(study).dense_structure()
+        except ModelError as exc:
+            raise StudyError(f"{study.source}: [identification].method = 'hong-lee': {exc}") from None
+        return identify_joint(dense, data, study.joint_dofs, options or inverse_options(study))
+    return identify_joint_coupling(structure_model(study), data, study.joint_dofs, options or coupling_options(study))
 
 
-def split_joints(study: Study, result: CouplingResult) -> dict[str, CouplingResult]:
-    """One :class:`CouplingResult` per ``[[joint]]`` (name -> its block of ``result``), in study order."""
+def split_joints(study: Study, result):
+    """One result per ``[[joint]]`` (name -> its block of ``result``, a CouplingResult or InverseResult), in study order."""
     out, i = {}, 0
     for joint in study.joints:
         k = len(joint.joint_dofs)

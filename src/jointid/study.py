@@ -398,11 +398,6 @@ def _parse_structure_study(data: Mapping[str, Any], source: str) -> Study:
     measurement = MeasurementSpec(dofs["observed"], dofs["excited"], "+Z", points)
     frequency = _frequency(data)
     ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
-    if ident.method == "hong-lee":
-        raise StudyError(
-            "[identification].method = 'hong-lee' needs the dense FE model of a [beam] study (it solves for every "
-            "unobserved DOF); a [structure] study uses method = 'receptance'"
-        )
     if ident.model_accelerometers:
         raise StudyError("[identification].model_accelerometers applies to [beam] studies only")
     exp = ExperimentSpec(**_section(data.get("experiment", {}), "experiment", _EXPERIMENT))

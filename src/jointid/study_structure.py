@@ -60,8 +60,9 @@ two-end dynamic condensation with both caps (see :mod:`jointid.physics.elastomer
 Every joint DOF, observed and excited DOF must be a DOF of the structure; a
 DOF belongs to at most one joint; all joints are identified at once, so at
 least as many observed and excited DOFs as joint DOFs (of all joints
-together) are needed. Only the receptance method applies (Hong & Lee needs
-the dense model of a ``[beam]`` study).
+together) are needed. Both methods apply: the receptance method (default, any
+model size) and the plain Hong & Lee method (``[identification] method =
+"hong-lee"``) on models of at most 3000 DOFs, which it needs dense.
 """
 
 from __future__ import annotations

@@ -62,7 +62,7 @@ the L-curve (biased: it shrinks ``Du`` where ``H*[n, e]`` is ill-conditioned).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Sequence
 
 import numpy as np
@@ -206,6 +206,19 @@ class InverseResult:
     def term(self, i: str, j: str) -> np.ndarray:
         """Stiffness term ``K_ij`` (directions ``"w"``/``"theta"``) vs frequency, shape (F,)."""
         return joint_term(self.stiffness, self.joint_dofs, i, j)
+
+    def subset(self, indices) -> "InverseResult":
+        """The result on a subset of the joint DOFs (one of several joints identified together).
+
+        ``stiffness`` and ``identifiability`` are cut to the ``indices``; the per-line
+        diagnostics (condition numbers, ``reliable``) and the estimated FRFs are those
+        of the joint estimate.
+        """
+        idx = np.asarray(list(indices), dtype=int)
+        return replace(
+            self, joint_dofs=tuple(self.joint_dofs[i] for i in idx),
+            stiffness=self.stiffness[:, idx[:, None], idx[None, :]], identifiability=self.identifiability[:, idx],
+        )
 
     def columns(self) -> dict[str, np.ndarray]:
         """Table columns: ``frequency_hz``, ``K_{i}_{j}_real/imag`` per ordered pair, ``cond_*``, ``reliable``."""

@@ -260,7 +260,7 @@ class SparseModel:
             return self._direct(f, ri, ci)
         return self._modal(f, ri, ci)
 
-    def dense_structure(self, max_dofs: int = DENSE_STRUCTURE_MAX_DOFS):
+    def dense_structure(self, max_dofs: int | None = None):
         """The model as a dense :class:`~jointid.physics.structure.Structure` (``K (1 + j eta)``, ``M``), for small models.
 
         What the plain Hong & Lee method needs: it solves with ``Do[nbar, mbar]``,
@@ -275,6 +275,7 @@ class SparseModel:
         """
         from .structure import Structure
 
+        max_dofs = DENSE_STRUCTURE_MAX_DOFS if max_dofs is None else max_dofs
         if self.size > max_dofs:
             raise ModelError(
                 f"the model has {self.size} DOFs; the plain Hong & Lee method needs the dense {self.size} x {self.size} "

@@ -15,7 +15,9 @@ TERM_UNITS = {("w", "w"): "N/m", ("w", "theta"): "N/rad", ("theta", "w"): "N*m/m
 def plot_identification(result, truth: np.ndarray | None = None):
     """Plot an :class:`~jointid.methods.inverse.InverseResult`.
 
-    One column per independent joint term (upper triangle): magnitude on a log
+    A joint of more than 3 DOFs (a 3-D mount) gets the compact figure of
+    :func:`jointid.plots.joint_matrix.plot_joint_terms`. Up to 3 DOFs: one
+    column per independent joint term (upper triangle): magnitude on a log
     axis, loss factor ``Im/Re`` on a linear axis; beneath, the condition numbers
     (log axis). Unreliable lines are shaded.
 
@@ -29,14 +31,21 @@ def plot_identification(result, truth: np.ndarray | None = None):
     -------
     Figure
     """
+    from ..methods.inverse import dof_term_labels, term_unit
+
     f = result.frequency.hz
     dofs = result.joint_dofs
+    if len(dofs) > 3:  # a 3-D mount: diagonal terms and the largest couplings in one compact figure
+        from .joint_matrix import plot_joint_terms
+
+        return plot_joint_terms(result, truth=truth)
+    labels = dof_term_labels(dofs)
     terms = [(i, j) for i in range(len(dofs)) for j in range(i, len(dofs))]
     fig, axes = new_figure(3, len(terms), figsize=(4.2 * len(terms) + 1, 8.0), height_ratios=[2, 1.3, 1.3])
     axes = np.asarray(axes).reshape(3, len(terms))
     bad = ~np.asarray(result.reliable, bool)
     for c, (i, j) in enumerate(terms):
-        di, dj = dofs[i].direction, dofs[j].direction
+        di, dj = labels[i], labels[j]
         k = result.stiffness[:, i, j]
         ax_m, ax_l, ax_c = axes[:, c]
         storage = k.real > 0  # Im/Re is a loss factor only where the storage part is positive
@@ -50,7 +59,7 @@ def plot_identification(result, truth: np.ndarray | None = None):
             with np.errstate(divide="ignore", invalid="ignore"):
                 ax_l.plot(f, np.where(t.real > 0, t.imag / t.real, np.nan), "k--", lw=1.0, label="true", zorder=5)
         ax_m.set_title(f"K_{di}_{dj}")
-        ax_m.set_ylabel(f"|K_{di}_{dj}| [{TERM_UNITS[(di, dj)]}]")
+        ax_m.set_ylabel(f"|K_{di}_{dj}| [{term_unit(dofs[i], dofs[j])}]")
         ax_l.set_ylabel("loss factor [-] (where Re K > 0)")
         ax_l.legend(fontsize="x-small")
         lo, hi = np.nanpercentile(eta, [5, 95]) if np.isfinite(eta).any() else (0, 1)
