@@ -70,3 +70,21 @@ def test_reproduce_config_robustness_values(tmp_path):
     p.write_text("[noise_robustness]\nlevels = [0.03, 0.01]\nseeds = 2\njoint_nodes = [1]\n")
     c = load_config(p)
     assert (c.robustness_levels, c.robustness_seeds, c.robustness_joint_nodes) == ((0.01, 0.03), 2, (1,))
+
+
+def test_label_names_an_array_of_tables_entry_and_lists_may_repeat_values():
+    from jointid.schema import Field, positive, section
+
+    where = "[[joint]] 'front' [joint.model]"
+    fields = {"stiffness": Field("number_list", True, check=lambda v: None if all(x > 0 for x in v) else "positive values", unique=False),
+              "growth": Field("number", default=0.0, check=positive)}
+    assert section({"stiffness": [2e6, 2e6]}, "joint.model", fields, label=where) == {"stiffness": (2e6, 2e6), "growth": 0.0}
+    with pytest.raises(StudyError) as exc:
+        section({"stiffness": [1.0], "growth": -1}, "joint.model", fields, label=where)
+    assert str(exc.value) == f"{where}.growth: expected a positive number, got -1.0"
+    with pytest.raises(StudyError) as exc:
+        section({"stiffness": [1.0], "grow": 1}, "joint.model", fields, label=where)
+    assert str(exc.value) == f"{where}: unknown key 'grow'; expected one of: stiffness, growth"
+    with pytest.raises(StudyError) as exc:
+        section({}, "joint.model", fields, label=where)
+    assert str(exc.value) == f"{where}: missing key 'stiffness'"

@@ -182,7 +182,7 @@ def test_bad_axes_are_one_exact_line(tmp_path):
         f"{w}: unknown key 'stiffness'; expected one of: type, axes, cylinder_axis, material, elastic_modulus, loss_factor, "
         "density, length, diameter, poisson_ratio, elements, cap, cap_diameter, cap_thickness, cap_density"
     )
-    assert _load_error(tmp_path, extra_model='density = -3.0\n') == f"{w}.density: expected a positive number, got -3.0"
+    assert _load_error(tmp_path, extra_model='density = -3.0\n') == f"{w}.density: expected a positive number (kg/m^3), got -3.0"
     assert _load_error(tmp_path, other=("11z", "11rz")) == (
         f"{w}.axes: other has 11rz opposite 10ry; an elastomer joint between two parts needs the same components on both sides"
     )

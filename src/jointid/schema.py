@@ -9,7 +9,8 @@ files) and :mod:`jointid.studies.config` (``jointid reproduce --config``).
 
 Kinds: ``"number"`` (int or float, finite, returned as float), ``"int"``, ``"bool"``,
 ``"str"``, ``"int_list"``, ``"str_list"``, ``"number_list"`` (lists: entries of that
-kind, each once, returned as a tuple).
+kind, each once unless ``unique=False``, returned as a tuple), ``"any"`` (as written; the
+check validates it).
 """
 
 from __future__ import annotations
@@ -43,6 +44,8 @@ class Field:
     expected : str or None
         One description for every complaint about this key, type or check
         (``"an integer >= 1"``); the message then shows the value as written in the file.
+    unique : bool
+        Lists: each entry at most once (a list of stiffnesses may repeat values: False).
     """
 
     kind: str
@@ -51,6 +54,7 @@ class Field:
     unit: str = ""
     check: Callable[[Any], str | None] | None = None  # returns a complaint or None
     expected: str | None = None
+    unique: bool = True
 
 
 def positive(v) -> str | None:
@@ -76,15 +80,17 @@ def _number(value: Any) -> bool:
     return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
 
 
-def typed(section: str | None, key: str, f: Field, value: Any) -> Any:
+def typed(section: str | None, key: str, f: Field, value: Any, label: str | None = None) -> Any:
     """``value`` of ``[section].key`` (``key`` alone when ``section`` is None) checked against ``f``.
+
+    ``label`` replaces ``[section]`` in the messages (e.g. ``"[[joint]] 'front' [joint.model]"``).
 
     Raises
     ------
     StudyError
         ``"[section].key: expected <what> (<unit>), got <value>"``.
     """
-    where = f"[{section}].{key}" if section is not None else key
+    where = f"{label}.{key}" if label is not None else f"[{section}].{key}" if section is not None else key
     unit = f" ({f.unit})" if f.unit else ""
     raw = value
 
@@ -108,6 +114,8 @@ def typed(section: str | None, key: str, f: Field, value: Any) -> Any:
     elif f.kind == "str":
         if not isinstance(value, str):
             fail("a string")
+    elif f.kind == "any":  # structured values (a list of lists): the check does the work
+        pass
     elif f.kind in ("int_list", "str_list", "number_list"):
         if f.kind == "number_list":
             ok = isinstance(value, list) and all(_number(x) for x in value)
@@ -118,7 +126,7 @@ def typed(section: str | None, key: str, f: Field, value: Any) -> Any:
             what = "integers" if item is int else "strings"
         if not ok:
             fail(f"a list of {what}")
-        if len(set(value)) != len(value):
+        if f.unique and len(set(value)) != len(value):
             raise StudyError(f"{where}: repeated entries in {value!r}; list each once")
         value = tuple(float(x) for x in value) if f.kind == "number_list" else tuple(value)
     if f.check is not None:
@@ -129,7 +137,8 @@ def typed(section: str | None, key: str, f: Field, value: Any) -> Any:
 
 
 def section(
-    data: Mapping, section: str, fields: Mapping[str, Field], sub: tuple[str, ...] = (), listing: str = "one of: "
+    data: Mapping, section: str, fields: Mapping[str, Field], sub: tuple[str, ...] = (), listing: str = "one of: ",
+    label: str | None = None,
 ) -> dict:
     """Every key of ``fields`` typed (or its default) from the table ``[section]``.
 
@@ -144,6 +153,9 @@ def section(
         Names of sub-tables allowed in ``data`` and left to the caller.
     listing : str
         Words before the allowed keys in the unknown-key message (``"expected one of: a, b"``).
+    label : str, optional
+        The table's name in the messages instead of ``[section]`` (an array-of-tables entry:
+        ``"[[joint]] 'front' [joint.model]"``).
 
     Raises
     ------
@@ -151,19 +163,20 @@ def section(
         Not a table, an unknown key (the allowed ones listed), a missing required key,
         or a bad value (see :func:`typed`).
     """
+    name = label if label is not None else f"[{section}]"
     if not isinstance(data, Mapping):
-        raise StudyError(f"[{section}] must be a table, got {data!r}")
+        raise StudyError(f"{name} must be a table, got {data!r}")
     unknown = [k for k in data if k not in fields and k not in sub]
     if unknown:
         raise StudyError(
-            f"[{section}]: unknown key {unknown[0]!r}; expected {listing}" + ", ".join(list(fields) + list(sub))
+            f"{name}: unknown key {unknown[0]!r}; expected {listing}" + ", ".join(list(fields) + list(sub))
         )
     out = {}
     for key, f in fields.items():
         if key in data:
-            out[key] = typed(section, key, f, data[key])
+            out[key] = typed(section, key, f, data[key], label)
         elif f.required:
-            raise StudyError(f"[{section}]: missing key {key!r}" + (f" ({f.unit})" if f.unit else ""))
+            raise StudyError(f"{name}: missing key {key!r}" + (f" ({f.unit})" if f.unit else ""))
         else:
             out[key] = f.default
     return out

@@ -76,17 +76,56 @@ import numpy as np
 
 from .dofs import Dof, DofArray, parse_dof
 from .errors import DataError, DofError, ModelError, StudyError
+from .schema import Field, choices, nonneg, positive, section, typed
 
 __all__ = ["StructureSpec", "MountSpec", "ElastomerSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key", "MOUNT_KEYS"]
 
-#: Keys of ``[joint.model] type = "mount"``.
-MOUNT_KEYS = ("type", "stiffness", "couplings", "loss_factor", "growth", "reference_frequency", "exponent")
-#: Keys of ``[joint.model] type = "elastomer"`` (material and overrides as for a ``[beam]`` study's elastomer joint).
-ELASTOMER_KEYS = ("type", "axes", "cylinder_axis", "material", "elastic_modulus", "loss_factor", "density", "length",
-                  "diameter", "poisson_ratio", "elements", "cap", "cap_diameter", "cap_thickness", "cap_density")
 _STRUCTURE_KEYS = ("mass", "stiffness", "dofs", "loss_factor", "method")
 _JOINT_KEYS = ("name", "dofs", "other", "model")
 _NAME = re.compile(r"^[A-Za-z0-9_-]{1,40}$")
+
+
+def _all_positive(v) -> str | None:
+    return None if all(x > 0 for x in v) else "a list of positive numbers"
+
+
+def _list_of_lists(v) -> str | None:
+    return None if isinstance(v, list) else "a list of [dof_i, dof_j, value]"
+
+
+#: Schema of ``[joint.model] type = "mount"`` (the stiffness list's length is checked against the joint's DOFs).
+_MOUNT_FIELDS = {
+    "type": Field("str", check=choices("mount")),
+    "stiffness": Field("number_list", True, unit="N/m, N*m/rad", check=_all_positive,
+                       expected="a list of positive stiffnesses, one per DOF of dofs", unique=False),
+    "couplings": Field("any", default=[], check=_list_of_lists),
+    "loss_factor": Field("number", default=0.1, check=nonneg),
+    "growth": Field("number", default=0.0, check=nonneg),
+    "reference_frequency": Field("number", default=100.0, unit="Hz", check=positive),
+    "exponent": Field("number", default=1.0, check=positive),
+}
+#: Schema of ``[joint.model] type = "elastomer"`` (material keys as :func:`~jointid.physics.elastomer_joint.elastomer_joint_model`).
+_ELASTOMER_FIELDS = {
+    "type": Field("str", check=choices("elastomer")),
+    "axes": Field("any"),
+    "cylinder_axis": Field("any"),
+    "material": Field("str", default="A", check=choices("A", "B")),
+    "elastic_modulus": Field("number", unit="Pa", check=positive),
+    "loss_factor": Field("number", check=nonneg),
+    "density": Field("number", unit="kg/m^3", check=positive),
+    "length": Field("number", unit="m", check=positive),
+    "diameter": Field("number", unit="m", check=positive),
+    "poisson_ratio": Field("number", check=lambda v: None if -1 < v < 0.5 else "a number in (-1, 0.5)"),
+    "elements": Field("int", check=lambda v: None if 2 <= v <= 200 else "an integer in 2..200"),
+    "cap": Field("bool"),
+    "cap_diameter": Field("number", unit="m", check=positive),
+    "cap_thickness": Field("number", unit="m", check=positive),
+    "cap_density": Field("number", unit="kg/m^3", check=positive),
+}
+#: Keys of ``[joint.model] type = "mount"``.
+MOUNT_KEYS = tuple(_MOUNT_FIELDS)
+#: Keys of ``[joint.model] type = "elastomer"`` (material and overrides as for a ``[beam]`` study's elastomer joint).
+ELASTOMER_KEYS = tuple(_ELASTOMER_FIELDS)
 
 
 @dataclass(frozen=True)
@@ -379,41 +418,18 @@ def _elastomer(where: str, data: Mapping, dofs: tuple[Dof, ...], other: tuple[Do
         raise StudyError(f"{where}: {exc}") from None
     from .physics.elastomer_mount import default_cylinder_axis
 
+    section(data, "joint.model", _ELASTOMER_FIELDS, label=where)  # types and ranges, one line each
     params = {k: v for k, v in data.items() if k not in ("type", "axes", "cylinder_axis")}
-    material = params.get("material", "A")
-    if material not in ("A", "B"):
-        raise StudyError(f"{where}.material: expected 'A' or 'B', got {material!r}")
-    for key, v in params.items():
-        if key == "material":
-            continue
-        if key == "cap":
-            if not isinstance(v, bool):
-                raise StudyError(f"{where}.cap: expected true or false, got {v!r}")
-        elif key == "elements":
-            if isinstance(v, bool) or not isinstance(v, int) or not 2 <= v <= 200:
-                raise StudyError(f"{where}.elements: expected an integer in 2..200, got {v!r}")
-        elif key == "poisson_ratio":
-            if not -1 < _number(f"{where}.poisson_ratio", v) < 0.5:
-                raise StudyError(f"{where}.poisson_ratio: expected a number in (-1, 0.5), got {v!r}")
-        else:
-            _number(f"{where}.{key}", v, positive=key != "loss_factor", nonneg=key == "loss_factor")
     return ElastomerSpec((t, r), cyl or default_cylinder_axis(t, r), (pair[0], pair[1]), sigma, params)
 
 
 def _mount(where: str, data: Mapping, dofs: tuple[Dof, ...]) -> MountSpec:
-    unknown = [k for k in data if k not in MOUNT_KEYS]
-    if unknown:
-        raise StudyError(f"{where}: unknown key {unknown[0]!r}; expected one of: " + ", ".join(MOUNT_KEYS))
-    s = data.get("stiffness")
-    if not isinstance(s, list) or len(s) != len(dofs):
-        raise StudyError(f"{where}.stiffness: expected a list of {len(dofs)} stiffnesses (N/m, N*m/rad), one per DOF of dofs, got {s!r}")
-    stiff = tuple(_number(f"{where}.stiffness", v, positive=True) for v in s)
+    v = section(data, "joint.model", _MOUNT_FIELDS, label=where)
+    if len(v["stiffness"]) != len(dofs):
+        raise StudyError(f"{where}.stiffness: expected a list of {len(dofs)} stiffnesses (N/m, N*m/rad), one per DOF of dofs, got {data['stiffness']!r}")
     couplings = []
-    raw = data.get("couplings", [])
-    if not isinstance(raw, list):
-        raise StudyError(f"{where}.couplings: expected a list of [dof_i, dof_j, value], got {raw!r}")
     seen = set()
-    for c in raw:
+    for c in data.get("couplings", []):
         if not (isinstance(c, list) and len(c) == 3 and isinstance(c[0], str) and isinstance(c[1], str)):
             raise StudyError(f"{where}.couplings: expected entries [dof_i, dof_j, value] such as [\"101x\", \"101ry\", 5e3], got {c!r}")
         try:
@@ -426,11 +442,7 @@ def _mount(where: str, data: Mapping, dofs: tuple[Dof, ...]) -> MountSpec:
         if a == b or frozenset((a, b)) in seen:
             raise StudyError(f"{where}.couplings: [{a}, {b}] is " + ("a diagonal term (give it in stiffness)" if a == b else "given twice"))
         seen.add(frozenset((a, b)))
-        couplings.append((str(a), str(b), _number(f"{where}.couplings", c[2])))
+        couplings.append((str(a), str(b), typed(None, "couplings", Field("number"), c[2], where)))
     return MountSpec(
-        stiff, tuple(couplings),
-        _number(f"{where}.loss_factor", data.get("loss_factor", 0.1), nonneg=True),
-        _number(f"{where}.growth", data.get("growth", 0.0), nonneg=True),
-        _number(f"{where}.reference_frequency", data.get("reference_frequency", 100.0), positive=True),
-        _number(f"{where}.exponent", data.get("exponent", 1.0), positive=True),
+        v["stiffness"], tuple(couplings), v["loss_factor"], v["growth"], v["reference_frequency"], v["exponent"],
     )
