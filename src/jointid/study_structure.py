@@ -13,6 +13,8 @@ array of tables ``[[joint]]`` (a single ``[joint]`` table is one joint), and
     stiffness = "frame.npz"       # paths relative to the study file
     dofs = "frame_dofs.csv"       # node,component per matrix row
     loss_factor = 0.002           # structural damping K (1 + j eta)
+    stiffness_scale = 1.0         # alpha, mass_scale = beta: the free model is alpha K (1 + j eta) - w^2 beta M
+    mass_scale = 1.0              #   (fitted by `jointid update`; default 1)
     method = "auto"               # free receptance: "auto" | "modal" | "direct" (jointid.physics.sparse_model)
 
     [[joint]]
@@ -83,7 +85,7 @@ MOUNT_KEYS = ("type", "stiffness", "couplings", "loss_factor", "growth", "refere
 #: Keys of ``[joint.model] type = "elastomer"`` (material and overrides as for a ``[beam]`` study's elastomer joint).
 ELASTOMER_KEYS = ("type", "axes", "cylinder_axis", "material", "elastic_modulus", "loss_factor", "density", "length",
                   "diameter", "poisson_ratio", "elements", "cap", "cap_diameter", "cap_thickness", "cap_density")
-_STRUCTURE_KEYS = ("mass", "stiffness", "dofs", "loss_factor", "method")
+_STRUCTURE_KEYS = ("mass", "stiffness", "dofs", "loss_factor", "method", "stiffness_scale", "mass_scale")
 _JOINT_KEYS = ("name", "dofs", "other", "model")
 _NAME = re.compile(r"^[A-Za-z0-9_-]{1,40}$")
 
@@ -92,6 +94,7 @@ _NAME = re.compile(r"^[A-Za-z0-9_-]{1,40}$")
 class StructureSpec:
     """``[structure]``: the free structure's matrix files and DOF list (as given), damping, receptance method.
 
+    The free model is ``stiffness_scale K (1 + j loss_factor) - w^2 mass_scale M``.
     Relative paths are relative to ``base`` (the study file's directory).
     ``dof_array`` is read at validation (to check the study's DOFs); the
     matrices are read by :meth:`model`.
@@ -104,9 +107,11 @@ class StructureSpec:
     method: str = "auto"
     base: str = "."
     dof_array: DofArray | None = None
+    stiffness_scale: float = 1.0
+    mass_scale: float = 1.0
 
     def model(self):
-        """The free structure as a :class:`~jointid.physics.sparse_model.SparseModel`.
+        """The free structure as a :class:`~jointid.physics.sparse_model.SparseModel` (the matrices times their scales).
 
         Raises
         ------
@@ -131,7 +136,10 @@ class StructureSpec:
                 )
             mats.append(A)
         try:
-            return SparseModel(mats[0], mats[1], self.dof_array, self.loss_factor, method=self.method)
+            M, K = mats
+            M = M if self.mass_scale == 1.0 else M * self.mass_scale
+            K = K if self.stiffness_scale == 1.0 else K * self.stiffness_scale
+            return SparseModel(M, K, self.dof_array, self.loss_factor, method=self.method)
         except ModelError as exc:
             raise StudyError(f"[structure]: {exc}") from None
 
@@ -250,7 +258,8 @@ def parse_structure(data: Any, base: Path) -> StructureSpec:
         dof_array = read_dof_list(dofs, base)
     except DataError as exc:
         raise StudyError(f"[structure].dofs: {exc}") from None
-    return StructureSpec(mass, stiffness, dofs, eta, method, str(base), dof_array)
+    scales = {k: _number(f"[structure].{k}", data.get(k, 1.0), positive=True) for k in ("stiffness_scale", "mass_scale")}
+    return StructureSpec(mass, stiffness, dofs, eta, method, str(base), dof_array, **scales)
 
 
 def parse_dof_list_key(where: str, value: Any, model: DofArray, model_name: str, allow_empty: bool = False) -> tuple[Dof, ...]:
