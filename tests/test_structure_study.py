@@ -278,10 +278,10 @@ def test_not_positive_definite_mount_and_beam_only_commands(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"jointid simulate: error: {p}: [[joint]] 'front' [joint.model]: the mount stiffness (diagonal and couplings) "
                           "is not positive definite (smallest eigenvalue")
-    assert main(["update", str(p), "--frf", "x.uff", "--out", str(tmp_path / "u")]) == 2
+    assert main(["modes", str(p), "--out", str(tmp_path / "u")]) == 2
     assert capsys.readouterr().err.strip() == (
-        f"jointid update: error: {p}: `jointid update` needs a [beam] study; a [structure] study works with "
-        "`jointid simulate`, `jointid identify` and `jointid experiment`"
+        f"jointid modes: error: {p}: `jointid modes` needs a [beam] study; a [structure] study works with "
+        "`jointid simulate`, `jointid identify`, `jointid experiment` and `jointid update`"
     )
 
 

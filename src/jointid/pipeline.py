@@ -396,8 +396,15 @@ def read_free_measured(study: Study, path: str | os.PathLike) -> FRF:
 
     ``[measurement].points`` and ``.axis`` apply as in :func:`read_measured`;
     a record at a node outside the beam is an error naming the file and record.
+    A ``[structure]`` study reads its observed x excited DOFs
+    (:func:`jointid.pipeline_structure.read_free_measured_structure`).
     """
     from .io.frf_files import read_frf
+
+    if study.is_structure:
+        from .pipeline_structure import read_free_measured_structure
+
+        return read_free_measured_structure(study, path)
 
     m = study.measurement
     return read_frf(path, n_nodes=study.beam.nodes, points=m.point_map, axis=m.axis, coherence=True)
@@ -448,8 +455,15 @@ def update(study: Study, measured: FRF, options=None):
     See :func:`jointid.methods.updating.update_free_model`; the lines of
     ``measured`` in ``[frequency] start..stop`` (above 0 Hz) are used on the
     data's own grid. Returns its :class:`~jointid.methods.updating.UpdateResult`.
+    A ``[structure]`` study fits its stiffness and mass scales and loss factor
+    (:func:`jointid.pipeline_structure.update_structure`).
     """
     from .methods.updating import update_free_model
+
+    if study.is_structure:
+        from .pipeline_structure import update_structure
+
+        return update_structure(study, measured, options)
 
     data = measured.band(max(study.frequency.start, 1e-6), study.frequency.stop)
     build, initial = free_beam_parameters(study)

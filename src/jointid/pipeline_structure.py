@@ -26,6 +26,13 @@ estimated too, and should vanish); the result is split into one
 (:func:`split_joints`), and :func:`cross_joint_ratio` reports how large the
 terms between joints came out relative to the joints' own terms (a diagnostic
 of model error or of a joint the study does not list).
+
+**Model updating** (:func:`update_structure`, behind ``jointid update``): the
+free structure's ``stiffness_scale``, ``mass_scale`` and ``loss_factor`` fitted
+to free-free FRFs (no joints) on the observed x excited DOFs, by
+:func:`jointid.methods.updating.update_free_model` on
+:class:`jointid.methods.updating_structure.ScaledMatrixFamily` (one modal
+basis for the whole fit: exact scaling law).
 """
 
 from __future__ import annotations
@@ -44,6 +51,7 @@ from .study import Study
 __all__ = [
     "structure_model", "true_joints", "true_joint_matrix", "constrained_structure", "simulate_structure",
     "read_measured_structure", "identify_structure", "split_joints", "cross_joint_ratio",
+    "structure_parameters", "simulate_free_structure", "read_free_measured_structure", "update_structure",
 ]
 
 
@@ -156,3 +164,92 @@ def cross_joint_ratio(study: Study, stiffness: np.ndarray) -> float:
         return 0.0
     mag = np.abs(stiffness)
     return float(mag[:, cross].max() / mag[:, ~cross].max())
+
+
+# --------------------------------------------------------------------------- free-free test and model updating
+def structure_parameters(study: Study) -> dict:
+    """The ``[structure]`` values :func:`update_structure` can fit: ``stiffness_scale``, ``mass_scale``, ``loss_factor``."""
+    spec = study.structure
+    return {"stiffness_scale": spec.stiffness_scale, "mass_scale": spec.mass_scale, "loss_factor": spec.loss_factor}
+
+
+def simulate_free_structure(study: Study, frequency: Frequency | None = None, noise: float = 0.0, seed: int = 0) -> FRF:
+    """A virtual free-free test: accelerances of the study's free structure (no joints) at its observed x excited DOFs.
+
+    The structure is ``[structure]`` as given (matrices times ``stiffness_scale``,
+    ``mass_scale``; ``loss_factor``): to test a model against a different true
+    structure, simulate a study of that structure.
+
+    Parameters
+    ----------
+    frequency : Frequency, optional
+        Default: the study's grid (a 0 Hz line is dropped: a free structure has no receptance there).
+    noise : float
+        Relative rms of complex Gaussian noise on every value, ``H (1 + noise n)``,
+        ``n`` circular with ``E|n|^2 = 1`` (0: exact).
+    seed : int
+        Seed of the noise.
+
+    Returns
+    -------
+    FRF
+        Accelerance, (m/s^2)/N (rotations rad/s^2, per N*m), shape (F, |m|, |e|).
+    """
+    from .errors import DataError
+
+    if not (np.isfinite(noise) and noise >= 0):
+        raise DataError(f"noise must be a relative rms >= 0, got {noise!r}")
+    frequency = frequency or study.grid
+    if frequency.hz[0] <= 0:
+        frequency = frequency[frequency.hz > 0]
+    m = study.measurement
+    Y = structure_model(study).receptance(frequency, m.observed_dofs, m.excited_dofs)
+    frf = FRF(frequency, Y, m.observed_dofs, m.excited_dofs, "receptance").to("accelerance")
+    if noise > 0:
+        rng = np.random.default_rng(seed)
+        n = (rng.standard_normal(frf.data.shape) + 1j * rng.standard_normal(frf.data.shape)) / np.sqrt(2.0)
+        frf = FRF(frf.frequency, frf.data * (1.0 + noise * n), frf.responses, frf.references, frf.kind)
+    return frf
+
+
+def read_free_measured_structure(study: Study, path: str | os.PathLike) -> FRF:
+    """Read a free-free FRF file (the structure without joints) on the study's observed x excited DOFs, with coherence.
+
+    Read like :func:`read_measured_structure` (UFF direction codes 1-6 are x..rz,
+    ``[measurement.points]`` applies).
+    """
+    return read_measured_structure(study, path)
+
+
+def update_structure(study: Study, measured: FRF, options=None):
+    """Update the free structure of a ``[structure]`` study from free-free FRFs over the study's band.
+
+    Fits ``stiffness_scale`` (alpha), ``mass_scale`` (beta) and ``loss_factor`` (eta)
+    of ``alpha K (1 + j eta) - w^2 beta M`` (any subset, ``options.parameters``;
+    default all three) to the observed x excited FRFs of ``measured`` in
+    ``[frequency] start..stop`` (above 0 Hz, on the data's own lines): see
+    :func:`jointid.methods.updating.update_free_model` and
+    :mod:`jointid.methods.updating_structure`.
+
+    Returns
+    -------
+    UpdateResult
+
+    Raises
+    ------
+    ModelError
+        A parameter that is not one of the structure's (one line naming the allowed ones).
+    DataError
+        The file lacks one of the study's DOFs; the fit did not converge.
+    """
+    from .methods.updating import (
+        DEFAULT_STRUCTURE_PARAMETERS, STRUCTURE_PARAMETERS, UpdateOptions, check_parameter_names, update_free_model,
+    )
+    from .methods.updating_structure import ScaledMatrixFamily
+    from .pipeline import study_frfs
+
+    options = options or UpdateOptions(parameters=DEFAULT_STRUCTURE_PARAMETERS)
+    check_parameter_names(options.parameters, known=STRUCTURE_PARAMETERS, prefix=f"{study.source}: a [structure] study: ")
+    initial = structure_parameters(study)
+    family = ScaledMatrixFamily(structure_model(study), initial, study.structure.method)
+    return update_free_model(family, initial, study_frfs(study, measured), options)

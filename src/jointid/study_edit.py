@@ -11,6 +11,7 @@ keys, inline tables) is refused rather than written wrong.
 
 from __future__ import annotations
 
+import json
 import re
 import tomllib
 from typing import Mapping, Sequence
@@ -31,12 +32,14 @@ def study_key(name: str) -> tuple[str, str]:
     return "beam", name
 
 
-def _format(value: float) -> str:
+def _format(value: "float | str") -> str:
+    if isinstance(value, str):
+        return json.dumps(value)  # a TOML basic string: JSON's escapes (\", \\, \n, \uXXXX) are TOML's
     return repr(float(value))  # shortest text that reads back as the same double; valid TOML
 
 
 def replace_study_values(
-    text: str, values: Mapping[str, float], header: Sequence[str] = (), source: str = "<study>", note: str = "jointid update"
+    text: str, values: Mapping[str, "float | str"], header: Sequence[str] = (), source: str = "<study>", note: str = "jointid update"
 ) -> str:
     """``text`` (a study file) with ``values`` written in place.
 
@@ -44,8 +47,8 @@ def replace_study_values(
     ----------
     text : str
         The study file's text.
-    values : mapping of str to float
-        Parameter name (see :func:`study_key`) -> new value.
+    values : mapping of str to float or str
+        Parameter name (see :func:`study_key`) -> new value (a number, or a string such as a file name).
     header : sequence of str
         Comment lines put at the top (without the ``#``).
     source : str
@@ -61,7 +64,7 @@ def replace_study_values(
     """
     lines = text.splitlines(keepends=True)
     newline = "\r\n" if lines and lines[0].endswith("\r\n") else "\n"
-    todo = {study_key(n): (n, float(v)) for n, v in values.items()}
+    todo = {study_key(n): (n, v if isinstance(v, str) else float(v)) for n, v in values.items()}
     done: set = set()
     table = ""
     headers: dict[str, int] = {}

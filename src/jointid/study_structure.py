@@ -13,6 +13,8 @@ array of tables ``[[joint]]`` (a single ``[joint]`` table is one joint), and
     stiffness = "frame.npz"       # paths relative to the study file
     dofs = "frame_dofs.csv"       # node,component per matrix row
     loss_factor = 0.002           # structural damping K (1 + j eta)
+    stiffness_scale = 1.0         # alpha, mass_scale = beta: the free model is alpha K (1 + j eta) - w^2 beta M
+    mass_scale = 1.0              #   (fitted by `jointid update`; default 1)
     method = "auto"               # free receptance: "auto" | "modal" | "direct" (jointid.physics.sparse_model)
 
     [[joint]]
@@ -80,7 +82,6 @@ from .schema import Field, choices, nonneg, positive, section, typed
 
 __all__ = ["StructureSpec", "MountSpec", "ElastomerSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key", "MOUNT_KEYS"]
 
-_STRUCTURE_KEYS = ("mass", "stiffness", "dofs", "loss_factor", "method")
 _JOINT_KEYS = ("name", "dofs", "other", "model")
 _NAME = re.compile(r"^[A-Za-z0-9_-]{1,40}$")
 
@@ -93,6 +94,20 @@ def _list_of_lists(v) -> str | None:
     return None if isinstance(v, list) else "a list of [dof_i, dof_j, value]"
 
 
+def _file_name(v) -> str | None:
+    return None if v.strip() else "a file name (a string)"
+
+
+#: Schema of ``[structure]``.
+_STRUCTURE_FIELDS = {
+    "mass": Field("str", True, check=_file_name, expected="a file name (a string)"),
+    "stiffness": Field("str", True, check=_file_name, expected="a file name (a string)"),
+    "dofs": Field("str", True, check=_file_name, expected="a file name (a string)"),
+    "loss_factor": Field("number", default=0.0, check=nonneg),
+    "method": Field("str", default="auto", check=choices("auto", "modal", "direct")),
+    "stiffness_scale": Field("number", default=1.0, check=positive),
+    "mass_scale": Field("number", default=1.0, check=positive),
+}
 #: Schema of ``[joint.model] type = "mount"`` (the stiffness list's length is checked against the joint's DOFs).
 _MOUNT_FIELDS = {
     "type": Field("str", check=choices("mount")),
@@ -132,6 +147,7 @@ ELASTOMER_KEYS = tuple(_ELASTOMER_FIELDS)
 class StructureSpec:
     """``[structure]``: the free structure's matrix files and DOF list (as given), damping, receptance method.
 
+    The free model is ``stiffness_scale K (1 + j loss_factor) - w^2 mass_scale M``.
     Relative paths are relative to ``base`` (the study file's directory).
     ``dof_array`` is read at validation (to check the study's DOFs); the
     matrices are read by :meth:`model`.
@@ -144,9 +160,11 @@ class StructureSpec:
     method: str = "auto"
     base: str = "."
     dof_array: DofArray | None = None
+    stiffness_scale: float = 1.0
+    mass_scale: float = 1.0
 
     def model(self):
-        """The free structure as a :class:`~jointid.physics.sparse_model.SparseModel`.
+        """The free structure as a :class:`~jointid.physics.sparse_model.SparseModel` (the matrices times their scales).
 
         Raises
         ------
@@ -171,7 +189,10 @@ class StructureSpec:
                 )
             mats.append(A)
         try:
-            return SparseModel(mats[0], mats[1], self.dof_array, self.loss_factor, method=self.method)
+            M, K = mats
+            M = M if self.mass_scale == 1.0 else M * self.mass_scale
+            K = K if self.stiffness_scale == 1.0 else K * self.stiffness_scale
+            return SparseModel(M, K, self.dof_array, self.loss_factor, method=self.method)
         except ModelError as exc:
             raise StudyError(f"[structure]: {exc}") from None
 
@@ -246,22 +267,6 @@ class NamedJoint:
             raise StudyError(f"[[joint]] {self.name!r} [joint.model]: {exc}") from None
 
 
-def _number(where: str, v: Any, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-        raise StudyError(f"{where}: expected a finite number, got {v!r}")
-    if positive and not v > 0:
-        raise StudyError(f"{where}: expected a positive number, got {v!r}")
-    if nonneg and not v >= 0:
-        raise StudyError(f"{where}: expected a number >= 0, got {v!r}")
-    return float(v)
-
-
-def _path(where: str, v: Any) -> str:
-    if not isinstance(v, str) or not v.strip():
-        raise StudyError(f"{where}: expected a file name (a string), got {v!r}")
-    return v
-
-
 def parse_structure(data: Any, base: Path) -> StructureSpec:
     """Validate ``[structure]`` (paths relative to ``base``) and read its DOF list.
 
@@ -270,27 +275,21 @@ def parse_structure(data: Any, base: Path) -> StructureSpec:
     StudyError
         A missing or unknown key, a bad value, or an unreadable DOF list (one line naming the key and file).
     """
-    if not isinstance(data, Mapping):
-        raise StudyError(f"[structure] must be a table, got {data!r}")
-    unknown = [k for k in data if k not in _STRUCTURE_KEYS]
-    if unknown:
-        raise StudyError(f"[structure]: unknown key {unknown[0]!r}; expected one of: " + ", ".join(_STRUCTURE_KEYS))
-    for key in ("mass", "stiffness", "dofs"):
-        if key not in data:
-            raise StudyError(f"[structure]: missing key {key!r} (a file name relative to the study file)")
-    mass, stiffness = _path("[structure].mass", data["mass"]), _path("[structure].stiffness", data["stiffness"])
-    dofs = _path("[structure].dofs", data["dofs"])
-    eta = _number("[structure].loss_factor", data.get("loss_factor", 0.0), nonneg=True)
-    method = data.get("method", "auto")
-    if method not in ("auto", "modal", "direct"):
-        raise StudyError(f"[structure].method: expected one of 'auto', 'modal', 'direct', got {method!r}")
+    if isinstance(data, Mapping):
+        for key in ("mass", "stiffness", "dofs"):
+            if key not in data and not [k for k in data if k not in _STRUCTURE_FIELDS]:
+                raise StudyError(f"[structure]: missing key {key!r} (a file name relative to the study file)")
+    v = section(data, "structure", _STRUCTURE_FIELDS)
     from .io.matrix_files import read_dof_list
 
     try:
-        dof_array = read_dof_list(dofs, base)
+        dof_array = read_dof_list(v["dofs"], base)
     except DataError as exc:
         raise StudyError(f"[structure].dofs: {exc}") from None
-    return StructureSpec(mass, stiffness, dofs, eta, method, str(base), dof_array)
+    return StructureSpec(
+        v["mass"], v["stiffness"], v["dofs"], v["loss_factor"], v["method"], str(base), dof_array,
+        stiffness_scale=v["stiffness_scale"], mass_scale=v["mass_scale"],
+    )
 
 
 def parse_dof_list_key(where: str, value: Any, model: DofArray, model_name: str, allow_empty: bool = False) -> tuple[Dof, ...]:

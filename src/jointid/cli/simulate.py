@@ -26,7 +26,9 @@ def add_parser(sub) -> None:
         "(the true joint matrix, columns as `jointid identify` writes them). With --free: the free (suspended) "
         "beam with its accelerometers, no joint, at the same coordinates: DIR/free_frf.uff and DIR/true_beam.json "
         "(a virtual free-free test for `jointid update`). The simulated beam is the study's [beam] with its [truth] "
-        "overrides, or the [beam] of --truth OTHER.toml.",
+        "overrides, or the [beam] of --truth OTHER.toml. A [structure] study: --free writes DIR/free_frf.uff, the "
+        "free structure (its matrices with their stiffness_scale, mass_scale and loss_factor, no joint) on the observed x "
+        "excited DOFs; to simulate a true structure that differs from the model, write its own study (e.g. other scales).",
     )
     add_study_argument(p, required=False)
     add_out_argument(p)
@@ -63,6 +65,20 @@ def write_true_joints(out, study, frequency, truth) -> list:
     return written
 
 
+def _run_structure_free(args: argparse.Namespace, study) -> int:
+    """A structure study's free-free test (no joints): DIR/free_frf.uff on the observed x excited DOFs."""
+    from ..io.uff import write_uff_frf
+    from ..pipeline_structure import simulate_free_structure
+
+    with OutputSet(args.out, command="simulate") as out:
+        frf = simulate_free_structure(study, noise=args.noise, seed=args.seed)
+        uff = out.write_file("free_frf.uff", lambda p: write_uff_frf(p, frf, kind="accelerance", description="jointid free-free test"))
+    f = frf.frequency.hz
+    print(f"wrote {uff} (free-free: {len(frf.responses)} x {len(frf.references)} accelerances, "
+          f"{f.size} lines {f[0]:g}-{f[-1]:g} Hz, noise {args.noise:g})")
+    return 0
+
+
 def _run_structure(args: argparse.Namespace, study) -> int:
     """A structure study: FRFs of the structure on all its [[joint]] mounts; one true_joint[_<name>].csv per joint."""
     from ..io.uff import write_uff_frf
@@ -88,10 +104,13 @@ def run(args: argparse.Namespace) -> int:
     if args.seed < 0:
         raise StudyError(f"--seed: expected an integer >= 0, got {args.seed}")
     study = study_from_args(args)
-    if study.is_structure and (args.free or args.truth):
-        raise StudyError(f"{study.source}: --free and --truth apply to [beam] studies only")
+    if study.is_structure and args.truth:
+        raise StudyError(
+            f"{study.source}: --truth applies to [beam] studies only; simulate a study of the true structure "
+            "(its [structure] stiffness_scale, mass_scale, loss_factor) instead"
+        )
     if study.is_structure:
-        return _run_structure(args, study)
+        return _run_structure_free(args, study) if args.free else _run_structure(args, study)
     other = load_study(args.truth) if args.truth else None
     true = true_beam_study(study, other)
     if args.free:

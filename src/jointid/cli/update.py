@@ -1,40 +1,48 @@
-"""``jointid update``: update the free beam's model (E, density, loss factor, ...) from a free-free test."""
+"""``jointid update``: update the free model (a beam's E, density, loss factor, ...; a structure's stiffness and
+mass scales and loss factor) from a free-free test."""
 
 from __future__ import annotations
 
 import argparse
 import datetime
 import json
+import os
 from pathlib import Path
 
 from ..errors import StudyError
 from ..io.output_dir import OutputSet
-from ..methods.updating import DEFAULT_PARAMETERS, PARAMETERS, UpdateOptions, check_parameter_names
+from ..methods.updating import (
+    DEFAULT_PARAMETERS, DEFAULT_STRUCTURE_PARAMETERS, PARAMETERS, STRUCTURE_PARAMETERS, UpdateOptions, check_parameter_names,
+)
 from ..pipeline import read_free_measured, update
 from ..study_edit import replace_study_values
 from .common import add_out_argument, add_study_argument, study_from_args
 
-__all__ = ["add_parser", "run", "parse_parameters"]
+__all__ = ["add_parser", "run", "parse_parameters", "structure_paths_for"]
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "update",
-        help="update the free beam's E, density and loss factor from free-free FRFs",
+        help="update the free beam's E, density and loss factor (a structure's stiffness/mass scales, loss factor) from free-free FRFs",
         description="Fit the study's free beam (with its [accelerometers], no joint) to FRFs measured on the free "
         "(suspended) structure: any kind, any subset of the beam's nodes, UFF58 or CSV, read like `identify` reads "
         "them ([measurement] axis and points), over the study's [frequency] band. The fit is on the FRFs themselves "
         "(log-magnitude and phase, weighted by coherence where the file has it), so E and density separate through "
         "the FRF level. Writes DIR/update.json (values with standard errors, correlation, residual before/after), "
         "DIR/updated_study.toml (the study with the determined values written in) and DIR/update.png (FRF overlay). "
-        "A parameter the FRFs cannot determine is reported as such and keeps the study's value.",
+        "A parameter the FRFs cannot determine is reported as such and keeps the study's value. "
+        "A [structure] study fits stiffness_scale, mass_scale and loss_factor of its free model "
+        "stiffness_scale K (1 + j loss_factor) - w^2 mass_scale M on the observed x excited FRFs; updated_study.toml "
+        "then names the matrix files relative to DIR.",
     )
     add_study_argument(p)
     p.add_argument("--frf", required=True, type=Path, metavar="FILE", help="free-free FRFs (.uff, .unv, .csv)")
     add_out_argument(p)
     p.add_argument(
-        "--parameters", metavar="NAMES", default=",".join(DEFAULT_PARAMETERS),
-        help=f"comma-separated parameters to fit (default {','.join(DEFAULT_PARAMETERS)}); any of {', '.join(PARAMETERS)}",
+        "--parameters", metavar="NAMES", default=None,
+        help=f"comma-separated parameters to fit (default {','.join(DEFAULT_PARAMETERS)}); any of {', '.join(PARAMETERS)}; "
+        f"a [structure] study: default and any of {','.join(DEFAULT_STRUCTURE_PARAMETERS)}",
     )
     p.add_argument("--max-evaluations", type=int, default=UpdateOptions.max_evaluations, metavar="N",
                    help="model evaluations allowed to the fit (default %(default)s); more is reported as not converged")
@@ -42,18 +50,45 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def parse_parameters(text: str) -> tuple[str, ...]:
-    """``--parameters`` as names, validated (one-line error naming a bad one)."""
+def parse_parameters(text: str, structure: bool = False) -> tuple[str, ...]:
+    """``--parameters`` as names, validated (one-line error naming a bad one); ``structure``: a ``[structure]`` study's names."""
     names = tuple(n.strip() for n in text.split(",") if n.strip())
-    check_parameter_names(names, prefix="--parameters: ")
+    if structure:
+        check_parameter_names(names, prefix="--parameters (a [structure] study): ", known=STRUCTURE_PARAMETERS)
+    else:
+        check_parameter_names(names, prefix="--parameters: ")
     return names
 
 
+def structure_paths_for(study, directory: Path) -> dict:
+    """``structure.mass`` / ``.stiffness`` / ``.dofs`` -> the file names as a study in ``directory`` must write them.
+
+    Relative names are relative to the study file's directory; an updated study
+    written elsewhere names the same files relative to its own directory
+    (absolute when no relative path exists, e.g. another drive).
+    """
+    spec = study.structure
+    out = {}
+    for key in ("mass", "stiffness", "dofs"):
+        name = getattr(spec, key)
+        if Path(name).is_absolute():
+            continue
+        target = os.path.abspath(os.path.join(spec.base, name))
+        try:
+            new = Path(os.path.relpath(target, os.path.abspath(directory))).as_posix()
+        except ValueError:
+            new = Path(target).as_posix()
+        if new != name:
+            out[f"structure.{key}"] = new
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
-    names = parse_parameters(args.parameters)
     if args.max_evaluations < 1:
         raise StudyError(f"--max-evaluations: expected an integer >= 1, got {args.max_evaluations}")
     study = study_from_args(args)
+    default = DEFAULT_STRUCTURE_PARAMETERS if study.is_structure else DEFAULT_PARAMETERS
+    names = parse_parameters(args.parameters if args.parameters is not None else ",".join(default), study.is_structure)
     if study.accelerometers is None and any(n.startswith("accelerometers.") for n in names):
         raise StudyError(f"--parameters: {study.source} has no [accelerometers] section to fit")
     text = Path(args.study).read_text(encoding="utf-8-sig")
@@ -64,14 +99,20 @@ def run(args: argparse.Namespace) -> int:
     with OutputSet(args.out, command="update") as out:
         result = update(study, measured, options)
         determined = result.determined()
+        edits = dict(determined)
+        if study.is_structure:  # [structure] keys; the matrix files named relative to DIR
+            edits = {f"structure.{k}": v for k, v in determined.items()}
+            edits.update(structure_paths_for(study, args.out))
         header = [
             f"Updated by `jointid update` on {datetime.date.today().isoformat()} from the free-free FRFs {args.frf}",
             f"(fit of {', '.join(names)} on {result.measured.frequency.size} lines x {len(result.measured.responses)} x "
             f"{len(result.measured.references)} FRFs; residual {result.residual_before:.3g} -> {result.residual_after:.3g};",
             "values with standard errors in update.json).",
         ] + [f"  {line}" for line in result.describe()]
-        new_text = replace_study_values(text, determined, header, source=str(args.study)) if determined else \
-            "".join(f"# {h}\n" for h in header + ["No parameter was determined: the study is unchanged."]) + text
+        if not determined:
+            header = header + ["No parameter was determined: the study is unchanged" + (" (but for its file names)." if edits else ".")]
+        new_text = replace_study_values(text, edits, header, source=str(args.study)) if edits else \
+            "".join(f"# {h}\n" for h in header) + text
         report = result.to_dict()
         report.update({"study": study.source, "frf_file": str(args.frf), "fitted": list(names)})
         out.write_text("update.json", json.dumps(report, indent=2) + "\n")

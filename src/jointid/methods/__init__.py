@@ -16,7 +16,8 @@ The main API, re-exported here (imported on first use)::
 * test design -- :mod:`.design`: ``design_layout``, ``LayoutDesign``, ``LayoutPredictor``, ``Sensors``
   (where to measure and hit, from the predicted covariance of the default method).
 * free-structure model updating -- :mod:`.updating`: ``update_free_model``, ``UpdateOptions``,
-  ``UpdateResult``.
+  ``UpdateResult``, ``ModelFamily``; :mod:`.updating_structure`: ``ScaledMatrixFamily`` (stiffness and
+  mass scales and loss factor of a structure's matrices).
 
 The test data these methods take (impact-test FRFs, step-sine K21, the virtual tests) come
 from :mod:`jointid.measurement`; the elastomer joint's FE model is
@@ -49,7 +50,8 @@ __getattr__, __dir__, __all__ = attach(
         ),
         ".fit_statistics": ("ParameterEstimate",),
         ".design": ("design_layout", "LayoutDesign", "LayoutPredictor", "Sensors"),
-        ".updating": ("update_free_model", "UpdateOptions", "UpdateResult"),
+        ".updating": ("update_free_model", "UpdateOptions", "UpdateResult", "ModelFamily"),
+        ".updating_structure": ("ScaledMatrixFamily",),
     },
     submodules=(
         "coupling",
@@ -66,5 +68,6 @@ __getattr__, __dir__, __all__ = attach(
         "fit_statistics",
         "design",
         "updating",
+        "updating_structure",
     ),
 )

@@ -96,7 +96,8 @@ from .fit_statistics import (
 )
 
 __all__ = [
-    "PARAMETERS", "DEFAULT_PARAMETERS", "UpdateOptions", "UpdateResult", "update_free_model", "frequency_scale", "check_parameter_names",
+    "PARAMETERS", "DEFAULT_PARAMETERS", "STRUCTURE_PARAMETERS", "DEFAULT_STRUCTURE_PARAMETERS", "ModelFamily", "StructureFamily",
+    "UpdateOptions", "UpdateResult", "update_free_model", "frequency_scale", "check_parameter_names",
 ]
 
 #: Parameters that can be updated: name -> (unit, bounds as ratios of the initial value, label).
@@ -110,6 +111,17 @@ PARAMETERS: dict[str, tuple[str, tuple[float, float], str]] = {
 }
 #: What ``jointid update`` fits by default.
 DEFAULT_PARAMETERS = ("elastic_modulus", "density", "loss_factor")
+#: Parameters of a free structure given by matrices (``[structure]`` study): ``alpha K (1 + j eta) - w^2 beta M``
+#: (see :mod:`jointid.methods.updating_structure`).
+STRUCTURE_PARAMETERS: dict[str, tuple[str, tuple[float, float], str]] = {
+    "stiffness_scale": ("-", (0.2, 5.0), "stiffness scale"),
+    "mass_scale": ("-", (0.2, 5.0), "mass scale"),
+    "loss_factor": ("-", (0.01, 100.0), "loss factor"),
+}
+#: What ``jointid update`` fits by default on a ``[structure]`` study.
+DEFAULT_STRUCTURE_PARAMETERS = ("stiffness_scale", "mass_scale", "loss_factor")
+#: Every parameter name any model family knows: name -> (unit, bounds as ratios of the initial value, label).
+_ALL_PARAMETERS = {**PARAMETERS, **STRUCTURE_PARAMETERS}
 #: Finite-difference step of the Jacobian in ln p: small enough for sharp resonances (a step of 1e-5
 #: in ln E moves a 1 kHz resonance by 0.005 Hz), large against the model's round-off (~1e-9, see
 #: :mod:`jointid.physics.banded_receptance`); the loss factor acts smoothly and weakly off resonance.
@@ -139,18 +151,22 @@ class UpdateOptions:
     def __post_init__(self) -> None:
         names = tuple(self.parameters)
         object.__setattr__(self, "parameters", names)
-        check_parameter_names(names)
+        check_parameter_names(names, known=_ALL_PARAMETERS)
         if not (isinstance(self.max_evaluations, int) and self.max_evaluations >= 1):
             raise ModelError(f"max_evaluations must be an integer >= 1, got {self.max_evaluations!r}")
 
 
-def check_parameter_names(names: Sequence[str], prefix: str = "") -> None:
-    """Raise :class:`ModelError` (one line, starting with ``prefix``) for no, an unknown or a repeated name."""
-    listed = ", ".join(PARAMETERS)
+def check_parameter_names(names: Sequence[str], prefix: str = "", known: Mapping[str, object] | None = None) -> None:
+    """Raise :class:`ModelError` (one line, starting with ``prefix``) for no, an unknown or a repeated name.
+
+    ``known``: the names allowed (default :data:`PARAMETERS`, the beam's; :data:`STRUCTURE_PARAMETERS` for a structure).
+    """
+    known = PARAMETERS if known is None else known
+    listed = ", ".join(known)
     if not names:
         raise ModelError(f"{prefix}give at least one of {listed}")
     for n in names:
-        if n not in PARAMETERS:
+        if n not in known:
             raise ModelError(f"{prefix}unknown parameter {n!r}; expected any of {listed}")
     if len(set(names)) != len(names):
         raise ModelError(f"{prefix}{', '.join(names)!r} names a parameter twice")
@@ -265,11 +281,69 @@ class UpdateResult:
         return plot_update(self.measured, self.initial_model, self.updated_model, pairs=pairs)
 
 
-def _model_frf(build: Callable[[Mapping[str, float]], Structure], values: Mapping[str, float], measured: FRF) -> FRF:
-    structure = build(values)
-    Y = receptance_banded(structure, measured.frequency, measured.responses, measured.references)
-    if Y is None:
-        Y = StructureModel(structure).receptance(measured.frequency, measured.responses, measured.references)
+class ModelFamily:
+    """A free model as a function of its parameters: what :func:`update_free_model` fits.
+
+    Subclass it for a model that is not rebuilt as a :class:`Structure`
+    (e.g. :class:`jointid.methods.updating_structure.ScaledMatrixFamily`). A
+    plain ``build(values) -> Structure`` callable is wrapped by :class:`StructureFamily`.
+
+    Attributes
+    ----------
+    frequency_parameters : tuple of (str, int)
+        Stage 1 (frequency alignment): the parameters that scale every natural
+        frequency, each with the power ``q`` such that the frequencies scale by
+        ``s`` when the parameter is multiplied by ``s**q`` (E: 2, density: -2);
+        the first one fitted is moved.
+    described : str
+        What the FRFs must be a free-free test of, for messages ("this beam with these sensors").
+    dof_hint : str
+        What to do when a measured DOF is not in the model.
+    """
+
+    frequency_parameters: tuple[tuple[str, int], ...] = ()
+    described: str = "this structure"
+    dof_hint: str = "measure at the model's DOFs"
+
+    def dofs(self, values: Mapping[str, float]) -> Sequence:
+        """Every DOF of the model (for the check of the measured DOFs)."""
+        raise NotImplementedError
+
+    def receptance(self, values: Mapping[str, float], frequency, rows, cols) -> np.ndarray:
+        """Receptance ``Y[rows, cols]`` for ``values`` on ``frequency`` (Frequency), shape (F, r, c), complex."""
+        raise NotImplementedError
+
+    def natural_frequencies_hz(self, values: Mapping[str, float], top_hz: float) -> np.ndarray:
+        """Natural frequencies (Hz, at least up to ``top_hz``; rigid-body modes ~0) for ``values``."""
+        raise NotImplementedError
+
+
+class StructureFamily(ModelFamily):
+    """``build(values) -> Structure`` (the free beam path) as a :class:`ModelFamily`; FRFs by a banded solve."""
+
+    frequency_parameters = (("elastic_modulus", 2), ("density", -2))
+    described = "this beam with these sensors"
+    dof_hint = "measure at the beam's nodes"
+
+    def __init__(self, build: Callable[[Mapping[str, float]], Structure]) -> None:
+        self.build = build
+
+    def dofs(self, values):
+        return self.build(values).dofs
+
+    def receptance(self, values, frequency, rows, cols):
+        structure = self.build(values)
+        Y = receptance_banded(structure, frequency, rows, cols)
+        if Y is None:
+            Y = StructureModel(structure).receptance(frequency, rows, cols)
+        return Y
+
+    def natural_frequencies_hz(self, values, top_hz):
+        return natural_modes(self.build(values)).frequencies_hz
+
+
+def _model_frf(family: ModelFamily, values: Mapping[str, float], measured: FRF) -> FRF:
+    Y = family.receptance(values, measured.frequency, measured.responses, measured.references)
     factor = kind_factor(measured.frequency.omega, "receptance", measured.kind)
     return FRF(measured.frequency, Y * factor[:, None, None], measured.responses, measured.references, measured.kind)
 
@@ -336,7 +410,7 @@ def frequency_scale(measured: FRF, model_hz: np.ndarray, lo: float = 0.7, hi: fl
 
 
 def update_free_model(
-    build: Callable[[Mapping[str, float]], Structure],
+    build: "Callable[[Mapping[str, float]], Structure] | ModelFamily",
     initial: Mapping[str, float],
     measured: FRF,
     options: UpdateOptions | None = None,
@@ -345,13 +419,15 @@ def update_free_model(
 
     Parameters
     ----------
-    build : callable
+    build : callable or ModelFamily
         ``build(values) -> Structure``: the free structure (no joints; a fixed
         mesh, so the model is smooth in the parameters) for a mapping with a
-        value for every name in ``initial``.
+        value for every name in ``initial``; or a :class:`ModelFamily` giving
+        the model's receptance for such a mapping directly.
     initial : mapping of str to float
-        Initial value of every parameter :data:`PARAMETERS` knows that
-        ``build`` uses; those in ``options.parameters`` are fitted.
+        Initial value of every parameter :data:`PARAMETERS` (or
+        :data:`STRUCTURE_PARAMETERS`) knows that ``build`` uses; those in
+        ``options.parameters`` are fitted.
     measured : FRF
         Free-free FRFs (any kind) between translational DOFs of the model, no 0 Hz line.
     options : UpdateOptions, optional
@@ -384,34 +460,33 @@ def update_free_model(
             f"FRF ({measured.responses[j]}, {measured.references[k]}) is zero or not finite at "
             f"{measured.frequency.hz[i]:g} Hz; the update fits log|H| and phase: remove that line"
         )
-    model0 = build(init)
-    missing = [str(d) for d in (*measured.responses, *measured.references) if d not in model0.dofs]
+    family = build if isinstance(build, ModelFamily) else StructureFamily(build)
+    model_dofs = set(family.dofs(init))
+    missing = [str(d) for d in (*measured.responses, *measured.references) if d not in model_dofs]
     if missing:
-        raise DataError(f"the free model has no DOF {missing[0]} for the measured FRFs; measure at the beam's nodes")
+        raise DataError(f"the free model has no DOF {missing[0]} for the measured FRFs; {family.dof_hint}")
     weights = _weights(measured)
     data_log = np.log(measured.data)
     notes = []
 
     def log_ratio(values: Mapping[str, float]) -> np.ndarray:
-        return log_ratio_of(_model_frf(build, values, measured))
+        return log_ratio_of(_model_frf(family, values, measured))
 
     def log_ratio_of(model: FRF) -> np.ndarray:
         lr = np.log(model.data) - data_log
         return lr.real + 1j * np.angle(np.exp(1j * lr.imag))
 
-    initial_model = _model_frf(build, init, measured)
+    initial_model = _model_frf(family, init, measured)
     before = float(np.sqrt(np.mean(np.abs(log_ratio_of(initial_model)) ** 2)))
 
     start = dict(init)
     scale = 1.0
-    if options.align_frequencies and ("elastic_modulus" in names or "density" in names):
-        modes = natural_modes(model0)
-        scale, matched = frequency_scale(measured, modes.frequencies_hz)
+    moved = [(n, q) for n, q in family.frequency_parameters if n in names]
+    if options.align_frequencies and moved:
+        scale, matched = frequency_scale(measured, family.natural_frequencies_hz(init, float(measured.frequency.hz[-1])))
         if matched:
-            if "elastic_modulus" in names:
-                start["elastic_modulus"] = init["elastic_modulus"] * scale**2
-            else:
-                start["density"] = init["density"] / scale**2
+            n, q = moved[0]
+            start[n] = init[n] * scale**q
             notes.append(f"stage 1: {matched} resonances matched, frequency scale {scale:.5f}")
         else:
             scale = 1.0
@@ -420,7 +495,7 @@ def update_free_model(
     fitted = list(names)
     held: dict[str, ParameterEstimate] = {}
     while True:
-        fit, cov_x = _fit(log_ratio, weights, init, start, fitted, options.max_evaluations)
+        fit, cov_x = _fit(log_ratio, weights, init, start, fitted, options.max_evaluations, family.described)
         values = dict(init)
         values.update({n: init[n] for n in held})
         x = fit.x
@@ -429,7 +504,7 @@ def update_free_model(
         estimates = {}
         newly_held = []
         for i, n in enumerate(fitted):
-            unit, (lo, hi), label = PARAMETERS[n]
+            unit, (lo, hi), label = _ALL_PARAMETERS[n]
             std = values[n] * math.sqrt(cov_x[i, i]) if math.isfinite(cov_x[i, i]) else math.inf
             est = classify(n, unit, values[n], std, (init[n] * lo, init[n] * hi), label=label)
             if fit.active_mask[i] != 0:
@@ -455,7 +530,7 @@ def update_free_model(
     else:
         corr = correlation_matrix(cov_x)
     final = tuple(held[n] if n in held else estimates[n] for n in names)
-    updated_model = _model_frf(build, values, measured)
+    updated_model = _model_frf(family, values, measured)
     after = float(np.sqrt(np.mean(np.abs(log_ratio_of(updated_model)) ** 2)))
     return UpdateResult(
         final, init, values, corr, tuple(fitted), before, after, scale, int(fit.nfev),
@@ -463,12 +538,12 @@ def update_free_model(
     )
 
 
-def _fit(log_ratio, weights, init, start, fitted, max_evaluations):
+def _fit(log_ratio, weights, init, start, fitted, max_evaluations, described):
     """One least-squares fit of ``fitted`` (ln of ratio to ``init``) from ``start``; returns (result, cov_x)."""
     # x = 1 + ln(p / p0): unit scale, and an initial trust region of ~1 in ln p (least_squares starts with
     # a radius |x0|: about the start's own distance from p0, which would make it creep towards a -30 % eta)
-    lo = np.array([1.0 + math.log(PARAMETERS[n][1][0]) for n in fitted])
-    hi = np.array([1.0 + math.log(PARAMETERS[n][1][1]) for n in fitted])
+    lo = np.array([1.0 + math.log(_ALL_PARAMETERS[n][1][0]) for n in fitted])
+    hi = np.array([1.0 + math.log(_ALL_PARAMETERS[n][1][1]) for n in fitted])
     x0 = np.clip(np.array([1.0 + math.log(start[n] / init[n]) for n in fitted]), lo + 1e-9, hi - 1e-9)
 
     def residual(x):
@@ -485,6 +560,6 @@ def _fit(log_ratio, weights, init, start, fitted, max_evaluations):
     if fit.status <= 0:
         raise DataError(
             f"the update did not converge in {max_evaluations} model evaluation{'s' if max_evaluations != 1 else ''} (fitting {', '.join(fitted)}); "
-            "check that the FRFs are a free-free test of this beam with these sensors, or allow more evaluations"
+            f"check that the FRFs are a free-free test of {described}, or allow more evaluations"
         )
     return fit, jacobian_covariance(fit.jac, fit.fun)
