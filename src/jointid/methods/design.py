@@ -114,7 +114,7 @@ from ..frequency import Frequency
 from ..physics.free_model import as_free_model
 from .design_predictor import (
     DEFAULT_SCENARIOS, ESTIMATORS, NOISE_MODELS, LayoutPredictor, Scenario, Sensors, _Combined, geometric_mean,
-    term_names,
+    joint_blocks, layout_dofs, term_names,
 )
 
 __all__ = [
@@ -155,12 +155,14 @@ class LayoutDesign:
 
     Attributes
     ----------
-    observed, excited : tuple of int
-        The chosen nodes (transverse w), sorted.
+    observed, excited : tuple of int or of Dof
+        The chosen nodes (transverse w; candidates given as node numbers) or DOFs (candidates
+        given as DOF labels), sorted.
     frequency : Frequency
         Lines of the predictions.
     terms : tuple of str
-        Term names (``K_w_w``, ``K_w_theta``, ``K_theta_theta``).
+        Term names (``K_w_w``, ``K_w_theta``, ``K_theta_theta``; several joints: ``"front:K_x_x"``, see
+        :func:`~jointid.methods.design_predictor.term_names`).
     relative_std : ndarray, shape (F, T)
         Predicted relative error of each term per line, chosen layout: the geometric
         mean over the scenarios (what the plot shows).
@@ -174,7 +176,7 @@ class LayoutDesign:
         Term -> weight.
     noise : float
         Relative FRF noise (1-sigma) assumed.
-    candidates : tuple of int
+    candidates : tuple of int or of Dof
     search_lines : int
         Lines the search ran on.
     evaluations : int
@@ -242,7 +244,7 @@ class LayoutDesign:
 
         def layout(obs, exc, crit, current):
             return {
-                "observed": list(obs), "excited": list(exc),
+                "observed": _json_layout(obs), "excited": _json_layout(exc),
                 "median_relative_std": {k: num(v) for k, v in self.median(current).items()},
                 "criterion": num(crit),
                 "scenarios": {name: {k: num(v) for k, v in med.items()} for name, med in self.scenario_medians(current).items()},
@@ -254,18 +256,18 @@ class LayoutDesign:
             "band_hz": [float(f[0]), float(f[-1])],
             "lines": int(f.size),
             "weights": dict(self.weights),
-            "candidates": list(self.candidates),
+            "candidates": _json_layout(self.candidates),
             "chosen": layout(self.observed, self.excited, self.criterion, False),
             "current": None if self.current_observed is None else layout(
                 self.current_observed, self.current_excited, self.current_criterion, True),
             "search": {"lines": self.search_lines, "evaluations": self.evaluations, "seconds": round(self.seconds, 3),
                        "steps": [list(h) for h in self.history],
-                       "alternatives": [{"observed": list(o), "excited": list(e), "criterion": num(c)}
+                       "alternatives": [{"observed": _json_layout(o), "excited": _json_layout(e), "criterion": num(c)}
                                         for c, o, e in self.ranked[1:6]]},
             "scenarios": [dataclasses.asdict(sc) | {"name": sc.name} for sc in self.scenarios],
             "monte_carlo": {
                 "seeds": self.monte_carlo, "noise_models": list(MONTE_CARLO_NOISE_MODELS),
-                "checked": [{"observed": list(o), "excited": list(e), "criterion": None if c is None else num(c),
+                "checked": [{"observed": _json_layout(o), "excited": _json_layout(e), "criterion": None if c is None else num(c),
                              "current": c is None,
                              "median_error": {nm: {t: num(v) for t, v in zip(self.terms, m)}
                                               for nm, m in zip(MONTE_CARLO_NOISE_MODELS, med)}}
@@ -286,6 +288,40 @@ class LayoutDesign:
         return plot_layout_design(self, axes=axes)
 
 
+def _json_layout(items) -> list:
+    """A layout for JSON: node numbers as they are, DOFs as labels (``"12x"``)."""
+    return [int(k) if isinstance(k, (int, np.integer)) else str(k) for k in items]
+
+
+def _candidates(candidates, current):
+    """Candidates and current layout, deduplicated: node numbers stay ints, anything else becomes DOFs."""
+    cands = list(candidates)
+    if all(isinstance(c, (int, np.integer)) and not isinstance(c, bool) for c in cands):
+        return tuple(dict.fromkeys(int(c) for c in cands)), current
+    cands = tuple(dict.fromkeys(layout_dofs(cands)))
+    if current is not None:
+        current = (layout_dofs(current[0], "current observed"), layout_dofs(current[1], "current excited"))
+    return cands, current
+
+
+def _seed_sets(cands: tuple, n: int) -> list[tuple]:
+    """Every n-subset of the candidates, or (more than MAX_SEED_SETS) a fixed-seed random sample of them.
+
+    Up to a million subsets they are listed and sampled (as always); beyond, drawn directly.
+    """
+    if math.comb(len(cands), n) <= 1_000_000:
+        seeds = list(itertools.combinations(cands, n))
+        if len(seeds) > MAX_SEED_SETS:
+            rng = np.random.default_rng(0)
+            seeds = [seeds[i] for i in sorted(rng.choice(len(seeds), MAX_SEED_SETS, replace=False))]
+        return seeds
+    rng = np.random.default_rng(0)
+    drawn: dict = {}
+    while len(drawn) < MAX_SEED_SETS:
+        drawn.setdefault(tuple(sorted(rng.choice(len(cands), n, replace=False).tolist())), None)
+    return [tuple(cands[i] for i in idx) for idx in sorted(drawn)]
+
+
 def _check_counts(n_joint: int, n_candidates: int, n_observed: int, n_excited: int) -> None:
     for what, k in (("observed", n_observed), ("excited", n_excited)):
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
@@ -301,13 +337,16 @@ def _check_counts(n_joint: int, n_candidates: int, n_observed: int, n_excited: i
 
 
 def _weights(terms: Sequence[str], weights: Mapping[str, float] | None) -> np.ndarray:
+    """Weights per term; with several joints a name without the ``"joint:"`` prefix sets that term of every joint."""
     w = dict.fromkeys(terms, 1.0)
     for name, value in (weights or {}).items():
-        if name not in w:
+        names = [name] if name in w else [t for t in terms if t.partition(":")[2] == name]
+        if not names:
             raise IdentificationError(f"weights: unknown term {name!r}; expected one of {', '.join(terms)}")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
             raise IdentificationError(f"weights: {name} = {value!r}; expected a number >= 0")
-        w[name] = float(value)
+        for t in names:
+            w[t] = float(value)
     arr = np.array([w[t] for t in terms])
     if not arr.sum() > 0:
         raise IdentificationError("weights: every term has weight 0; give at least one a positive weight")
@@ -322,26 +361,33 @@ def _search_grid(frequency: Frequency, lines: int) -> Frequency:
 
 
 def design_layout(
-    free, joint, joint_dofs, frequency: Frequency, candidates: Sequence[int], n_observed: int, n_excited: int, *,
+    free, joint, joint_dofs, frequency: Frequency, candidates: Sequence, n_observed: int, n_excited: int, *,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, sensors: Sensors | None = None,
-    symmetric: bool = True, current: tuple[Sequence[int], Sequence[int]] | None = None, search_lines: int = 300,
+    symmetric: bool = True, current: tuple[Sequence, Sequence] | None = None, search_lines: int = 300,
     scenarios: Sequence[Scenario] | None = None, dominate: bool = True, rerank: int = 30,
     monte_carlo: int = 0, monte_carlo_layouts: int = 6, coupling_options=None,
+    blocks: Sequence[tuple[str, int]] | None = None,
 ) -> LayoutDesign:
     """Choose observed and excited nodes that minimize the predicted uncertainty of the joint terms.
 
     Parameters
     ----------
     free : Structure or FreeModel
-        The free structure without accelerometers (``sensors`` adds them).
+        The free structure without accelerometers (``sensors`` adds them); any model with
+        ``receptance(frequency, rows, cols)`` and ``dofs``
+        (:func:`~jointid.physics.free_model.as_free_model`), e.g. a
+        :class:`~jointid.physics.sparse_model.SparseModel`.
     joint : callable
         ``joint(f_hz) -> (F, n, n)``: the (expected) joint stiffness, e.g. a
-        :class:`~jointid.physics.structure.ComplexStiffness`.
+        :class:`~jointid.physics.structure.ComplexStiffness`; several joints: their
+        block-diagonal assembly (:func:`~jointid.physics.jointed_model.assemble_joints`).
     joint_dofs : sequence of Dof or labels
     frequency : Frequency
         The band's lines (> 0 Hz).
-    candidates : sequence of int
-        Nodes that may be observed or excited (transverse w).
+    candidates : sequence of int, DOF labels or Dof
+        What may be observed or excited: beam nodes (ints, the transverse w; the result
+        is then in node numbers) or DOFs of any model (``"12x"``, ``"40z"``; the result
+        is then in :class:`Dof`). Accelerometers (``sensors``) need beam nodes.
     n_observed, n_excited : int
         K and L: at least the number of joint DOFs, at most ``len(candidates)``.
     noise : float
@@ -356,6 +402,11 @@ def design_layout(
         A layout to compare against (e.g. the study's).
     search_lines : int
         Lines of the search grid (evenly spread over ``frequency``).
+    blocks : sequence of (name, size), optional
+        Several joints in ``joint_dofs`` order: the criterion is over each joint's own terms
+        (not the terms between joints); term names ``"name:K_x_x"`` (see
+        :func:`~jointid.methods.design_predictor.term_names`). A weight named without the
+        prefix (``"K_z_z"``) applies to that term of every joint.
 
     Returns
     -------
@@ -369,9 +420,11 @@ def design_layout(
     """
     t0 = time.perf_counter()
     joint_dofs = tuple(parse_dofs(joint_dofs))
-    cands = tuple(dict.fromkeys(int(c) for c in candidates))
+    cands, current = _candidates(candidates, current)
     _check_counts(len(joint_dofs), len(cands), n_observed, n_excited)
-    terms = [t for _, _, t in term_names(joint_dofs, symmetric)]
+    if blocks is not None:
+        blocks = joint_blocks(joint_dofs, blocks)
+    terms = [t for _, _, t in term_names(joint_dofs, symmetric, blocks)]
     w = _weights(terms, weights)
     if isinstance(search_lines, bool) or not (isinstance(search_lines, int) and search_lines >= 8):
         raise IdentificationError(f"search lines: expected an integer >= 8, got {search_lines!r}")
@@ -382,7 +435,7 @@ def design_layout(
     if not scenarios or not all(isinstance(s, Scenario) for s in scenarios):
         raise IdentificationError("scenarios: expected at least one Scenario")
     pred = _Combined(free, joint, joint_dofs, grid, sorted(set(cands) | cur_nodes), noise, sensors, symmetric, scenarios,
-                     frequency.hz.size, SEARCH_BASIS, [k for k in range(len(terms)) if w[k] > 0])
+                     frequency.hz.size, SEARCH_BASIS, [k for k in range(len(terms)) if w[k] > 0], blocks=blocks)
     seeding = pred.without_calibration()
     cache: dict = {}
     cur_grid = None
@@ -412,11 +465,7 @@ def design_layout(
         def c(s):
             return cost(s, other) if observed_side else cost(other, s)
 
-        seeds = list(itertools.combinations(cands, n))
-        if len(seeds) > MAX_SEED_SETS:
-            rng = np.random.default_rng(0)
-            seeds = [seeds[i] for i in sorted(rng.choice(len(seeds), MAX_SEED_SETS, replace=False))]
-        chosen = min(seeds, key=c)
+        chosen = min(_seed_sets(cands, n), key=c)
         while len(chosen) < size:
             chosen = min((chosen + (k,) for k in cands if k not in chosen), key=c)
         return tuple(sorted(chosen))
@@ -450,8 +499,10 @@ def design_layout(
     pool = sorted((c, tuple(sorted(o)), tuple(sorted(e))) for (o, e), c in cache.items()
                   if len(o) == n_observed and len(e) == n_excited and c < math.inf)[:rerank]
     active = [k for k in range(len(terms)) if w[k] > 0]
-    ranker = _Combined(free, joint, joint_dofs, frequency, sorted(set(cands) | cur_nodes), noise, sensors, symmetric,
-                       scenarios, terms=active)
+    # the full band on every candidate costs F x D^2: with DOF candidates only the pool's DOFs are computed
+    rank_on = set(cands) if all(isinstance(c, int) for c in cands) else {k for _, o, e in pool for k in o + e}
+    ranker = _Combined(free, joint, joint_dofs, frequency, sorted(rank_on | cur_nodes), noise, sensors, symmetric,
+                       scenarios, terms=active, blocks=blocks)
     full_cur = None
     if current is not None and dominate:
         full_cur = [_criterion(r, w)[0] for r in ranker.each(sorted(current[0]), sorted(current[1]))]
@@ -492,7 +543,8 @@ def design_layout(
             if cur_mc is not None else tuple(rows)
 
     final = _Combined(
-        free, joint, joint_dofs, frequency, sorted(set(obs) | set(exc) | cur_nodes), noise, sensors, symmetric, scenarios
+        free, joint, joint_dofs, frequency, sorted(set(obs) | set(exc) | cur_nodes), noise, sensors, symmetric, scenarios,
+        blocks=blocks,
     )
     each = final.each(obs, exc)
     rel = geometric_mean(each)

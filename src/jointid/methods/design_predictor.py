@@ -15,17 +15,18 @@ from typing import Sequence
 
 import numpy as np
 
-from ..dofs import Dof, parse_dofs
-from ..errors import IdentificationError
+from ..dofs import Dof, parse_dof, parse_dofs
+from ..errors import DofError, IdentificationError
 from ..frequency import Frequency
 from ..physics.free_model import as_free_model
 from .coupling_lines import symmetric_parametrization
 from .design_estimator import SmootherPrediction, common_variance
+from .inverse import dof_term_labels
 from .smoothing import MAX_BASIS
 
 __all__ = [
     "Sensors", "LayoutPredictor", "Scenario", "DEFAULT_SCENARIOS", "NOISE_MODELS", "ESTIMATORS", "term_names",
-    "geometric_mean",
+    "geometric_mean", "layout_dofs", "joint_blocks",
 ]
 
 #: FRF noise models of :meth:`LayoutPredictor.frf_variance`.
@@ -62,13 +63,66 @@ class Sensors:
         return tuple(observed) if self.nodes is None else tuple(self.nodes)
 
 
-def term_names(joint_dofs: Sequence[Dof], symmetric: bool = True) -> list[tuple[int, int, str]]:
-    """``(i, j, "K_{i}_{j}")`` of the terms a design reports: the upper triangle if symmetric, else all."""
+def joint_blocks(joint_dofs: Sequence[Dof], blocks: Sequence[tuple[str, int]] | None = None) -> tuple[tuple[str, int], ...]:
+    """The joints as ``(name, number of DOFs)`` in ``joint_dofs`` order (default: one unnamed joint of all of them).
+
+    Raises
+    ------
+    IdentificationError
+        Sizes that do not add up to the joint DOFs, or a repeated name.
+    """
+    if blocks is None:
+        return (("", len(joint_dofs)),)
+    out = tuple((str(name), int(k)) for name, k in blocks)
+    if sum(k for _, k in out) != len(joint_dofs) or any(k < 1 for _, k in out):
+        raise IdentificationError(
+            f"joint blocks: sizes {[k for _, k in out]} do not split the {len(joint_dofs)} joint DOFs; give each joint's DOF count in order"
+        )
+    if len(out) > 1 and len({name for name, _ in out}) != len(out):
+        raise IdentificationError(f"joint blocks: repeated joint name in {[name for name, _ in out]}; name each joint once")
+    return out
+
+
+def term_names(joint_dofs: Sequence[Dof], symmetric: bool = True,
+               blocks: Sequence[tuple[str, int]] | None = None) -> list[tuple[int, int, str]]:
+    """``(i, j, "K_{i}_{j}")`` of the terms a design reports: the upper triangle if symmetric, else all.
+
+    Without ``blocks`` (one joint, the beam's): direction names, ``K_w_theta``. With
+    ``blocks`` (``(name, size)`` per joint, :func:`joint_blocks`): each joint's own terms
+    only -- the terms *between* joints are identified (and should vanish) but are not a
+    design target -- named as in ``joint_stiffness.csv`` (``K_x_ry`` on one node,
+    ``K_101x_201x`` for a joint between two nodes), prefixed ``"<joint name>:"`` when
+    there are several joints (``"front:K_x_x"``).
+    """
     n = len(joint_dofs)
-    return [
-        (i, j, f"K_{joint_dofs[i].direction}_{joint_dofs[j].direction}")
-        for i in range(n) for j in range(i if symmetric else 0, n)
-    ]
+    if blocks is None:
+        return [
+            (i, j, f"K_{joint_dofs[i].direction}_{joint_dofs[j].direction}")
+            for i in range(n) for j in range(i if symmetric else 0, n)
+        ]
+    blocks = joint_blocks(joint_dofs, blocks)
+    out, start = [], 0
+    for name, k in blocks:
+        labels = dof_term_labels(joint_dofs[start:start + k])
+        prefix = f"{name}:" if len(blocks) > 1 else ""
+        out += [(start + a, start + b, f"{prefix}K_{labels[a]}_{labels[b]}")
+                for a in range(k) for b in range(a if symmetric else 0, k)]
+        start += k
+    return out
+
+
+def layout_dofs(items, what: str = "candidates") -> tuple[Dof, ...]:
+    """DOFs of a layout given as beam node numbers (``n`` is ``"nw"``), DOF labels (``"12x"``) or :class:`Dof`.
+
+    Raises
+    ------
+    IdentificationError
+        A label that is not a DOF (one line naming ``what``).
+    """
+    try:
+        return tuple(parse_dof(k) for k in items)
+    except DofError as exc:
+        raise IdentificationError(f"{what}: {exc}") from None
 
 
 def _sub(Y: np.ndarray, rows, cols) -> np.ndarray:
@@ -92,19 +146,30 @@ class LayoutPredictor:
     joint_dofs : sequence of Dof or labels
     frequency : Frequency
         Lines to predict on (> 0 Hz).
-    nodes : sequence of int
-        Every node a layout may observe, excite or carry a sensor at.
+    nodes : sequence of int, DOF labels or Dof
+        Every DOF a layout may observe or excite (and, with sensors, every node that may carry
+        one): beam node numbers (``n`` is the transverse ``"nw"``), or DOFs of any model
+        (``"12x"``, ``"40z"``). Layouts are then given the same way.
     noise : float
         Relative standard deviation of each measured receptance value (0.01: 1 %).
     sensors : Sensors, optional
     symmetric : bool
         The identification enforces ``Du = Du^T``.
+    blocks : sequence of (name, size), optional
+        Several joints on ``joint_dofs`` (their block-diagonal assembly is ``joint``): the
+        reported terms are each joint's own (:func:`term_names`).
+
+    Raises
+    ------
+    IdentificationError
+        A DOF not in the model; ``sensors`` with candidates other than beam ``w`` DOFs
+        (accelerometers are modelled on beam nodes only).
     """
 
-    def __init__(self, free, joint, joint_dofs, frequency: Frequency, nodes: Sequence[int], noise: float,
+    def __init__(self, free, joint, joint_dofs, frequency: Frequency, nodes: Sequence, noise: float,
                  sensors: Sensors | None = None, symmetric: bool = True, *, noise_model: str = "relative",
                  estimator: str = "per-line", calibration: bool = False, estimator_lines: int | None = None,
-                 smoother_basis: int | None = None):
+                 smoother_basis: int | None = None, blocks: Sequence[tuple[str, int]] | None = None):
         if not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise > 0):
             raise IdentificationError(f"noise: expected a relative FRF noise level > 0 (0.01 = 1 %), got {noise!r}")
         if noise_model not in NOISE_MODELS:
@@ -124,10 +189,20 @@ class LayoutPredictor:
         self.noise = float(noise)
         self.sensors = sensors
         self.symmetric = symmetric
-        self.terms = term_names(self.joint_dofs, symmetric)
-        extra = set(sensors.nodes or ()) if sensors is not None else set()
-        self.nodes = tuple(sorted(set(int(k) for k in nodes) | {d.node for d in self.joint_dofs} | extra))
-        dofs = [Dof(k, x) for k in self.nodes for x in ("w", "theta")]
+        self.terms = term_names(self.joint_dofs, symmetric, blocks)
+        layout = layout_dofs(nodes)
+        if all(d.direction == "w" for d in layout):  # beam nodes: w and theta of each (sensors need theta)
+            extra = set(sensors.nodes or ()) if sensors is not None else set()
+            self.nodes = tuple(sorted({d.node for d in layout} | {d.node for d in self.joint_dofs} | extra))
+            dofs = [Dof(k, x) for k in self.nodes for x in ("w", "theta")]
+        else:
+            if sensors is not None:
+                raise IdentificationError(
+                    "sensors: accelerometers are modelled on beam nodes (w, theta) only; with DOF candidates such as "
+                    f"{str(next(d for d in layout if d.direction != 'w'))!r} put their masses into the model and pass sensors=None"
+                )
+            dofs = sorted(set(layout) | set(self.joint_dofs))
+            self.nodes = tuple(sorted({d.node for d in dofs}))
         have = set(model.dofs)
         missing = [str(d) for d in dofs if d not in have]
         if missing:
@@ -153,8 +228,12 @@ class LayoutPredictor:
             other.noise = float(scenario.level)
         return other
 
-    def _w(self, nodes: Sequence[int]) -> list[int]:
-        return [self._index[Dof(k, "w")] for k in nodes]
+    def _w(self, items: Sequence) -> list[int]:
+        """Positions of a layout's DOFs (beam node numbers are their ``w``) in the receptance."""
+        try:
+            return [self._index[parse_dof(k)] for k in items]
+        except KeyError as exc:
+            raise IdentificationError(f"layout: DOF {exc.args[0]} is not one of the predictor's candidate DOFs") from None
 
     def _loaded(self, sensor_nodes: Sequence[int], rows: list[int]) -> np.ndarray:
         """Free receptance on DOF indices ``rows`` with accelerometers at ``sensor_nodes`` (Woodbury), (F, r, r)."""
@@ -172,7 +251,7 @@ class LayoutPredictor:
         rows = list(dict.fromkeys(m + n + e))
         pos = {r: i for i, r in enumerate(rows)}
         im, ie, in_ = [pos[r] for r in m], [pos[r] for r in e], [pos[r] for r in n]
-        sensor_nodes = self.sensors.at(observed) if self.sensors is not None else ()
+        sensor_nodes = self.sensors.at([parse_dof(k).node for k in observed]) if self.sensors is not None else ()
         Ya = self._loaded(sensor_nodes, rows)
         Ynn = _sub(Ya, in_, in_)
         G = np.linalg.solve(np.eye(len(n))[None] + Ynn @ self.Du, _sub(Ya, in_, ie))  # (I + Y[n,n] Du)^-1 Y[n,e]
@@ -192,12 +271,12 @@ class LayoutPredictor:
         """
         from .design_check import BlockModel
 
-        m = [Dof(k, "w") for k in observed]
-        e = [Dof(k, "w") for k in excited]
+        m = list(layout_dofs(observed, "observed"))
+        e = list(layout_dofs(excited, "excited"))
         dofs = list(dict.fromkeys(m + list(self.joint_dofs) + e))
         rows = [self._index[d] for d in dofs]
         modelled = self.sensors is not None and self.sensors.modelled
-        Y = self._loaded(self.sensors.at(observed) if modelled else (), rows)
+        Y = self._loaded(self.sensors.at([d.node for d in m]) if modelled else (), rows)
         return BlockModel(dofs, self.frequency.hz, Y), m, e
 
     def exact_receptance(self, observed: Sequence[int], excited: Sequence[int]) -> np.ndarray:
@@ -355,9 +434,9 @@ class _Combined:
     """Predictors of several scenarios; ``relative_std`` is their geometric mean per line and term."""
 
     def __init__(self, free, joint, joint_dofs, frequency, nodes, noise, sensors, symmetric, scenarios, lines=None,
-                 basis=None, terms=None):
+                 basis=None, terms=None, blocks=None):
         self.predictor = LayoutPredictor(free, joint, joint_dofs, frequency, nodes, noise, sensors, symmetric,
-                                         estimator_lines=lines, smoother_basis=basis)
+                                         estimator_lines=lines, smoother_basis=basis, blocks=blocks)
         self.scenarios = tuple(scenarios)
         self.terms = terms
 
