@@ -8,6 +8,12 @@ the ``[accelerometers]`` (on the observed nodes when the study has them exactly
 there, so they move with a new layout; otherwise fixed where the study puts them),
 ``[identification].model_accelerometers`` and ``symmetric``, and the band
 ``[frequency] start..stop`` on the study's grid.
+
+A ``[structure]`` study (:func:`design_structure_study`): the candidates are DOFs
+(default every translational DOF of the nodes the study observes or excites), the
+free model its :class:`~jointid.physics.sparse_model.SparseModel`, the expected joint
+the block-diagonal assembly of every ``[[joint]]``'s ``[joint.model]`` and the
+criterion over each joint's own terms (``"front:K_x_x"`` with several joints).
 """
 
 from __future__ import annotations
@@ -16,13 +22,22 @@ import dataclasses
 import math
 from typing import Mapping, Sequence
 
-from .errors import StudyError
+import numpy as np
+
+from .dofs import Dof, pack_dof_keys, parse_dof
+from .errors import DofError, StudyError
 from .frequency import Frequency
 from .methods.design import LayoutDesign, Scenario, Sensors, design_layout
 from .pipeline import coupling_options, free_model, true_joint
 from .study import Study
 
-__all__ = ["design_study", "study_sensors", "with_layout", "design_band", "hammer_noise"]
+__all__ = [
+    "design_study", "design_structure_study", "structure_candidates", "study_sensors", "with_layout", "design_band",
+    "hammer_noise", "MAX_CANDIDATES",
+]
+
+#: Most candidate DOFs a ``[structure]`` design searches (the search costs about K x candidates layouts per pass).
+MAX_CANDIDATES = 300
 
 
 def study_sensors(study: Study) -> Sensors | None:
@@ -34,12 +49,21 @@ def study_sensors(study: Study) -> Sensors | None:
     return Sensors(acc.mass, acc.rotary_inertia, None if follow else tuple(acc.nodes), study.identification.model_accelerometers)
 
 
-def with_layout(study: Study, observed: Sequence[int], excited: Sequence[int]) -> Study:
+def with_layout(study: Study, observed: Sequence, excited: Sequence) -> Study:
     """The study with ``[measurement]`` observed/excited replaced (accelerometers follow as in :func:`study_sensors`).
 
-    A ``[measurement.points]`` map is kept only if it still names every node.
+    Beam nodes for a ``[beam]`` study, DOF labels or :class:`~jointid.dofs.Dof` for a
+    ``[structure]`` study. A ``[measurement.points]`` map is kept only if it still names every node.
     """
     m = study.measurement
+    if study.is_structure:
+        try:
+            observed, excited = tuple(parse_dof(d) for d in observed), tuple(parse_dof(d) for d in excited)
+        except DofError as exc:
+            raise StudyError(f"layout: {exc}") from None
+        nodes = {d.node for d in observed + excited}
+        points = m.points if nodes <= {node for _, node in m.points} else ()
+        return dataclasses.replace(study, measurement=dataclasses.replace(m, observed=observed, excited=excited, points=points))
     nodes = set(observed) | set(excited)
     points = m.points if nodes <= {node for _, node in m.points} else ()
     measurement = dataclasses.replace(m, observed=tuple(observed), excited=tuple(excited), points=points)
@@ -64,7 +88,7 @@ def design_band(study: Study, band_hz: tuple[float, float] | None = None) -> Fre
 
 
 def design_study(
-    study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence[int] | None = None,
+    study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence | None = None,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
     search_lines: int = 300, monte_carlo: int = 0,
 ) -> LayoutDesign:
@@ -77,7 +101,8 @@ def design_study(
     observed, excited : int, optional
         K and L (default: as many as the study's ``[measurement]``).
     candidates : sequence of int, optional
-        Beam nodes that may be observed or excited (default: every node 1..N).
+        Beam nodes that may be observed or excited (default: every node 1..N); for a
+        ``[structure]`` study DOF labels (see :func:`design_structure_study`).
     noise : float
         Relative 1-sigma FRF noise (0.01 = 1 %).
     weights : mapping, optional
@@ -102,6 +127,11 @@ def design_study(
     IdentificationError
         K or L out of range, an unknown term weight.
     """
+    if study.is_structure:
+        return design_structure_study(
+            study, observed, excited, candidates=candidates, noise=noise, weights=weights, band_hz=band_hz,
+            search_lines=search_lines, monte_carlo=monte_carlo,
+        )
     if study.joint.model is None:
         raise StudyError(f"{study.source}: [joint.model] is missing; a design needs the expected joint stiffness")
     n_nodes = study.beam.nodes
@@ -115,9 +145,7 @@ def design_study(
             raise StudyError(f"candidates: node {c} is not a node of the beam (nodes 1..{n_nodes})")
     m = study.measurement
     spec = study.identification
-    scenarios = [Scenario("relative", "smoothed", c) for c in (False, True)]
-    scenarios += [Scenario("additive", "smoothed", c, hammer_noise(study, noise)) for c in (False, True)]
-    scenarios = [scenarios[0], scenarios[2], scenarios[1], scenarios[3]]
+    scenarios = _beam_scenarios(study, noise)
     return design_layout(
         free_model(study, with_accelerometers=False),
         true_joint(study),
@@ -131,6 +159,13 @@ def design_study(
         current=(m.observed, m.excited), search_lines=search_lines,
         monte_carlo=monte_carlo, coupling_options=coupling_options(study), scenarios=scenarios,
     )
+
+
+def _beam_scenarios(study: Study, noise: float) -> list[Scenario]:
+    """Relative and hammer-like additive noise, smoothed, each without and with column calibration."""
+    scenarios = [Scenario("relative", "smoothed", c) for c in (False, True)]
+    scenarios += [Scenario("additive", "smoothed", c, hammer_noise(study, noise)) for c in (False, True)]
+    return [scenarios[0], scenarios[2], scenarios[1], scenarios[3]]
 
 
 def hammer_noise(study: Study, noise: float) -> float:
@@ -147,3 +182,99 @@ def hammer_noise(study: Study, noise: float) -> float:
         return noise
     lines = max(1.0, study.frequency.step * x.duration)
     return float(x.response_noise / math.sqrt(max(1, x.averages) * lines))
+
+
+def structure_candidates(study: Study, candidates: Sequence | None = None) -> tuple[Dof, ...]:
+    """The candidate DOFs of a ``[structure]`` study's design, checked against the model.
+
+    Default: every translational DOF (x, y, z) the model has at the nodes that
+    ``[measurement]`` observes or excites. Given: DOF labels (``"12x"``) or
+    :class:`~jointid.dofs.Dof`, each a DOF of the structure.
+
+    Raises
+    ------
+    StudyError
+        A label that is not a DOF, a DOF not in the structure, none, or more than
+        :data:`MAX_CANDIDATES` (one line each).
+    """
+    dof_array = study.structure.dof_array
+    if candidates is None:
+        m = study.measurement
+        nodes = sorted({d.node for d in m.observed_dofs + m.excited_dofs})
+        wanted = [Dof(k, c) for k in nodes for c in ("x", "y", "z")]
+        keys = pack_dof_keys([d.node for d in wanted], [d.code for d in wanted])
+        cands = tuple(d for d, ok in zip(wanted, np.isin(keys, dof_array.keys)) if ok)
+    else:
+        try:
+            cands = tuple(dict.fromkeys(parse_dof(c) for c in candidates))
+            dof_array.indices(cands, f"structure ({study.structure.dofs})")
+        except DofError as exc:
+            raise StudyError(f"candidates: {exc}") from None
+    if not cands:
+        raise StudyError("candidates: expected at least one DOF of the structure, e.g. 12x")
+    if len(cands) > MAX_CANDIDATES:
+        raise StudyError(
+            f"candidates: {len(cands)} DOFs, a design searches at most {MAX_CANDIDATES}; "
+            "name the DOFs a test can reach with --candidates (e.g. 12x,12z,40y)"
+        )
+    return cands
+
+
+def design_structure_study(
+    study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence | None = None,
+    noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
+    search_lines: int = 300, monte_carlo: int = 0,
+) -> LayoutDesign:
+    """Choose observed and excited DOFs of a ``[structure]`` study for the best-determined joints.
+
+    As :func:`design_study` (which dispatches here), with: candidates from
+    :func:`structure_candidates`; the free model the study's
+    :class:`~jointid.physics.sparse_model.SparseModel`; the expected joint the
+    block-diagonal assembly of every ``[[joint]]``'s ``[joint.model]``
+    (:func:`~jointid.pipeline_structure.true_joint_matrix`, joint DOFs
+    ``study.joint_dofs``); the criterion over each joint's own terms (with several
+    joints named ``"<joint>:K_x_ry"``; a weight without the prefix sets that term of
+    every joint); no accelerometers (a structure's sensors are in its matrices). The
+    scenarios are the beam's, per line instead of smoothed when
+    ``[identification].smoothing = "none"``.
+
+    Returns
+    -------
+    LayoutDesign
+        Layouts as :class:`~jointid.dofs.Dof`.
+
+    Raises
+    ------
+    StudyError
+        A joint without ``[joint.model]``, a bad candidate (see :func:`structure_candidates`), an empty band.
+    """
+    from .physics.jointed_model import assemble_joints
+    from .pipeline_structure import structure_model, true_joints
+
+    for j in study.joints:
+        if j.model is None:
+            raise StudyError(
+                f"{study.source}: [[joint]] {j.name!r} has no [joint.model] table; a design needs the expected stiffness of every joint"
+            )
+    cands = structure_candidates(study, candidates)
+    joints = true_joints(study)
+    m = study.measurement
+    spec = study.identification
+    if spec.smoothing == "none":
+        scenarios = [Scenario("relative", "per-line"), Scenario("additive", "per-line", False, hammer_noise(study, noise))]
+    else:
+        scenarios = _beam_scenarios(study, noise)
+    return design_layout(
+        structure_model(study),
+        lambda f_hz: assemble_joints(joints, f_hz),
+        study.joint_dofs,
+        design_band(study, band_hz),
+        cands,
+        len(m.observed) if observed is None else observed,
+        len(m.excited) if excited is None else excited,
+        noise=noise, weights=weights, sensors=None,
+        symmetric=True if spec.symmetric is None else bool(spec.symmetric),
+        current=(m.observed_dofs, m.excited_dofs), search_lines=search_lines,
+        monte_carlo=monte_carlo, coupling_options=coupling_options(study), scenarios=scenarios,
+        blocks=[(j.name, len(j.joint_dofs)) for j in study.joints],
+    )

@@ -36,7 +36,7 @@ def add_study_argument(p: argparse.ArgumentParser, required: bool = True) -> Non
 
 
 #: Subcommands that take a ``[structure]`` study (the others need a ``[beam]`` study).
-STRUCTURE_COMMANDS = ("simulate", "identify", "experiment", "update")
+STRUCTURE_COMMANDS = ("simulate", "identify", "experiment", "update", "design")
 
 
 def study_from_args(args: argparse.Namespace) -> Study:

@@ -6,11 +6,12 @@ import argparse
 import json
 import math
 
-from ..errors import StudyError
+from ..dofs import parse_dof
+from ..errors import DofError, StudyError
 from ..io.output_dir import OutputSet
 from .common import add_out_argument, add_study_argument, study_from_args
 
-__all__ = ["add_parser", "run", "parse_nodes", "parse_weights"]
+__all__ = ["add_parser", "run", "parse_nodes", "parse_dof_labels", "parse_weights"]
 
 
 def add_parser(sub) -> None:
@@ -23,15 +24,21 @@ def add_parser(sub) -> None:
         "additive FRF noise) over the study's band, weighted per term, for a stated FRF noise, with the study's "
         "[joint.model] as the expected joint and its [accelerometers] (on the observed nodes, they move with them); "
         "layouts predicted worse than the study's in any scenario are penalized. "
+        "A [structure] study: candidates are DOFs (default: x, y, z of every node the study observes or excites), "
+        "the criterion is over every [[joint]]'s own terms (named JOINT:K_x_x with several joints). "
         "Writes DIR/design.json (chosen and current layout, median predicted relative error per term and scenario) "
         "and DIR/design.png (per-term predicted relative error vs frequency, both layouts). See jointid.methods.design.",
     )
     add_study_argument(p, required=False)
     add_out_argument(p)
-    p.add_argument("--observed", type=int, default=None, metavar="K", help="observed nodes (default: as in the study)")
-    p.add_argument("--excited", type=int, default=None, metavar="L", help="excited nodes (default: as in the study)")
+    p.add_argument("--observed", type=int, default=None, metavar="K",
+                   help="observed nodes, or DOFs of a [structure] study (default: as in the study)")
+    p.add_argument("--excited", type=int, default=None, metavar="L",
+                   help="excited nodes, or DOFs of a [structure] study (default: as in the study)")
     p.add_argument("--candidates", default=None, metavar="NODES",
-                   help="nodes that may be observed or excited, e.g. 1..19 or 1,3,5..9 (default: every beam node)")
+                   help="nodes that may be observed or excited, e.g. 1..19 or 1,3,5..9 (default: every beam node); "
+                        "a [structure] study: DOF labels, e.g. 12x,12y,40z (default: x, y, z of the study's "
+                        "observed and excited nodes; at most 300)")
     p.add_argument("--noise", type=float, default=0.01, help="relative 1-sigma FRF noise (default 0.01 = 1 %%)")
     p.add_argument("--weights", default=None, metavar="TERM=W,...",
                    help="term weights, e.g. K_theta_theta=4 (default 1 each; 0 ignores a term)")
@@ -59,6 +66,14 @@ def parse_nodes(text: str) -> list[int]:
     return list(dict.fromkeys(out))
 
 
+def parse_dof_labels(text: str) -> list:
+    """``"12x,12y,40z"`` -> DOFs (in order, without repeats)."""
+    try:
+        return list(dict.fromkeys(parse_dof(part.strip()) for part in text.split(",")))
+    except DofError as exc:
+        raise StudyError(f"--candidates: {exc}") from None
+
+
 def parse_weights(text: str) -> dict[str, float]:
     """``"K_theta_theta=4,K_w_w=1"`` -> ``{"K_theta_theta": 4.0, "K_w_w": 1.0}``."""
     out: dict[str, float] = {}
@@ -77,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
     from ..design import design_study
 
     study = study_from_args(args)
-    candidates = parse_nodes(args.candidates) if args.candidates is not None else None
+    parse = parse_dof_labels if study.is_structure else parse_nodes
+    candidates = parse(args.candidates) if args.candidates is not None else None
     weights = parse_weights(args.weights) if args.weights is not None else None
     if not (math.isfinite(args.noise) and args.noise > 0):
         raise StudyError(f"--noise: expected a relative FRF noise level > 0 (0.01 = 1 %), got {args.noise:g}")

@@ -513,6 +513,14 @@ def design_layout(
         if full_cur is not None and c < math.inf:
             c *= math.prod(max(1.0, x / y) ** DOMINANCE_PENALTY for x, y in zip(each, full_cur))
         reranked.append((c, o, e))
+    if current is not None:
+        # a fallback: when no searched layout is predicted better than the current one (a layout of the search),
+        # the current one is the design
+        cur = (tuple(sorted(set(current[0]))), tuple(sorted(set(current[1]))))
+        if (len(cur[0]), len(cur[1])) == (n_observed, n_excited) and set(cur[0]) | set(cur[1]) <= set(cands):
+            c_cur = _combine(full_cur if full_cur is not None else [_criterion(r, w)[0] for r in ranker.each(*cur)])
+            if c_cur < min(reranked, default=(math.inf,))[0] and all(cur != (o, e) for _, o, e in reranked):
+                reranked.append((c_cur, *cur))
     if reranked:
         best_full, obs, exc = min(reranked)
         history.append(("re-rank", best_full))

@@ -65,7 +65,7 @@ class BlockModel:
         return self._Y[:, np.asarray(r)[:, None], np.asarray(c)[None, :]]
 
 
-def monte_carlo_errors(predictor, observed: Sequence[int], excited: Sequence[int], seeds: int,
+def monte_carlo_errors(predictor, observed: Sequence, excited: Sequence, seeds: int,
                        options: CouplingOptions | None = None) -> np.ndarray:
     """Actual relative error of the default estimator per seed and term, shape (seeds, T).
 
@@ -73,7 +73,8 @@ def monte_carlo_errors(predictor, observed: Sequence[int], excited: Sequence[int
     ----------
     predictor : LayoutPredictor
         On the lines to identify (the full band), with the noise model and level to simulate.
-    observed, excited : sequence of int
+    observed, excited : sequence of int or DOFs
+        As the predictor's candidates (beam nodes, or DOFs such as ``"12x"``).
     seeds : int
         Realizations (seeds 0..seeds-1).
     options : CouplingOptions, optional
@@ -92,6 +93,5 @@ def monte_carlo_errors(predictor, observed: Sequence[int], excited: Sequence[int
         z = (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2.0)
         frf = FRF(predictor.frequency, H + sd * z, tuple(m_dofs), tuple(e_dofs), "receptance", coherence=coherence)
         K = identify_joint_coupling(model, frf, predictor.joint_dofs, options).stiffness
-        rel = np.abs(K - predictor.Du) / ref
-        out[k] = [np.median(rel[:, i, j]) for i, j, _ in predictor.terms]
+        out[k] = [np.median(np.abs(K[:, i, j] - predictor.Du[:, i, j]) / ref[:, i, j]) for i, j, _ in predictor.terms]
     return out
