@@ -322,17 +322,18 @@ def _seed_sets(cands: tuple, n: int) -> list[tuple]:
     return [tuple(cands[i] for i in idx) for idx in sorted(drawn)]
 
 
-def _check_counts(n_joint: int, n_candidates: int, n_observed: int, n_excited: int) -> None:
+def _check_counts(n_joint: int, n_candidates: int, n_observed: int, n_excited: int, unit: str = "node") -> None:
+    """K and L against the joint DOFs and the candidates (``unit``: "node" for beam nodes, "DOF" for DOFs)."""
     for what, k in (("observed", n_observed), ("excited", n_excited)):
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
-            raise IdentificationError(f"{what}: expected a number of nodes, got {k!r}")
+            raise IdentificationError(f"{what}: expected a number of {unit}s, got {k!r}")
         if k < n_joint:
             raise IdentificationError(
-                f"{what}: {k} node{'s' if k != 1 else ''} cannot identify the {n_joint} joint DOFs; choose at least {n_joint}"
+                f"{what}: {k} {unit}{'s' if k != 1 else ''} cannot identify the {n_joint} joint DOFs; choose at least {n_joint}"
             )
         if k > n_candidates:
             raise IdentificationError(
-                f"{what}: {k} nodes asked for but there are only {n_candidates} candidate nodes; choose at most {n_candidates}"
+                f"{what}: {k} {unit}s asked for but there are only {n_candidates} candidate {unit}s; choose at most {n_candidates}"
             )
 
 
@@ -421,7 +422,8 @@ def design_layout(
     t0 = time.perf_counter()
     joint_dofs = tuple(parse_dofs(joint_dofs))
     cands, current = _candidates(candidates, current)
-    _check_counts(len(joint_dofs), len(cands), n_observed, n_excited)
+    _check_counts(len(joint_dofs), len(cands), n_observed, n_excited,
+                  "node" if all(isinstance(c, int) for c in cands) else "DOF")
     if blocks is not None:
         blocks = joint_blocks(joint_dofs, blocks)
     terms = [t for _, _, t in term_names(joint_dofs, symmetric, blocks)]
