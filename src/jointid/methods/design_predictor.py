@@ -297,13 +297,20 @@ class LayoutPredictor:
         level = np.mean(np.abs(w2 * H) ** 2, axis=0, keepdims=True)
         return self.noise**2 * level / w2**2
 
-    def variance(self, observed: Sequence[int], excited: Sequence[int], blocks=None) -> np.ndarray:
-        """Predicted ``E|dDu_ij|^2`` per line for the stated noise, shape (F, n, n)."""
+    def variance(self, observed: Sequence, excited: Sequence, blocks=None, shared: dict | None = None) -> np.ndarray:
+        """Predicted ``E|dDu_ij|^2`` per line for the stated noise, shape (F, n, n).
+
+        ``shared``: a dict kept between calls on the same layout's ``blocks`` (the
+        design matrix and the Jacobian do not depend on the noise model).
+        """
         n = len(self._n)
         H, Ymn, Yne, Ynn = blocks if blocks is not None else self._blocks(observed, excited)
         m, e = len(observed), len(excited)
         F = H.shape[0]
-        A = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * e, n * n) @ self._P
+        shared = {} if shared is None else shared
+        if "A" not in shared:
+            shared["A"] = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * e, n * n) @ self._P
+        A = shared["A"]
         sigma = np.sqrt(self.frf_variance(H)).reshape(F, -1)
         with np.errstate(divide="ignore", invalid="ignore"):
             Aw = A / sigma[:, :, None]
@@ -318,10 +325,12 @@ class LayoutPredictor:
             except np.linalg.LinAlgError:  # an exactly singular line: that layout cannot identify the joint
                 Ri = np.linalg.pinv(R) * np.nan
             C = (Ri @ np.conj(np.swapaxes(Ri, 1, 2))) / (cs[:, :, None] * cs[:, None, :])
-        I = np.eye(n)
-        L = I[None] + self.Du @ Ynn
-        Rr = I[None] + Ynn @ self.Du
-        J = np.einsum("fik,flj->fijkl", L, Rr).reshape(F, n * n, n * n) @ self._P
+        if "J" not in shared:
+            I = np.eye(n)
+            L = I[None] + self.Du @ Ynn
+            Rr = I[None] + Ynn @ self.Du
+            shared["J"] = np.einsum("fik,flj->fijkl", L, Rr).reshape(F, n * n, n * n) @ self._P
+        J = shared["J"]
         with np.errstate(all="ignore"):
             V = np.real(np.einsum("fab,fbc,fac->fa", J, C, J.conj())).reshape(F, n, n)
         return V
@@ -337,7 +346,7 @@ class LayoutPredictor:
         blocks = self._blocks(observed, excited)
         H, Ymn, Yne, Ynn = blocks
         active = [self.terms[k] for k in (range(len(self.terms)) if terms is None else terms)]
-        per_line, smoothed, common, out = {}, {}, {}, []
+        per_line, smoothed, common, out, shared = {}, {}, {}, [], {}
         for sc in scenarios:
             nm = sc.noise_model
             level = self.noise if sc.level is None else sc.level
@@ -346,7 +355,7 @@ class LayoutPredictor:
             if key not in per_line:
                 saved, self.noise_model = self.noise_model, nm
                 try:
-                    per_line[key] = g * self.variance(observed, excited, blocks)
+                    per_line[key] = g * self.variance(observed, excited, blocks, shared)
                 finally:
                     self.noise_model = saved
             if sc.estimator == "per-line":
