@@ -281,7 +281,7 @@ def test_not_positive_definite_mount_and_beam_only_commands(tmp_path, capsys):
     assert main(["modes", str(p), "--out", str(tmp_path / "u")]) == 2
     assert capsys.readouterr().err.strip() == (
         f"jointid modes: error: {p}: `jointid modes` needs a [beam] study; a [structure] study works with "
-        "`jointid simulate`, `jointid identify`, `jointid experiment` and `jointid update`"
+        "`jointid simulate`, `jointid identify`, `jointid experiment`, `jointid update` and `jointid design`"
     )
 
 
