@@ -204,3 +204,19 @@ def test_too_many_candidates_name_the_option(files, monkeypatch):
         design_study(st)
     assert str(err.value) == ("candidates: 9 DOFs, a design searches at most 8; name the DOFs a test can reach with "
                               "--candidates (e.g. 12x,12z,40y)")
+
+
+def test_figure_of_a_6dof_mount_shows_the_diagonal_terms():
+    from types import SimpleNamespace
+
+    from jointid.methods.design_predictor import term_names
+    from jointid.plots.design import _shown_terms
+
+    dofs = [Dof(1, c) for c in ("x", "y", "z", "rx", "ry", "rz")] + [Dof(3, c) for c in ("x", "y", "z")]
+    names = tuple(t for _, _, t in term_names(dofs, True, [("front", 6), ("rear", 3)]))
+    assert len(names) == 21 + 6 and names[0] == "front:K_x_x" and names[-1] == "rear:K_z_z"
+    design = SimpleNamespace(terms=names, weights=dict.fromkeys(names, 1.0))
+    shown = [names[t] for t in _shown_terms(design)]
+    assert shown == [f"front:K_{c}_{c}" for c in ("x", "y", "z", "rx", "ry", "rz")] + [f"rear:K_{c}_{c}" for c in "xyz"]
+    design.weights = {**design.weights, **{n: 0.0 for n in names if n.startswith("front")}}
+    assert [names[t] for t in _shown_terms(design)] == list(names[21:])  # the weighted ones, when few enough
