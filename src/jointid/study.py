@@ -121,7 +121,7 @@ from .schema import nonneg as _nonneg
 from .schema import positive as _positive
 from .schema import section as _section
 from .schema import typed as _typed  # noqa: F401 - importable from here (study_sections, other modules)
-from .study_structure import parse_dof_list_key, parse_joints, parse_structure
+from .study_structure import ELASTOMER_MATERIAL_FIELDS, parse_dof_list_key, parse_joints, parse_structure
 from .study_sections import (
     TRUTH_KEYS,
     AccelerometerSpec,
@@ -195,21 +195,7 @@ _PARAMETRIC = {
     "reference_frequency": _Field("number", False, 100.0, unit="Hz", check=_positive),
     "exponent": _Field("number", False, 1.0, check=_positive),
 }
-_ELASTOMER = {
-    "type": _Field("str", True),
-    "material": _Field("str", False, "A", check=_choices("A", "B")),
-    "elastic_modulus": _Field("number", unit="Pa", check=_positive),
-    "loss_factor": _Field("number", check=_nonneg),
-    "density": _Field("number", unit="kg/m^3", check=_positive),
-    "length": _Field("number", unit="m", check=_positive),
-    "diameter": _Field("number", unit="m", check=_positive),
-    "poisson_ratio": _Field("number", check=lambda v: None if -1 < v < 0.5 else "a number in (-1, 0.5)"),
-    "elements": _Field("int", check=lambda v: None if 2 <= v <= 200 else "an integer in 2..200"),
-    "cap": _Field("bool"),
-    "cap_diameter": _Field("number", unit="m", check=_positive),
-    "cap_thickness": _Field("number", unit="m", check=_positive),
-    "cap_density": _Field("number", unit="kg/m^3", check=_positive),
-}
+_ELASTOMER = {"type": _Field("str", True), **ELASTOMER_MATERIAL_FIELDS}
 _AXES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
 _MEASUREMENT = {
     "observed": _Field("int_list", True),

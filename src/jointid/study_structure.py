@@ -80,7 +80,10 @@ from .dofs import Dof, DofArray, parse_dof
 from .errors import DataError, DofError, ModelError, StudyError
 from .schema import Field, choices, nonneg, positive, section, typed
 
-__all__ = ["StructureSpec", "MountSpec", "ElastomerSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key", "MOUNT_KEYS"]
+__all__ = [
+    "StructureSpec", "MountSpec", "ElastomerSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key",
+    "MOUNT_KEYS", "ELASTOMER_KEYS", "ELASTOMER_MATERIAL_FIELDS",
+]
 
 _JOINT_KEYS = ("name", "dofs", "other", "model")
 _NAME = re.compile(r"^[A-Za-z0-9_-]{1,40}$")
@@ -119,11 +122,10 @@ _MOUNT_FIELDS = {
     "reference_frequency": Field("number", default=100.0, unit="Hz", check=positive),
     "exponent": Field("number", default=1.0, check=positive),
 }
-#: Schema of ``[joint.model] type = "elastomer"`` (material keys as :func:`~jointid.physics.elastomer_joint.elastomer_joint_model`).
-_ELASTOMER_FIELDS = {
-    "type": Field("str", check=choices("elastomer")),
-    "axes": Field("any"),
-    "cylinder_axis": Field("any"),
+#: Schema of the elastomer joint's material and geometry keys (as
+#: :func:`~jointid.physics.elastomer_joint.elastomer_joint_model` takes them), shared by the
+#: ``[joint.model]`` of a ``[beam]`` study and ``type = "elastomer"`` of a ``[[joint]]``.
+ELASTOMER_MATERIAL_FIELDS = {
     "material": Field("str", default="A", check=choices("A", "B")),
     "elastic_modulus": Field("number", unit="Pa", check=positive),
     "loss_factor": Field("number", check=nonneg),
@@ -136,6 +138,13 @@ _ELASTOMER_FIELDS = {
     "cap_diameter": Field("number", unit="m", check=positive),
     "cap_thickness": Field("number", unit="m", check=positive),
     "cap_density": Field("number", unit="kg/m^3", check=positive),
+}
+#: Schema of ``[joint.model] type = "elastomer"`` of a ``[[joint]]``.
+_ELASTOMER_FIELDS = {
+    "type": Field("str", check=choices("elastomer")),
+    "axes": Field("any"),
+    "cylinder_axis": Field("any"),
+    **ELASTOMER_MATERIAL_FIELDS,
 }
 #: Keys of ``[joint.model] type = "mount"``.
 MOUNT_KEYS = tuple(_MOUNT_FIELDS)
