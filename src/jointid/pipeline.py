@@ -184,7 +184,7 @@ def identify(
 
     A ``[structure]`` study identifies all its joints at once
     (:func:`jointid.pipeline_structure.identify_structure`; Hong & Lee on models of
-    at most 3000 DOFs).
+    at most 500 DOFs).
     """
     if study.is_structure:
         from .pipeline_structure import identify_structure

@@ -44,7 +44,7 @@ import numpy as np
 from .errors import StudyError
 from .frequency import Frequency
 from .frf import FRF
-from .methods.coupling import CouplingOptions, CouplingResult, identify_joint_coupling
+from .methods.coupling import identify_joint_coupling
 from .models import constrained_model, structure_model, true_joint_matrix, true_joints  # re-exported
 from .study import Study
 
@@ -115,7 +115,7 @@ def identify_structure(study: Study, measured: FRF, options=None):
     Split the result per joint with :func:`split_joints`.
 
     The method is ``[identification].method`` unless ``options`` says otherwise: the
-    receptance method (:class:`CouplingOptions`, any model size) or the plain Hong &
+    receptance method (:class:`~jointid.methods.coupling.CouplingOptions`, any model size) or the plain Hong &
     Lee method (:class:`~jointid.methods.inverse.InverseOptions`) on the dense model,
     for models of at most :data:`~jointid.physics.sparse_model.DENSE_STRUCTURE_MAX_DOFS`
     DOFs (it solves with ``Do[nbar, mbar]`` on every line).

@@ -64,7 +64,7 @@ DOF belongs to at most one joint; all joints are identified at once, so at
 least as many observed and excited DOFs as joint DOFs (of all joints
 together) are needed. Both methods apply: the receptance method (default, any
 model size) and the plain Hong & Lee method (``[identification] method =
-"hong-lee"``) on models of at most 3000 DOFs, which it needs dense.
+"hong-lee"``) on models of at most 500 DOFs, which it needs dense.
 """
 
 from __future__ import annotations

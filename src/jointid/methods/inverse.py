@@ -458,7 +458,7 @@ def rotation_scale(free: Structure) -> float:
     read from matrix files): ``l = sqrt(median K_rr / median K_tt)`` over the
     diagonal of ``Re K`` on rotational (r) and translational (t) DOFs, the length
     that gives a moment row and a force row the same size (for a beam of element
-    length ``h`` it is ``h / sqrt(30)``-ish, the same order as ``h``). 1 m when the
+    length ``h`` it is about ``h / sqrt(3)``; on a 3-D model the translational median includes the stiffer axial terms). 1 m when the
     model has no rotations or no translations.
     """
     xs = np.array([free.coordinates[k] for k in free.nodes], dtype=float)

@@ -125,8 +125,8 @@ class ModalBasis:
         return np.sqrt(np.clip(self.eigenvalues, 0.0, None)) / (2.0 * np.pi)
 
 
-#: Largest model :meth:`SparseModel.dense_structure` converts (the plain Hong & Lee method's limit).
-DENSE_STRUCTURE_MAX_DOFS = 3000
+#: Largest model :meth:`SparseModel.dense_structure` converts (the plain Hong & Lee method: its estimation step holds (250 lines, N, N) complex arrays, 1 GB at 500 DOFs).
+DENSE_STRUCTURE_MAX_DOFS = 500
 
 
 class SparseModel:
