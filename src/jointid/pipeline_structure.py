@@ -64,7 +64,8 @@ def constrained_structure(study: Study):
     StudyError
         A ``[beam]`` study, or a joint without ``[joint.model]`` or whose model cannot be built.
     """
-    structure_model(study)  # a [structure] study, readable matrices
+    if not study.is_structure:
+        raise StudyError(f"{study.source}: a [structure] study is needed here; this one has [beam]")
     return constrained_model(study)
 
 
@@ -87,9 +88,10 @@ def simulate_structure(study: Study, frequency: Frequency | None = None):
     frequency = frequency or study.grid
     if frequency.hz[0] <= 0:
         frequency = frequency[frequency.hz > 0]
-    Du = true_joint_matrix(study, frequency.hz)
+    article = constrained_structure(study)  # matrices read and joint models built once
     m = study.measurement
-    H = constrained_structure(study).receptance(frequency, m.observed_dofs, m.excited_dofs)
+    H = article.receptance(frequency, m.observed_dofs, m.excited_dofs)
+    Du = article.joint_stiffness(frequency.hz)
     frf = FRF(frequency, H, m.observed_dofs, m.excited_dofs, "receptance").to("accelerance")
     return VirtualTest(frf, Du, study.joint_dofs)
 
