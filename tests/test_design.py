@@ -15,7 +15,7 @@ from jointid.frf import FRF
 from jointid.methods.coupling_lines import coupling_per_line
 from jointid.methods.design import LayoutPredictor
 from jointid.physics.free_model import StructureModel
-from jointid.pipeline import free_model, identify, simulate, true_joint
+from jointid.pipeline import coupling_options, free_model, identify, simulate, true_joint
 
 MODEL3 = ((1, 3, 6, 9, 12, 15, 19), (3, 9, 15))
 
@@ -111,9 +111,11 @@ def _column_error(shape, rng, level=0.005):
 
 
 def test_noisy_identifications_confirm_the_predicted_ranking(design5):
-    # the default estimator (smoothed; column calibration when it finds a column error), 4 new seeds each:
+    # the estimator the design predicts (each term smoothed, smoothing = "gcv"; column calibration when it finds
+    # a column error), 4 new seeds each:
     # (a) 1 % complex relative noise on exact FRFs, (b) the same and a smooth 1 % column error per hit column
     st = coarse(5.0)
+    GCV = dataclasses.replace(coupling_options(st), smoothing="gcv")
     errors = {}
     for name, layout in (("chosen", (design5.observed, design5.excited)), ("model3", MODEL3)):
         s = with_layout(st, *layout)
@@ -124,7 +126,7 @@ def test_noisy_identifications_confirm_the_predicted_ranking(design5):
             d = test.frf.data
             noisy = d * (1 + 0.01 * (rng.standard_normal(d.shape) + 1j * rng.standard_normal(d.shape)) / np.sqrt(2))
             for key, data in (("noise", noisy), ("column", noisy * _column_error(d.shape, rng))):
-                r = identify(s, FRF(test.frequency, data, test.frf.responses, test.frf.references, test.frf.kind))
+                r = identify(s, FRF(test.frequency, data, test.frf.responses, test.frf.references, test.frf.kind), GCV)
                 assert r.calibration_applied == (key == "column")
                 per_seed[key].append(np.median(np.abs(r.stiffness[:, 1, 1] / test.truth[:, 1, 1] - 1)))
         errors[name] = {k: np.median(v) for k, v in per_seed.items()}

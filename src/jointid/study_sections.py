@@ -175,7 +175,7 @@ class IdentificationSpec:
     """
 
     method: str = "receptance"
-    smoothing: str = "gcv"
+    smoothing: str = "auto"
     weighting: str = "auto"
     averages: int | None = None
     max_relative_std: float = 0.1

@@ -110,6 +110,7 @@ def summary(result, study, source: Path) -> dict:
         }
         if not study.is_structure:
             out["options"]["elements_per_segment"] = study.beam.mesh_refinement(study.frequency.stop)
+        out["estimator"] = result.estimator_summary()
         out["findings"] = result.findings()
         out["max_condition"] = float(np.max(result.condition))
         out["median_residual_scale"] = float(np.nanmedian(result.residual_scale)) if np.isfinite(result.residual_scale).any() else None
@@ -182,6 +183,8 @@ def run(args: argparse.Namespace) -> int:
         f"({f[0]:g}-{f[-1]:g} Hz); {100 * np.mean(result.reliable):.0f}% of lines reliable; "
         f"wrote {', '.join(str(out.path(x)) for x in files)}"
     )
+    if hasattr(result, "describe_estimator"):
+        print(f"estimator: {result.describe_estimator()}")
     findings = getattr(result, "findings", lambda: [])()
     for finding in findings[:MAX_PRINTED_FINDINGS]:
         print(finding)

@@ -71,6 +71,10 @@ class ColumnCalibration:
         ``delta_j(f)``: the corrected FRF is ``H[:, j] (1 - delta_j)``.
     x_covariance : ndarray, shape (F, p, p), complex
         Covariance its uncertainty adds to the per-line coupling parameters x (upper triangle of X).
+    x_factor : ndarray, shape (F, p, e n_basis), complex
+        ``G`` with ``x_f`` error ``G_f u``, ``u ~ CN(0, I)`` common to all lines: ``G_f G_f^H`` is
+        ``x_covariance[f]`` and ``G_f G_g^H`` the covariance between lines f and g (what a fit over
+        all lines at once needs, :mod:`jointid.methods.structured_fit`).
     f_statistic, p_value : float
         F test of the residual reduction against "no calibration error".
     n_basis : int
@@ -81,6 +85,7 @@ class ColumnCalibration:
     f_statistic: float
     p_value: float
     n_basis: int
+    x_factor: np.ndarray | None = None
 
     @property
     def error(self) -> np.ndarray:
@@ -179,5 +184,12 @@ def estimate_column_calibration(
     # d x / d c per line: x = (R^-1 Q^H (dw + Gw delta)) / cs
     U = np.linalg.solve(R, QhG) / cs[:, :, None]  # (F, p, e)
     T = np.einsum("fpj,fb->fpjb", U, B).reshape(F, p, e * nb)
-    Cx = s2 * (T @ Ninv @ np.conj(np.swapaxes(T, 1, 2)))
-    return ColumnCalibration(delta, Cx, float(f_stat), p_value, nb)
+    G = T @ _hermitian_factor(s2 * Ninv)
+    Cx = G @ np.conj(np.swapaxes(G, 1, 2))
+    return ColumnCalibration(delta, Cx, float(f_stat), p_value, nb, G)
+
+
+def _hermitian_factor(C: np.ndarray) -> np.ndarray:
+    """``L`` with ``L L^H = C`` for a Hermitian positive semi-definite ``C`` (eigen-decomposition, clipped at 0)."""
+    lam, V = np.linalg.eigh(0.5 * (C + np.conj(C.T)))
+    return V * np.sqrt(np.clip(lam, 0.0, None))[None, :]

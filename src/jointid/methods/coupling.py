@@ -8,11 +8,26 @@ The default inverse method of jointid. Three steps, each documented where it liv
    noise model (:mod:`jointid.methods.frf_variance`), covariance propagated to Du.
    It needs the free structure's receptance only on m, n and e
    (:class:`~jointid.physics.free_model.FreeModel`), never ``Do[nbar, mbar]``.
-2. **Over frequency** (:mod:`jointid.methods.smoothing`): the real and imaginary
-   part of each term are smoothed by a weighted P-spline, lambda by GCV, which
-   lowers the variance by about the number of lines in a correlation band. A
-   term whose per-line estimates are already exact to 1e-6 (exact data) is left
-   as it is: a smoother could only add its approximation error.
+2. **Over frequency**, one of two estimators (``smoothing``):
+
+   - ``"structured"`` (:mod:`jointid.methods.structured_select`): the joint's
+     physics over all lines at once, ``Du(w) = g A - w^2 B - w^4 sum_r c_r c_r^T /
+     (g mu_r - w^2)`` (one viscoelastic material, its internal modes), fitted by
+     maximum likelihood to the per-line estimates with their full covariance,
+     order by AIC, Akaike-weighted average of the orders; every term shares ``g``
+     and the internal poles, so the rotational term borrows the translational
+     term's precision, and a column calibration error is profiled out jointly.
+     Used only when it passes its chi^2 test; otherwise the P-spline, with a finding.
+   - ``"gcv"`` (:mod:`jointid.methods.smoothing`): the real and imaginary part of
+     each term smoothed on its own by a weighted P-spline, lambda by GCV, which
+     lowers the variance by about the number of lines in a correlation band.
+
+   ``"auto"`` (default) is ``"structured"`` for a symmetric joint of at most
+   :data:`AUTO_STRUCTURED_MAX_DOFS` DOFs on the exact per-line path, else ``"gcv"``.
+   Measured on the benchmark's virtual roving-hammer test (1 % response and force
+   noise, 100-1000 Hz): K_theta_theta 0.2-2.7 % median error against 36-56 % with
+   ``"gcv"``. A term whose per-line estimates are already exact to 1e-6 (exact
+   data) is left as it is: any smoother could only add its approximation error.
    With ``calibration = "auto"`` (default) a force-calibration error common to each
    excitation column (:mod:`jointid.methods.column_calibration`) is tested for,
    and corrected with its uncertainty added to the bands when it is significant.
@@ -47,8 +62,9 @@ from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
 from .frf_variance import WEIGHTINGS, frf_variance
 from .inverse import check_layout, dof_term_labels, joint_term, stiffness_columns
 from .smoothing import smooth_series
+from .structured_select import MAX_CHI2_PER_DOF, STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
 
-__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "term_scale", "COUPLING_SCALE_FLOOR"]
+__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "term_scale", "COUPLING_SCALE_FLOOR", "SMOOTHINGS", "AUTO_STRUCTURED_MAX_DOFS"]
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
@@ -60,6 +76,12 @@ COUPLING_SCALE_FLOOR = 0.05
 RELINEARIZATIONS = 2
 #: A median column calibration error above this (relative) is reported as a units or sensitivity problem.
 GROSS_CALIBRATION_ERROR = 0.1
+#: Values of ``CouplingOptions.smoothing``.
+SMOOTHINGS = ("auto", "structured", "gcv", "none")
+#: ``smoothing = "auto"`` uses the structured estimate for joints of at most this many DOFs.
+AUTO_STRUCTURED_MAX_DOFS = 3
+#: Fewest lines for the structured estimate.
+STRUCTURED_MIN_LINES = 20
 #: Values of ``CouplingOptions.calibration``.
 CALIBRATIONS = ("auto", "columns", "none")
 #: Two-sided 90 % normal quantile: the bands drawn and the passivity test are +-Z90 sigma.
@@ -74,8 +96,11 @@ class CouplingOptions:
     ----------
     symmetric : bool
         Enforce ``Du = Du^T`` (reciprocity of a passive joint).
-    smoothing : {"gcv", "none"}
-        Smooth each term over frequency (P-spline, lambda by GCV) or keep the per-line estimates.
+    smoothing : {"auto", "structured", "gcv", "none"}
+        Over frequency: the structured joint model (one viscoelastic material, all terms and
+        lines at once; falls back to "gcv" when it does not fit), each term smoothed alone
+        (P-spline, lambda by GCV), or the per-line estimates; "auto" = "structured" for a
+        symmetric joint of at most 3 DOFs, else "gcv" (module docstring).
     weighting : {"auto", "coherence", "relative", "none"}
         FRF variance model (:func:`~jointid.methods.frf_variance.frf_variance`).
     averages : int, optional
@@ -92,7 +117,7 @@ class CouplingOptions:
     """
 
     symmetric: bool = True
-    smoothing: str = "gcv"
+    smoothing: str = "auto"
     weighting: str = "auto"
     averages: int | None = None
     max_relative_std: float = 0.1
@@ -101,8 +126,8 @@ class CouplingOptions:
     calibration_basis: int = CALIBRATION_BASIS
 
     def __post_init__(self) -> None:
-        if self.smoothing not in ("gcv", "none"):
-            raise IdentificationError(f"smoothing must be 'gcv' or 'none', got {self.smoothing!r}")
+        if self.smoothing not in SMOOTHINGS:
+            raise IdentificationError(f"smoothing must be one of {SMOOTHINGS}, got {self.smoothing!r}")
         if self.weighting not in WEIGHTINGS:
             raise IdentificationError(f"weighting must be one of {WEIGHTINGS}, got {self.weighting!r}")
         if not (isinstance(self.max_relative_std, (int, float)) and self.max_relative_std > 0):
@@ -145,6 +170,9 @@ class CouplingResult:
         The excitation columns' force-calibration error, if it was estimated.
     calibration_applied : bool
         The FRFs were corrected by it (its uncertainty is in the bands).
+    structured : StructuredEstimate or None
+        The structured joint model's estimate when it was fitted (``structured.accepted``:
+        it is the result; else the P-spline is, and :meth:`findings` says why).
     """
 
     frequency: Frequency
@@ -163,8 +191,40 @@ class CouplingResult:
     options: CouplingOptions
     calibration: ColumnCalibration | None = None
     calibration_applied: bool = False
+    structured: StructuredEstimate | None = None
 
     method = "receptance"
+
+    @property
+    def estimator(self) -> str:
+        """What made :attr:`stiffness`: ``"structured"``, ``"gcv"`` (P-spline per term) or ``"per-line"``."""
+        if self.structured is not None and self.structured.accepted:
+            return "structured"
+        return "gcv" if any(v is not None for v in self.smoothing_edf.values()) else "per-line"
+
+    def describe_estimator(self) -> str:
+        """One line: what made :attr:`stiffness` (the structured model's order, internal modes and chi^2/dof)."""
+        name = self.estimator
+        if name == "structured":
+            return self.structured.describe()
+        if name == "gcv":
+            return "each term smoothed over frequency on its own (P-spline, lambda by GCV)"
+        return "per-line estimates (not smoothed)"
+
+    def estimator_summary(self) -> dict:
+        """JSON-ready: ``estimator``, ``description`` and, when fitted, the structured model's diagnostics."""
+        out = {"estimator": self.estimator, "description": self.describe_estimator()}
+        st = self.structured
+        if st is not None:
+            out["structured"] = {
+                "accepted": st.accepted,
+                "best_order": {"internal_modes": st.best.model.n_modes, "modulus_basis": st.best.model.g_basis, "residual": st.best.model.residual},
+                "chi2_per_dof": st.best.chi2_per_dof,
+                "internal_modes_hz": [float(v) for v in st.best.poles_hz()],
+                "akaike_weights": {st.fits[o].model.label: float(w) for o, w in st.weights.items()},
+                "seconds": st.seconds,
+            }
+        return out
 
     @property
     def reliable(self) -> np.ndarray:
@@ -205,7 +265,7 @@ class CouplingResult:
         return CouplingResult(
             self.frequency, dofs, self.stiffness[blk], self.std_real[blk], self.std_imag[blk], self.per_line[blk],
             self.per_line_std[blk], self.reliable_terms[blk], self.passive[:, idx], self.condition, self.residual_scale,
-            self.weighting, edf, self.options, self.calibration, self.calibration_applied,
+            self.weighting, edf, self.options, self.calibration, self.calibration_applied, self.structured,
         )
 
     def columns(self) -> dict[str, np.ndarray]:
@@ -223,6 +283,10 @@ class CouplingResult:
         """One line per term that the FRFs cannot determine on some lines, naming the bands and the predicted error."""
         f = self.frequency.hz
         out = []
+        st = self.structured
+        if st is not None and not st.accepted:
+                out.append(f"the structured joint model does not fit these FRFs (chi^2/dof {st.best.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
+                           "not one viscoelastic material, or a model error): each term smoothed on its own instead")
         cal = self.calibration
         if cal is not None and self.calibration_applied:
             eps = 100 * np.median(np.abs(cal.error), axis=0)
@@ -317,6 +381,28 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     return _finish(freq, n_dofs, lines, source, options, cal, applied)
 
 
+def _structured(freq: Frequency, lines, options: CouplingOptions, cal, applied) -> StructuredEstimate | None:
+    """The structured estimate when the options and the data call for it (module docstring), else None."""
+    n = lines.stiffness.shape[1]
+    limit = AUTO_STRUCTURED_MAX_DOFS if options.smoothing == "auto" else STRUCTURED_MAX_DOFS
+    if options.smoothing not in ("auto", "structured") or n > limit or not options.symmetric or lines.x_covariance is None:
+        return None
+    if freq.size < STRUCTURED_MIN_LINES or _exact(lines):
+        return None
+    try:
+        return structured_estimate(freq.hz, lines, cal.x_factor if applied else None)
+    except (np.linalg.LinAlgError, ValueError):  # singular covariances: per-term smoothing
+        return None
+
+
+def _exact(lines) -> bool:
+    """Every term's per-line estimates are exact to :data:`SMOOTH_MIN_RELATIVE_STD` (median relative std)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.sqrt(lines.variance) / np.abs(lines.stiffness)
+    n = rel.shape[1]
+    return not any(np.nanmedian(rel[:, a, b]) > SMOOTH_MIN_RELATIVE_STD for a in range(n) for b in range(a, n))
+
+
 def term_scale(K: np.ndarray) -> np.ndarray:
     """The scale a term's uncertainty is judged against, shape (F, n, n), same units as ``K``.
 
@@ -334,11 +420,16 @@ def term_scale(K: np.ndarray) -> np.ndarray:
 
 
 def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False) -> CouplingResult:
-    """Smooth each term over frequency (relinearized around the smooth estimate), propagate the variance, set the flags."""
-    K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines, options)
-    for _ in range(RELINEARIZATIONS if any(v is not None for v in edf.values()) else 0):
-        lines_k = relinearize(lines, K)
-        K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines_k, options)
+    """Estimate over frequency (structured model, or each term smoothed and relinearized), propagate the variance, set the flags."""
+    structured = _structured(freq, lines, options, cal, applied)
+    if structured is not None and structured.accepted:
+        K, edf = structured.stiffness, {}
+        var_re, var_im = structured.std_real ** 2, structured.std_imag ** 2
+    else:
+        K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines, options)
+        for _ in range(RELINEARIZATIONS if any(v is not None for v in edf.values()) else 0):
+            lines_k = relinearize(lines, K)
+            K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines_k, options)
     std_re, std_im = np.sqrt(np.maximum(var_re, 0.0)), np.sqrt(np.maximum(var_im, 0.0))  # round-off of a singular design can go below 0
     diag = np.arange(lines.stiffness.shape[1])
     passive = ~(K[:, diag, diag].imag < -Z90 * std_im[:, diag, diag])
@@ -348,7 +439,7 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     reliable[:, diag, diag] &= passive
     return CouplingResult(
         freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(np.maximum(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0), 0.0)),
-        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied,
+        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured,
     )
 
 

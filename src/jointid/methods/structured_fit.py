@@ -1,0 +1,381 @@
+"""Maximum-likelihood fit of the structured joint model over all frequency lines at once.
+
+The model (:mod:`jointid.methods.structured_model`) is fitted by weighted least
+squares *in the coupling parameters* ``x`` (upper triangle of
+``X = (I + Du Y[n,n])^-1 Du``) of :func:`jointid.methods.coupling_lines.coupling_per_line`:
+the per-line estimate ``x_f`` is linear in the FRF errors, with covariance ``C_f``,
+and (for Gaussian errors) a sufficient statistic of the line's FRFs for ``X_f``, so::
+
+    min_theta, u  sum_f || C_f^(-1/2) (x_f + G_f u - x_f(theta)) ||^2 + ||u||^2
+
+is the maximum-likelihood fit of the model to the FRFs themselves. No noisy
+per-line ``Du`` is ever inverted and no relinearization is needed. ``G_f u`` is
+an error common to all lines (the column force calibration,
+:attr:`~jointid.methods.column_calibration.ColumnCalibration.x_factor`,
+``u ~ CN(0, I)``), profiled out in closed form: minimizing over ``u`` equals
+whitening the stacked residual by ``(I + G_w G_w^H)^(-1/2)`` (thin SVD). It is
+thereby estimated jointly with the joint instead of being added to the bands as
+an error smoothing cannot reduce.
+
+Jacobian analytic: ``dX = (I + Du Ynn)^-1 dDu (I + Ynn Du)^-1``; solver
+:func:`scipy.optimize.least_squares` (trust region). Starts: a linear fit without
+modes; for the first internal mode a grid over (loss angle, pole) that is linear in
+``A``, ``B``, ``C`` on the smoothed per-term curves; for further modes a grid of
+poles ranked by the linearized cost.
+
+Uncertainty: the parameter covariance ``(J^T J)^-1`` of the whitened problem
+(nuisance profiled out), mapped to the real and imaginary part of each term per
+line (full covariance, not a circular approximation). ``chi^2/dof`` tests the
+model against the per-line covariance (~1 when both hold).
+
+Caveats: the bands hold *within* the model class at a fixed order; the order's
+own uncertainty is added by model averaging
+(:func:`jointid.methods.structured_select.model_average`); a joint outside the
+class leaves a systematic residual that ``chi^2/dof`` shows only when it exceeds
+the noise. The per-line covariance must be on an absolute scale.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .structured_model import (
+    StructuredModel, default_scale, drop_last_mode, extend, pack, structured_stiffness, sym_basis, unpack,
+)
+
+__all__ = ["StructuredFit", "fit_structured", "refit", "base_model"]
+
+_SQRT2 = np.sqrt(2.0)
+#: Pole grid (log of ``(f / f_ref)^2``) for an added internal mode: 40 frequencies over 0.2-4 x the band's top.
+_NU_GRID = np.log(np.geomspace(0.2, 4.0, 40) ** 2)
+#: Relative tolerance on the cost and the parameters of each fit.
+_TOL = 1e-8
+#: Loss angles of the first mode's grid start.
+_PHASES = np.arctan(np.array([0.02, 0.05, 0.1, 0.15, 0.2, 0.3]))
+
+
+@dataclass(frozen=True, eq=False)
+class StructuredFit:
+    """A fitted structured joint model.
+
+    Attributes
+    ----------
+    model : StructuredModel
+    theta : ndarray, shape (P,)
+    theta_covariance : ndarray, shape (P, P)
+        Of the scaled parameters, nuisance profiled out.
+    stiffness : ndarray, shape (F, n, n), complex
+        The fitted Du (physical units: N/m, N/rad, N*m/rad).
+    std_real, std_imag : ndarray, shape (F, n, n)
+        1-sigma of the real and imaginary part of each term.
+    chi2 : float
+        Real chi^2 (sum of squared whitened real residuals; expectation ~ ``dof``).
+    dof : int
+        ``2 F p - P``.
+    aic, bic : float
+        ``chi2 + 2 P`` and ``chi2 + P log(2 F p)``.
+    seconds : float
+    """
+
+    model: StructuredModel
+    theta: np.ndarray
+    theta_covariance: np.ndarray
+    stiffness: np.ndarray
+    std_real: np.ndarray
+    std_imag: np.ndarray
+    chi2: float
+    dof: int
+    aic: float
+    bic: float
+    seconds: float
+
+    @property
+    def chi2_per_dof(self) -> float:
+        """chi^2 per degree of freedom (~1 when model and covariance hold)."""
+        return self.chi2 / max(self.dof, 1)
+
+    def at(self, hz) -> "StructuredFit":
+        """The same fit evaluated on other frequencies (Hz, shape (F',)): stiffness and bands there."""
+        hz = np.asarray(hz, float)
+        K, sr, si = _bands(self.theta, self.theta_covariance, hz, self.model)
+        return replace(self, stiffness=K, std_real=sr, std_imag=si)
+
+    def poles_hz(self) -> np.ndarray:
+        """Internal-mode frequencies ``f_ref sqrt(mu_r Re g)`` at the band's start, Hz, ascending."""
+        _, _, _, modes, gam = unpack(self.theta, self.model)
+        g0 = (self.model.g_design(np.array([self.model.band[0]])) @ gam)[0]
+        return np.sort(self.model.f_ref * np.sqrt(np.exp(modes[:, -1]) * max(g0.real, 0.0)))
+
+
+class _Problem:
+    """Whitened residual and Jacobian of the fit (arrays precomputed once)."""
+
+    def __init__(self, hz, x, x_cov, Ynn, model: StructuredModel, common=None):
+        F, p = x.shape
+        self.hz, self.model, self.Ynn = hz, model, Ynn
+        self.W = np.linalg.inv(np.linalg.cholesky(x_cov))  # (F, p, p): whitening
+        self.xw = np.einsum("fij,fj->fi", self.W, x)
+        self.iu = np.triu_indices(model.n)
+        S = np.asarray(model.scale, float)
+        self.SS = S[:, None] * S[None, :]
+        self.U = self.Gw = None
+        if common is not None:
+            self.Gw = (self.W @ common).reshape(F * p, -1)
+            self.U, sv, _ = np.linalg.svd(self.Gw, full_matrices=False)
+            self.shrink = 1.0 - 1.0 / np.sqrt(1.0 + sv ** 2)
+        self.P, self.F, self.p = model.n_params, F, p
+
+    def _project(self, v):
+        """``(I + G_w G_w^H)^(-1/2) v`` for v of shape (F p, ...)."""
+        if self.U is None:
+            return v
+        c = np.conj(self.U.T) @ v
+        return v - self.U @ (self.shrink.reshape(-1, *([1] * (v.ndim - 1))) * c)
+
+    def x_model(self, theta, jac: bool):
+        out = structured_stiffness(theta, self.hz, self.model, jacobian=jac)
+        Dp, Jp = out if jac else (out, None)
+        D = Dp * self.SS
+        eye = np.eye(self.model.n)
+        L = eye[None] + D @ self.Ynn
+        X = np.linalg.solve(L, D)
+        x = X[:, self.iu[0], self.iu[1]]
+        if not jac:
+            return x, None
+        Li, Ri = np.linalg.inv(L), np.linalg.inv(eye[None] + self.Ynn @ D)
+        JD = Jp * self.SS[None, :, :, None]
+        F, n = D.shape[0], self.model.n
+        Kx = Li[:, self.iu[0], :, None] * Ri[:, None, :, self.iu[1]].transpose(0, 3, 1, 2)  # (F, p, n, n): Li_ik Ri_lj
+        return x, Kx.reshape(F, -1, n * n) @ JD.reshape(F, n * n, -1)
+
+    def complex_residual(self, theta):
+        x, _ = self.x_model(theta, False)
+        return (self.xw - np.einsum("fij,fj->fi", self.W, x)).ravel()
+
+    def residual(self, theta):
+        r = self._project(self.complex_residual(theta))
+        return _SQRT2 * np.concatenate([r.real, r.imag])
+
+    def jacobian(self, theta):
+        _, JX = self.x_model(theta, True)
+        Jw = self._project(-(self.W @ JX).reshape(self.F * self.p, self.P))
+        return _SQRT2 * np.vstack([Jw.real, Jw.imag])
+
+
+def _solve(prob: _Problem, theta0: np.ndarray, max_nfev: int = 200):
+    with np.errstate(all="ignore"):
+        return least_squares(prob.residual, theta0, jac=prob.jacobian, method="lm", x_scale="jac", max_nfev=max_nfev, xtol=_TOL, ftol=_TOL)
+
+
+def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
+    model, theta, J = prob.model, sol.x, sol.jac
+    JTJ = J.T @ J
+    try:
+        cov = np.linalg.inv(JTJ)
+    except np.linalg.LinAlgError:
+        cov = np.linalg.pinv(JTJ)
+    real_chi2 = float(np.sum(sol.fun ** 2))  # unit-variance real residuals (sqrt(2) [Re, Im] of the complex ones)
+    nobs = 2 * prob.F * prob.p
+    K, std_re, std_im = _bands(theta, cov, prob.hz, model)
+    return StructuredFit(
+        model, theta, cov, K, std_re, std_im, real_chi2, nobs - prob.P, real_chi2 + 2.0 * prob.P, real_chi2 + prob.P * np.log(nobs), time.perf_counter() - t0,
+    )
+
+
+def _bands(theta, cov, hz, model: StructuredModel):
+    """Stiffness (F, n, n) and the 1-sigma of its real and imaginary parts from the parameter covariance (linearized)."""
+    S = np.asarray(model.scale, float)
+    SS = S[:, None] * S[None, :]
+    Dp, Jp = structured_stiffness(theta, hz, model, jacobian=True)
+    JD = Jp * SS[None, :, :, None]
+    var_re = np.einsum("fijp,pq,fijq->fij", JD.real, cov, JD.real, optimize=True)
+    var_im = np.einsum("fijp,pq,fijq->fij", JD.imag, cov, JD.imag, optimize=True)
+    return Dp * SS, np.sqrt(np.maximum(var_re, 0.0)), np.sqrt(np.maximum(var_im, 0.0))
+
+
+def _smoothed_curves(hz, lines):
+    """Each term's per-line estimate smoothed over frequency (P-spline, GCV) and its variance: the starts' data."""
+    from .smoothing import smooth_series
+
+    K, V = lines.stiffness.copy(), lines.variance.copy()
+    for a, b in zip(*np.triu_indices(K.shape[1])):
+        y, v = lines.stiffness[:, a, b], lines.variance[:, a, b]
+        re, im = smooth_series(hz, y.real, v / 2.0), smooth_series(hz, y.imag, v / 2.0)
+        K[:, a, b] = K[:, b, a] = re.value + 1j * im.value
+        V[:, a, b] = V[:, b, a] = re.variance + im.variance
+    return K, V
+
+
+def _scaled_curves(hz, Ks, Vs, model):
+    iu = np.triu_indices(model.n)
+    S = np.asarray(model.scale)
+    SS = S[:, None] * S[None, :]
+    y = (Ks / SS)[:, iu[0], iu[1]]
+    w = 1.0 / np.sqrt(np.maximum((Vs / SS ** 2)[:, iu[0], iu[1]], 1e-300))
+    return y, w, (hz / model.f_ref) ** 2
+
+
+def _initial(hz, Ks, Vs, model: StructuredModel) -> np.ndarray:
+    """Linear start for 0 modes and constant g: ``Du' = a - w'^2 b`` per term (a complex, b real), weighted LS."""
+    y, w, w2 = _scaled_curves(hz, Ks, Vs, model)
+    F = hz.size
+    M = np.zeros((2 * F, 3))
+    M[:F, 0], M[:F, 2], M[F:, 1] = 1.0, -w2, 1.0
+    Ac, Bv = np.empty(model.p, complex), np.empty(model.p)
+    for k in range(model.p):
+        ww = np.r_[w[:, k], w[:, k]]
+        sol = np.linalg.lstsq(M * ww[:, None], np.r_[y[:, k].real, y[:, k].imag] * ww, rcond=None)[0]
+        Ac[k], Bv[k] = sol[0] + 1j * sol[1], sol[2]
+    g0 = Ac[0] if abs(Ac[0]) > 0 else 1.0
+    return pack((Ac / g0).real, Bv, np.zeros(model.sizes["E"]), np.zeros((model.n_modes, model.n + 1)), np.full(model.g_basis, g0))
+
+
+def _grid_start(hz, Ks, Vs, model: StructuredModel, theta_base: np.ndarray) -> np.ndarray:
+    """Start for the first internal mode from the smooth per-term curves, in Du space (no noisy line inverted).
+
+    With ``g = e^(i phi)`` and ``mu`` fixed, ``Du' = g A - w'^2 B - w'^4 C / (g mu - w'^2)``
+    is linear in the real symmetric ``A, B, C``: weighted linear least squares over a
+    ``(phi, mu)`` grid; the best is normalized to ``A_00 = 1`` and ``C`` cut to rank 1.
+    """
+    y, w, w2 = _scaled_curves(hz, Ks, Vs, model)
+    p, F = model.p, hz.size
+    rhs = np.concatenate([(y * w).real.ravel(), (y * w).imag.ravel()])
+    best = (np.inf, None)
+    sel = np.eye(p)
+    for phi in _PHASES:
+        g = np.exp(1j * phi)
+        for nu in _NU_GRID:
+            mu = np.exp(nu)
+            cols = []
+            for coef in (np.full(F, g), -w2 + 0j, -(w2 ** 2) / (g * mu - w2)):
+                m = (coef[:, None, None] * sel[None]) * w[:, :, None]  # (F, p, p): column k is term k
+                cols.append(np.concatenate([m.real.reshape(F * p, p), m.imag.reshape(F * p, p)]))
+            M = np.concatenate(cols, axis=1)
+            sol, *_ = np.linalg.lstsq(M, rhs, rcond=None)
+            cost = float(np.sum((M @ sol - rhs) ** 2))
+            if cost < best[0]:
+                best = (cost, (g, mu, sol))
+    g, mu, sol = best[1]
+    Av, Bv, Cv = sol[:p], sol[p:2 * p], sol[2 * p:]
+    a0 = Av[0] if abs(Av[0]) > 0 else 1.0
+    lam, V = np.linalg.eigh(np.einsum("k,kij->ij", Cv, sym_basis(model.n)))
+    c = np.sqrt(max(lam[-1], 1e-8)) * V[:, -1]
+    _, _, E, modes, _ = unpack(theta_base, model)
+    modes = np.array(modes, float)
+    modes[0] = np.r_[c, np.log(abs(mu / a0))]  # g' = g a0, mu' = mu / a0 keep g mu
+    x = np.linspace(*model.band, 50)
+    gam = np.linalg.lstsq(model.g_design(x), np.full(50, g * a0), rcond=None)[0]
+    return pack(Av / a0, Bv, E, modes, gam)
+
+
+def _mode_start(prob: _Problem, theta: np.ndarray, nu: float):
+    """Start for the last mode of ``prob.model`` at ``mu = exp(nu)``: rank-1 part of the best linear ``C``; and its linearized cost."""
+    model = prob.model
+    n, Eb = model.n, sym_basis(model.n)
+    base = model.with_order(model.n_modes - 1, model.g_basis, model.residual)
+    th_base = drop_last_mode(theta, model)
+    D = structured_stiffness(th_base, prob.hz, base) * prob.SS
+    gam = unpack(th_base, base)[4]
+    g = base.g_design(prob.hz) @ gam
+    w2 = (prob.hz / model.f_ref) ** 2
+    h = -(w2 ** 2) / (g * np.exp(nu) - w2)
+    eye = np.eye(n)
+    L = eye[None] + D @ prob.Ynn
+    Li, Ri = np.linalg.inv(L), np.linalg.inv(eye[None] + prob.Ynn @ D)
+    X = np.linalg.solve(L, D)
+    r = (prob.xw - np.einsum("fij,fj->fi", prob.W, X[:, prob.iu[0], prob.iu[1]])).ravel()
+    dX = Li[:, None] @ (h[:, None, None, None] * (prob.SS * Eb)[None]) @ Ri[:, None]  # (F, p, n, n)
+    M = np.einsum("fij,fkj->fik", prob.W, dX[:, :, prob.iu[0], prob.iu[1]]).reshape(-1, model.p)
+    Mr, rr = np.vstack([M.real, M.imag]), np.r_[r.real, r.imag]
+    coef = np.linalg.lstsq(Mr, rr, rcond=None)[0]
+    lam, V = np.linalg.eigh(np.einsum("k,kij->ij", coef, Eb))
+    out = theta.copy()
+    s = model.sizes
+    i0 = s["A"] + s["B"] + s["E"] + (model.n_modes - 1) * (n + 1)
+    out[i0:i0 + n] = np.sqrt(max(lam[-1], 1e-8)) * V[:, -1]
+    out[i0 + n] = nu
+    return out, float(np.sum((rr - Mr @ coef) ** 2))
+
+
+def base_model(hz, lines) -> StructuredModel:
+    """The 0-mode, constant-g model of these per-line estimates (scale and band set)."""
+    hz = np.asarray(hz, float)
+    return StructuredModel(lines.stiffness.shape[1], 0, 1, False, default_scale(lines.stiffness), float(hz[-1]), (float(hz[0]), float(hz[-1])))
+
+
+def fit_structured(hz, lines, order=(0, 1, False), common=None, start: StructuredFit | None = None, n_starts: int = 2) -> StructuredFit:
+    """Fit the structured model of the given order to per-line coupling estimates.
+
+    Parameters
+    ----------
+    hz : ndarray, shape (F,)
+        Frequencies, Hz.
+    lines : LineEstimates
+        From :func:`~jointid.methods.coupling_lines.coupling_per_line` on its exact path
+        (``x``, ``x_covariance``, ``Ynn``; symmetric).
+    order : tuple
+        ``(n_modes, g_basis, residual)`` (:class:`~jointid.methods.structured_model.StructuredModel`).
+    common : ndarray, shape (F, p, k), complex, optional
+        Factor of an error common to all lines, ``x_f += common_f u``, ``u ~ CN(0, I_k)``; profiled out.
+    start : StructuredFit, optional
+        A fit of a nested (smaller) model to grow from; else grown from the linear start.
+    n_starts : int
+        Pole starts fitted for each added mode (the local minima of the linearized cost).
+
+    Returns
+    -------
+    StructuredFit
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError, ValueError
+        A singular per-line covariance or a degenerate start.
+    """
+    t0 = time.perf_counter()
+    hz = np.asarray(hz, float)
+    base = base_model(hz, lines) if start is None else start.model.with_order(0, 1, False)
+    target = base.with_order(*order)
+
+    def problem(model):
+        return _Problem(hz, lines.x, lines.x_covariance, lines.Ynn, model, common)
+
+    curves = None
+    if start is None:
+        curves = _smoothed_curves(hz, lines)
+        cur, cur_model = _solve(problem(base), _initial(hz, *curves, base)).x, base
+    else:
+        cur, cur_model = start.theta, start.model
+    if target.residual and not cur_model.residual:
+        m2 = cur_model.with_order(cur_model.n_modes, cur_model.g_basis, True)
+        cur, cur_model = _solve(problem(m2), extend(cur, cur_model, m2)).x, m2
+    while cur_model.n_modes < target.n_modes:
+        m2 = cur_model.with_order(cur_model.n_modes + 1, cur_model.g_basis, cur_model.residual)
+        p2 = problem(m2)
+        grown = extend(cur, cur_model, m2)
+        starts = [_mode_start(p2, grown, nu) for nu in _NU_GRID]
+        cost = np.array([c for _, c in starts])
+        interior = (cost[1:-1] <= cost[:-2]) & (cost[1:-1] <= cost[2:])
+        minima = np.r_[cost[0] < cost[1], interior, cost[-1] < cost[-2]]
+        picks = [int(i) for i in np.argsort(np.where(minima, cost, np.inf))[:n_starts] if minima[i]]
+        trials = [starts[i][0] for i in picks]
+        if m2.n_modes == 1:  # the first mode also from the Du-space grid (robust to a poor 0-mode fit)
+            curves = curves or _smoothed_curves(hz, lines)
+            trials.append(_grid_start(hz, *curves, m2, grown))
+        best = min((_solve(p2, th) for th in trials), key=lambda s: s.cost)
+        cur, cur_model = best.x, m2
+    if target.g_basis != cur_model.g_basis:
+        m2 = cur_model.with_order(cur_model.n_modes, target.g_basis, cur_model.residual)
+        cur, cur_model = _solve(problem(m2), extend(cur, cur_model, m2)).x, m2
+    prob = problem(target)
+    return _finish(prob, _solve(prob, cur), t0)
+
+
+def refit(fit: StructuredFit, hz, lines, common=None, max_nfev: int = 50) -> StructuredFit:
+    """The same model refitted on other lines (e.g. all lines after selecting on a subset), started from ``fit``."""
+    t0 = time.perf_counter()
+    prob = _Problem(np.asarray(hz, float), lines.x, lines.x_covariance, lines.Ynn, fit.model, common)
+    return _finish(prob, _solve(prob, fit.theta, max_nfev=max_nfev), t0)
