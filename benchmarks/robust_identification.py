@@ -8,7 +8,13 @@ beam end (node 1), Model 3 layout, 100-1000 Hz:
    1 % response and 1 % force noise;
 2. ``--seeds N`` realizations (default 50) of 1 % complex relative noise on exact
    FRFs: median and 90th-percentile error per term, and the fraction of lines whose
-   truth lies within +-1.645 sigma (real and imaginary part) per term.
+   truth lies within +-1.645 sigma (real and imaginary part) per term;
+3. ``--hammer-seeds N`` realizations of the virtual hammer test (1 % response and
+   force noise): the same figures, and the median error of lines flagged reliable
+   and unreliable per term.
+
+``--cases A10,B1`` restricts the cases (material and joint node), to split a long
+run over processes.
 
 Medians of the relative error per line. The error, noise and coverage helpers are
 those of ``jointid reproduce``'s noise-robustness study
@@ -75,34 +81,65 @@ def experiments() -> None:
                       f"reliable|unreliable {' '.join(flags)}  ({dt:.2f} s)")
 
 
-def seeds(n: int) -> None:
-    print(f"\n{n} realizations of 1 % complex relative noise on exact FRFs: median / p90 error %, coverage of +-1.645 sigma (re, im)")
-    for mat in "AB":
-        for node in (10, 1):
-            st = study(mat, node)
-            test = simulate(st)
-            rels, inside = [], []
-            hl = []
-            for s in range(n):
-                frf = add_noise(test.frf, 0.01, np.random.default_rng(s))
-                r = identify(st, frf)
-                rels.append(term_errors(r.stiffness, test.truth))
-                inside.append(within_band(r.stiffness, r.std_real, r.std_imag, test.truth))
-                if s < 3:
-                    hl.append(term_errors(identify(st, frf, InverseOptions()).stiffness, test.truth))
-            rels, inside, hl = np.array(rels), np.array(inside), np.array(hl)  # (seeds, F, 3), (seeds, 2, F, 3)
-            med = list(100 * np.median(rels, axis=(0, 1)))
-            p90 = list(100 * np.percentile(rels, 90, axis=(0, 1)))
-            cov = [f"{inside[:, 0, :, t].mean():.2f},{inside[:, 1, :, t].mean():.2f}" for t in range(len(TERMS))]
-            hlm = list(100 * np.median(hl, axis=(0, 1)))
-            print(f"  {mat} node {node:2d}: median {fmt(med)}  p90 {fmt(p90)}  coverage {' '.join(cov)}  (hong-lee median {fmt(hlm)})")
+CASES = tuple((mat, node) for mat in "AB" for node in (10, 1))
+
+
+def _realizations(st, n, hammer):
+    """``(frf, truth)`` of ``n`` noise realizations: 1 % relative noise on exact FRFs, or virtual hammer tests."""
+    if not hammer:
+        test = simulate(st)
+        for s in range(n):
+            yield add_noise(test.frf, 0.01, np.random.default_rng(s)), test.truth
+        return
+    for s in range(n):
+        ex = experiment(st, seed=s, periodic=True)
+        yield ex.frf.band(100, 1000), ex.truth[ex.frf.frequency.mask(100, 1000)]
+
+
+def seeds(n: int, cases=CASES, hammer: bool = False) -> None:
+    what = "virtual hammer tests (1 % response + 1 % force noise)" if hammer else "1 % complex relative noise on exact FRFs"
+    print(f"\n{n} realizations of {what}: median / p90 error %, coverage of +-1.645 sigma (re, im), "
+          "median error % of lines flagged reliable | unreliable", flush=True)
+    for mat, node in cases:
+        st = study(mat, node)
+        rels, inside, hl, flags, used, secs = [], [], [], [], [], []
+        for s, (frf, truth) in enumerate(_realizations(st, n, hammer)):
+            t = time.perf_counter()
+            r = identify(st, frf)
+            secs.append(time.perf_counter() - t)
+            used.append(r.estimator)
+            rels.append(term_errors(r.stiffness, truth))
+            inside.append(within_band(r.stiffness, r.std_real, r.std_imag, truth))
+            flags.append(np.stack([r.reliable_terms[:, i, j] for _, i, j in TERMS], axis=-1))
+            if s < 3:
+                hl.append(term_errors(identify(st, frf, InverseOptions()).stiffness, truth))
+        rels, inside, hl, flags = np.array(rels), np.array(inside), np.array(hl), np.array(flags)  # (seeds, F, 3), (seeds, 2, F, 3)
+        med = list(100 * np.median(np.median(rels, axis=1), axis=0))
+        p90 = list(100 * np.percentile(rels, 90, axis=(0, 1)))
+        cov = [f"{inside[:, 0, :, t].mean():.2f},{inside[:, 1, :, t].mean():.2f}" for t in range(len(TERMS))]
+        hlm = list(100 * np.median(hl, axis=(0, 1)))
+        ru = []
+        for t in range(len(TERMS)):
+            ok = flags[..., t]
+            a = 100 * np.median(rels[..., t][ok]) if ok.any() else np.nan
+            b = 100 * np.median(rels[..., t][~ok]) if (~ok).any() else np.nan
+            ru.append(f"{a:.3g}|{b:.3g}")
+        kinds = {k: used.count(k) for k in sorted(set(used))}
+        print(f"  {mat} node {node:2d}: median {fmt(med)}  p90 {fmt(p90)}  coverage {' '.join(cov)}  flags {' '.join(ru)}  "
+              f"(hong-lee median {fmt(hlm)}; estimator {kinds}; {np.median(secs):.1f} s each)", flush=True)
 
 
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seeds", type=int, default=50)
+    p.add_argument("--hammer-seeds", type=int, default=0)
+    p.add_argument("--cases", default=",".join(f"{m}{n}" for m, n in CASES), help="e.g. A10,B1")
     p.add_argument("--skip-experiments", action="store_true")
     a = p.parse_args()
+    cases = [(c[0], int(c[1:])) for c in a.cases.split(",")]
     if not a.skip_experiments:
         experiments()
-    seeds(a.seeds)
+    if a.seeds:
+        seeds(a.seeds, cases)
+    if a.hammer_seeds:
+        seeds(a.hammer_seeds, cases, hammer=True)
