@@ -79,3 +79,19 @@ def test_identify_bad_layout_is_one_line(tmp_path, edit, message):
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and message in r.stderr
     assert not (tmp_path / "id").exists() or not any((tmp_path / "id").iterdir())
+
+
+def test_identify_noisy_frfs_reports_the_structured_estimator(tmp_path, capsys):
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    assert main(["simulate", str(study), "--out", str(tmp_path / "sim"), "--noise", "0.01", "--seed", "4"]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(study), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id"), "--no-plots"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    line = next(x for x in out if x.startswith("estimator: "))
+    assert line.startswith("estimator: structured joint model (") and "Akaike-weighted average of" in line
+    est = json.loads((tmp_path / "id" / "summary.json").read_text())["estimator"]
+    assert est["estimator"] == "structured" and est["structured"]["accepted"]
+    assert 0.7 < est["structured"]["chi2_per_dof"] < 1.5
+    assert abs(sum(est["structured"]["akaike_weights"].values()) - 1.0) < 1e-9
+    assert est["description"] == line[len("estimator: "):]

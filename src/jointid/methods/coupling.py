@@ -284,9 +284,11 @@ class CouplingResult:
         f = self.frequency.hz
         out = []
         st = self.structured
-        if st is not None and not st.accepted:
-                out.append(f"the structured joint model does not fit these FRFs (chi^2/dof {st.best.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
-                           "not one viscoelastic material, or a model error): each term smoothed on its own instead")
+        if st is not None and not st.accepted and st.best.chi2_per_dof > MAX_CHI2_PER_DOF:
+            out.append(f"the structured joint model does not fit these FRFs (chi^2/dof {st.best.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
+                       "not one viscoelastic material, or a model error): each term smoothed on its own instead")
+        elif st is not None and not st.accepted:
+            out.append("the structured joint model gave non-finite values on these FRFs: each term smoothed on its own instead")
         cal = self.calibration
         if cal is not None and self.calibration_applied:
             eps = 100 * np.median(np.abs(cal.error), axis=0)

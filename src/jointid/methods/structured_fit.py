@@ -108,7 +108,7 @@ class StructuredFit:
         """Internal-mode frequencies ``f_ref sqrt(mu_r Re g)`` at the band's start, Hz, ascending."""
         _, _, _, modes, gam = unpack(self.theta, self.model)
         g0 = (self.model.g_design(np.array([self.model.band[0]])) @ gam)[0]
-        return np.sort(self.model.f_ref * np.sqrt(np.exp(modes[:, -1]) * max(g0.real, 0.0)))
+        return np.sort(self.model.f_ref * np.sqrt(np.exp(np.clip(modes[:, -1], -50.0, 50.0)) * max(g0.real, 0.0)))
 
 
 class _Problem:

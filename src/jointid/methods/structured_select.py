@@ -34,6 +34,7 @@ smoothing (K_theta_theta 0.9-8 % against 3-14 %), but its bands are too narrow
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from types import SimpleNamespace
 
@@ -53,6 +54,8 @@ SELECT_MAX_LINES = 600
 REFIT_MAX_LINES = 5000
 #: Joints with more DOFs than this are smoothed per term (parameters grow as n^2 per block).
 STRUCTURED_MAX_DOFS = 6
+#: Internal modes above this multiple of the band's top are described as "far above the band" (they act as a residual).
+POLE_LIST_FACTOR = 4.0
 #: Models with an Akaike weight below this are left out of the average.
 _MIN_WEIGHT = 1e-4
 
@@ -74,7 +77,7 @@ class StructuredEstimate:
     fits : dict
         Order -> every StructuredFit tried.
     accepted : bool
-        ``best.chi2_per_dof <= MAX_CHI2_PER_DOF``.
+        ``best.chi2_per_dof <= MAX_CHI2_PER_DOF`` and every value and band finite.
     seconds : float
     """
 
@@ -90,7 +93,10 @@ class StructuredEstimate:
     def describe(self) -> str:
         """One line: the chosen model, its internal modes, chi^2/dof and the averaging."""
         poles = self.best.poles_hz()
-        modes = f"; internal modes at {', '.join(f'{p:.0f}' for p in poles)} Hz" if poles.size else ""
+        top = POLE_LIST_FACTOR * self.best.model.band[1]
+        near, far = poles[poles <= top], int(np.sum(poles > top))
+        modes = f"; internal modes at {', '.join(f'{p:.0f}' for p in near)} Hz" if near.size else ""
+        modes += f"; {far} far above the band" if far else ""
         return (f"structured joint model ({self.best.model.label}{modes}; chi^2/dof {self.best.chi2_per_dof:.3f}), "
                 f"Akaike-weighted average of {len(self.weights)} order(s)")
 
@@ -175,10 +181,12 @@ def structured_estimate(hz, lines, common=None) -> StructuredEstimate:
     numpy.linalg.LinAlgError
         No structured model could be fitted (singular covariances).
     """
-    import time
-
     t0 = time.perf_counter()
-    hz = np.asarray(hz, float)
+    with np.errstate(all="ignore"):  # a degenerate candidate (a pole at infinity) must not abort the run; checked below
+        return _estimate(np.asarray(hz, float), lines, common, t0)
+
+
+def _estimate(hz, lines, common, t0) -> StructuredEstimate:
     F = hz.size
     if F > SELECT_MAX_LINES:
         idx = np.unique(np.round(np.linspace(0, F - 1, SELECT_MAX_LINES)).astype(int))
@@ -193,4 +201,5 @@ def structured_estimate(hz, lines, common=None) -> StructuredEstimate:
         _, fits = select_structured(hz, lines, common)
     K, sr, si, w = model_average(fits)
     best = fits[max(w, key=w.get)]
-    return StructuredEstimate(K, sr, si, w, best, fits, bool(best.chi2_per_dof <= MAX_CHI2_PER_DOF), time.perf_counter() - t0)
+    finite = bool(np.all(np.isfinite(K)) and np.all(np.isfinite(sr)) and np.all(np.isfinite(si)))
+    return StructuredEstimate(K, sr, si, w, best, fits, bool(finite and best.chi2_per_dof <= MAX_CHI2_PER_DOF), time.perf_counter() - t0)
