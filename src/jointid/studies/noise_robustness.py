@@ -14,7 +14,7 @@ methods identify the joint over 100-1000 Hz:
   nodes, as ``jointid identify`` runs it; its exact-data error is the grid
   model's discretization error);
 * ``receptance``: the default (``method = "receptance"``, default options):
-  weighted receptance coupling, smoothed over frequency, with 1-sigma bands;
+  weighted receptance coupling, the structured joint model over all lines (each term smoothed alone when it does not fit), with 1-sigma bands;
 * ``receptance-raw``: the same formulation unweighted and unsmoothed
   (``CouplingOptions(weighting="none", smoothing="none")``).
 
@@ -454,7 +454,7 @@ def _paragraphs(config, results) -> tuple[str, ...]:
         f"{config.robustness_seeds} realization{'s' if config.robustness_seeds != 1 else ''} per level (the same draws for every level and method; "
         "[noise_robustness] seeds and levels in the reproduce configuration set more). Three methods identify the joint: plain "
         "Hong-Lee (method = \"hong-lee\", on the beam's grid nodes as jointid identify runs it), the default (method = "
-        "\"receptance\": weighted receptance coupling smoothed over frequency, with 1-sigma bands) and the receptance formulation "
+        "\"receptance\": weighted receptance coupling, the structured joint model fitted over all lines, with 1-sigma bands) and the receptance formulation "
         "unweighted and unsmoothed. Errors are |K - K_true| / |K_true| per line; the coverage is the fraction of lines whose true "
         "real (imaginary) part lies within +-1.645 sigma of the estimate, 0.90 for calibrated 90 % bands."
     )
