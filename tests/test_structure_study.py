@@ -358,3 +358,16 @@ def test_single_joint_table_in_a_structure_study_is_one_joint(tmp_path):
     mount = study.joints[0].mount()
     K = mount([100.0])[0]
     assert K.shape == (12, 12) and K[0, 4] == pytest.approx(1.3 * (1 + 0.12j) * 2e4)  # growth 0.3 at the reference frequency
+
+
+def test_structured_smoothing_with_several_joints_is_refused_in_one_line(tmp_path, capsys):
+    study = grounded_study(tmp_path)
+    text = study.read_text()
+    assert 'smoothing = "none"' in text
+    study.write_text(text.replace('smoothing = "none"', 'smoothing = "structured"'))
+    assert main(["simulate", str(study), "--out", str(tmp_path / "sim")]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(study), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id"), "--no-plots"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"jointid identify: error: {study}: [identification].smoothing = \"structured\" fits the model of one joint of one "
+                   "material, and this study identifies 2 joints together: use \"auto\" or \"gcv\""]

@@ -152,3 +152,12 @@ def test_options_select_the_estimator(material_b):
     none = identify_joint_coupling(model, measured, dofs, CouplingOptions(smoothing="none"))
     assert gcv.estimator == "gcv" and gcv.structured is None
     assert none.estimator == "per-line" and np.array_equal(none.stiffness, none.per_line)
+
+
+def test_structured_asked_for_but_not_applicable_is_said(material_b):
+    st, test = material_b
+    r = identify_joint_coupling(free_model(st), _noisy(test.frf, 0.01, seed=3), st.joint.joint_dofs,
+                                CouplingOptions(smoothing="structured", symmetric=False))
+    assert r.estimator == "gcv" and r.structured is None
+    assert r.findings()[0] == ('smoothing = "structured" not used: symmetric = false (the structured model is symmetric); '
+                               "each term smoothed on its own instead")

@@ -91,11 +91,29 @@ def inverse_options(study: Study) -> InverseOptions:
 
 
 def coupling_options(study: Study) -> CouplingOptions:
-    """The :class:`CouplingOptions` of the study's ``[identification]`` section."""
+    """The :class:`CouplingOptions` of the study's ``[identification]`` section.
+
+    A study of several joints identifies them together; the structured joint model
+    (one material, one modulus, shared internal modes) does not hold for them, so
+    ``smoothing = "auto"`` is then ``"gcv"`` and ``"structured"`` is refused.
+
+    Raises
+    ------
+    StudyError
+        ``smoothing = "structured"`` with several ``[[joint]]``s.
+    """
     spec = study.identification
+    smoothing = spec.smoothing
+    several = study.is_structure and len(study.joints) > 1
+    if several and smoothing == "structured":
+        from .errors import StudyError
+
+        raise StudyError(
+            f"{study.source}: [identification].smoothing = \"structured\" fits the model of one joint of one material, and this "
+            f"study identifies {len(study.joints)} joints together: use \"auto\" or \"gcv\"")
     return CouplingOptions(
         symmetric=True if spec.symmetric is None else spec.symmetric,
-        smoothing=spec.smoothing,
+        smoothing="gcv" if several and smoothing == "auto" else smoothing,
         weighting=spec.weighting,
         averages=spec.averages,
         max_relative_std=spec.max_relative_std,

@@ -22,8 +22,10 @@ The default inverse method of jointid. Three steps, each documented where it liv
      each term smoothed on its own by a weighted P-spline, lambda by GCV, which
      lowers the variance by about the number of lines in a correlation band.
 
-   ``"auto"`` (default) is ``"structured"`` for a symmetric joint of at most
-   :data:`AUTO_STRUCTURED_MAX_DOFS` DOFs on the exact per-line path, else ``"gcv"``.
+   ``"auto"`` (default) is ``"structured"`` for one symmetric joint of at most
+   :data:`AUTO_STRUCTURED_MAX_DOFS` DOFs on the exact per-line path, with at least
+   :data:`STRUCTURED_MIN_LINES` lines and noisy data, else ``"gcv"`` (a study of several
+   joints uses ``"gcv"``: :func:`jointid.pipeline.coupling_options`).
    Measured on the benchmark's virtual roving-hammer test (1 % response and force
    noise, 100-1000 Hz): K_theta_theta 0.2-2.7 % median error against 36-56 % with
    ``"gcv"``. A term whose per-line estimates are already exact to 1e-6 (exact
@@ -64,7 +66,7 @@ from .inverse import check_layout, dof_term_labels, joint_term, stiffness_column
 from .smoothing import smooth_series
 from .structured_select import MAX_CHI2_PER_DOF, STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
 
-__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "term_scale", "COUPLING_SCALE_FLOOR", "SMOOTHINGS", "AUTO_STRUCTURED_MAX_DOFS"]
+__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "term_scale", "COUPLING_SCALE_FLOOR", "SMOOTHINGS", "AUTO_STRUCTURED_MAX_DOFS", "STRUCTURED_MIN_LINES"]
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
@@ -173,6 +175,8 @@ class CouplingResult:
     structured : StructuredEstimate or None
         The structured joint model's estimate when it was fitted (``structured.accepted``:
         it is the result; else the P-spline is, and :meth:`findings` says why).
+    estimator_note : str
+        Why the structured model was not fitted when it was asked for or failed (a finding), else "".
     """
 
     frequency: Frequency
@@ -192,6 +196,7 @@ class CouplingResult:
     calibration: ColumnCalibration | None = None
     calibration_applied: bool = False
     structured: StructuredEstimate | None = None
+    estimator_note: str = ""
 
     method = "receptance"
 
@@ -265,7 +270,7 @@ class CouplingResult:
         return CouplingResult(
             self.frequency, dofs, self.stiffness[blk], self.std_real[blk], self.std_imag[blk], self.per_line[blk],
             self.per_line_std[blk], self.reliable_terms[blk], self.passive[:, idx], self.condition, self.residual_scale,
-            self.weighting, edf, self.options, self.calibration, self.calibration_applied, self.structured,
+            self.weighting, edf, self.options, self.calibration, self.calibration_applied, self.structured, self.estimator_note,
         )
 
     def columns(self) -> dict[str, np.ndarray]:
@@ -289,6 +294,8 @@ class CouplingResult:
                        "not one viscoelastic material, or a model error): each term smoothed on its own instead")
         elif st is not None and not st.accepted:
             out.append("the structured joint model gave non-finite values on these FRFs: each term smoothed on its own instead")
+        if self.estimator_note:
+            out.append(self.estimator_note)
         cal = self.calibration
         if cal is not None and self.calibration_applied:
             eps = 100 * np.median(np.abs(cal.error), axis=0)
@@ -383,26 +390,40 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     return _finish(freq, n_dofs, lines, source, options, cal, applied)
 
 
-def _structured(freq: Frequency, lines, options: CouplingOptions, cal, applied) -> StructuredEstimate | None:
-    """The structured estimate when the options and the data call for it (module docstring), else None."""
+def _structured(freq: Frequency, lines, options: CouplingOptions, cal, applied) -> tuple[StructuredEstimate | None, str]:
+    """The structured estimate when the options and the data call for it (module docstring), else None and why not."""
+    if options.smoothing not in ("auto", "structured"):
+        return None, ""
     n = lines.stiffness.shape[1]
     limit = AUTO_STRUCTURED_MAX_DOFS if options.smoothing == "auto" else STRUCTURED_MAX_DOFS
-    if options.smoothing not in ("auto", "structured") or n > limit or not options.symmetric or lines.x_covariance is None:
-        return None
-    if freq.size < STRUCTURED_MIN_LINES or _exact(lines):
-        return None
+    why = ""
+    if n > limit:
+        why = f"the joint has {n} DOFs (the structured model is used for at most {limit})"
+    elif not options.symmetric:
+        why = "symmetric = false (the structured model is symmetric)"
+    elif lines.x_covariance is None:
+        why = "the per-line covariance is not formed for this many joint DOFs"
+    elif freq.size < STRUCTURED_MIN_LINES:
+        why = f"{freq.size} lines (the structured model needs at least {STRUCTURED_MIN_LINES})"
+    elif applied and cal.x_factor is None:
+        why = "the column calibration has no factor for it"
+    elif _exact(lines):
+        return None, ""  # exact data: the per-line estimates are the answer
+    if why:
+        return None, (f"smoothing = \"structured\" not used: {why}; each term smoothed on its own instead" if options.smoothing == "structured" else "")
     try:
-        return structured_estimate(freq.hz, lines, cal.x_factor if applied else None)
+        return structured_estimate(freq.hz, lines, cal.x_factor if applied else None), ""
     except (np.linalg.LinAlgError, ValueError):  # singular covariances: per-term smoothing
-        return None
+        return None, "the structured joint model could not be fitted (singular per-line covariances): each term smoothed on its own instead"
 
 
 def _exact(lines) -> bool:
     """Every term's per-line estimates are exact to :data:`SMOOTH_MIN_RELATIVE_STD` (median relative std)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.sqrt(lines.variance) / np.abs(lines.stiffness)
+    rel = np.where(np.isfinite(rel), rel, np.inf)  # no redundancy (NaN scale): not exact
     n = rel.shape[1]
-    return not any(np.nanmedian(rel[:, a, b]) > SMOOTH_MIN_RELATIVE_STD for a in range(n) for b in range(a, n))
+    return not any(np.median(rel[:, a, b]) > SMOOTH_MIN_RELATIVE_STD for a in range(n) for b in range(a, n))
 
 
 def term_scale(K: np.ndarray) -> np.ndarray:
@@ -423,7 +444,7 @@ def term_scale(K: np.ndarray) -> np.ndarray:
 
 def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False) -> CouplingResult:
     """Estimate over frequency (structured model, or each term smoothed and relinearized), propagate the variance, set the flags."""
-    structured = _structured(freq, lines, options, cal, applied)
+    structured, note = _structured(freq, lines, options, cal, applied)
     if structured is not None and structured.accepted:
         K, edf = structured.stiffness, {}
         var_re, var_im = structured.std_real ** 2, structured.std_imag ** 2
@@ -441,7 +462,7 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     reliable[:, diag, diag] &= passive
     return CouplingResult(
         freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(np.maximum(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0), 0.0)),
-        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured,
+        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured, note,
     )
 
 

@@ -8,7 +8,8 @@ and (for Gaussian errors) a sufficient statistic of the line's FRFs for ``X_f``,
 
     min_theta, u  sum_f || C_f^(-1/2) (x_f + G_f u - x_f(theta)) ||^2 + ||u||^2
 
-is the maximum-likelihood fit of the model to the FRFs themselves. No noisy
+is the maximum-likelihood fit of the model to the FRFs themselves (given the
+per-line covariance, whose scale comes from each line's residuals). No noisy
 per-line ``Du`` is ever inverted and no relinearization is needed. ``G_f u`` is
 an error common to all lines (the column force calibration,
 :attr:`~jointid.methods.column_calibration.ColumnCalibration.x_factor`,
@@ -24,8 +25,8 @@ modes; for the first internal mode a grid over (loss angle, pole) that is linear
 poles ranked by the linearized cost.
 
 Uncertainty: the parameter covariance ``(J^T J)^-1`` of the whitened problem
-(nuisance profiled out), mapped to the real and imaginary part of each term per
-line (full covariance, not a circular approximation). ``chi^2/dof`` tests the
+(nuisance profiled out), scaled by ``max(1, chi^2/dof)``, mapped to the real and
+imaginary part of each term per line (full covariance, not a circular approximation). ``chi^2/dof`` tests the
 model against the per-line covariance (~1 when both hold).
 
 Caveats: the bands hold *within* the model class at a fixed order; the order's
@@ -67,7 +68,7 @@ class StructuredFit:
     model : StructuredModel
     theta : ndarray, shape (P,)
     theta_covariance : ndarray, shape (P, P)
-        Of the scaled parameters, nuisance profiled out.
+        Of the scaled parameters, nuisance profiled out, scaled by ``max(1, chi^2/dof)``.
     stiffness : ndarray, shape (F, n, n), complex
         The fitted Du (physical units: N/m, N/rad, N*m/rad).
     std_real, std_imag : ndarray, shape (F, n, n)
@@ -77,7 +78,8 @@ class StructuredFit:
     dof : int
         ``2 F p - P``.
     aic, bic : float
-        ``chi2 + 2 P`` and ``chi2 + P log(2 F p)``.
+        Corrected Akaike ``chi2 + 2 P + 2 P (P + 1) / (N - P - 1)`` (AICc, ``N = 2 F p`` real observations)
+        and Schwarz ``chi2 + P log N``.
     seconds : float
     """
 
@@ -180,9 +182,12 @@ def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
         cov = np.linalg.pinv(JTJ)
     real_chi2 = float(np.sum(sol.fun ** 2))  # unit-variance real residuals (sqrt(2) [Re, Im] of the complex ones)
     nobs = 2 * prob.F * prob.p
+    dof = nobs - prob.P
+    cov = cov * max(1.0, real_chi2 / max(dof, 1))  # a misfit above the noise widens the bands
     K, std_re, std_im = _bands(theta, cov, prob.hz, model)
     return StructuredFit(
-        model, theta, cov, K, std_re, std_im, real_chi2, nobs - prob.P, real_chi2 + 2.0 * prob.P, real_chi2 + prob.P * np.log(nobs), time.perf_counter() - t0,
+        model, theta, cov, K, std_re, std_im, real_chi2, dof, real_chi2 + 2.0 * prob.P + 2.0 * prob.P * (prob.P + 1) / max(dof - 1, 1),
+        real_chi2 + prob.P * np.log(nobs), time.perf_counter() - t0,
     )
 
 
@@ -374,7 +379,7 @@ def fit_structured(hz, lines, order=(0, 1, False), common=None, start: Structure
     return _finish(prob, _solve(prob, cur), t0)
 
 
-def refit(fit: StructuredFit, hz, lines, common=None, max_nfev: int = 50) -> StructuredFit:
+def refit(fit: StructuredFit, hz, lines, common=None, max_nfev: int = 100) -> StructuredFit:
     """The same model refitted on other lines (e.g. all lines after selecting on a subset), started from ``fit``."""
     t0 = time.perf_counter()
     prob = _Problem(np.asarray(hz, float), lines.x, lines.x_covariance, lines.Ynn, fit.model, common)

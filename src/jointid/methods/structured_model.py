@@ -28,6 +28,7 @@ tests the fit and falls back to per-term smoothing when it fails.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -79,6 +80,7 @@ class StructuredModel:
 
     @property
     def n_params(self) -> int:
+        """Real parameters ``P``."""
         return sum(self.sizes.values())
 
     @property
@@ -93,6 +95,7 @@ class StructuredModel:
         return f"{self.n_modes} internal mode{'s' if self.n_modes != 1 else ''}, {g}{', +residual' if self.residual else ''}"
 
     def with_order(self, n_modes: int, g_basis: int, residual: bool) -> "StructuredModel":
+        """The same scaling and band with another order."""
         return StructuredModel(self.n, n_modes, g_basis, residual, self.scale, self.f_ref, self.band)
 
     def g_design(self, hz: np.ndarray) -> np.ndarray:
@@ -204,7 +207,9 @@ def structured_stiffness(theta: np.ndarray, hz: np.ndarray, model: StructuredMod
 
 def default_scale(Du: np.ndarray) -> tuple:
     """``d_i = sqrt(median |Du_ii|)`` of per-line estimates (robust to their heavy tails), shape (n,)."""
-    d = np.sqrt(np.nanmedian(np.abs(np.diagonal(Du, axis1=1, axis2=2)), axis=0))
+    with warnings.catch_warnings():  # an all-NaN term: scale 1
+        warnings.simplefilter("ignore", RuntimeWarning)
+        d = np.sqrt(np.nanmedian(np.abs(np.diagonal(Du, axis1=1, axis2=2)), axis=0))
     return tuple(float(v) if np.isfinite(v) and v > 0 else 1.0 for v in d)
 
 

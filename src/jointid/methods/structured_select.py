@@ -5,7 +5,7 @@
 or ``"structured"``) runs instead of per-term smoothing:
 
 1. **Order** by greedy forward selection on Akaike's criterion
-   (``AIC = chi^2 + 2 P``), from ``(0 internal modes, constant modulus g, no residual)``:
+   (corrected for small samples, ``AICc = chi^2 + 2 P + 2 P (P + 1) / (N - P - 1)``, N real observations), from ``(0 internal modes, constant modulus g, no residual)``:
    each step fits the neighbours (one more mode, up to :data:`MAX_MODES`; ``+E``; ``g``
    constant -> spline of 4 -> 6) started from the current fit, and moves while AIC
    improves. With a column force calibration estimated as a nuisance, ``g`` stays
@@ -42,7 +42,7 @@ import numpy as np
 
 from .structured_fit import StructuredFit, fit_structured, refit
 
-__all__ = ["StructuredEstimate", "structured_estimate", "select_structured", "model_average", "MAX_CHI2_PER_DOF", "MAX_MODES", "SELECT_MAX_LINES", "REFIT_MAX_LINES", "STRUCTURED_MAX_DOFS"]
+__all__ = ["StructuredEstimate", "structured_estimate", "select_structured", "model_average", "MAX_CHI2_PER_DOF", "MAX_MODES", "SELECT_MAX_LINES", "REFIT_MAX_LINES", "STRUCTURED_MAX_DOFS", "POLE_LIST_FACTOR"]
 
 #: The structured estimate is used when its best model's chi^2 per degree of freedom is at most this.
 MAX_CHI2_PER_DOF = 1.5
