@@ -82,8 +82,10 @@ def test_identify_bad_layout_is_one_line(tmp_path, edit, message):
 
 
 def test_identify_noisy_frfs_reports_the_structured_estimator(tmp_path, capsys):
+    """An elastomer joint (one material: in the structured model's class) from 1 % noisy FRFs."""
     study = tmp_path / "study.toml"
-    study.write_text(STUDY)
+    head, model = STUDY.split("[joint.model]\n")
+    study.write_text(head + '[joint.model]\ntype = "elastomer"\nmaterial = "B"\n\n[measurement]' + model.split("[measurement]", 1)[1])
     assert main(["simulate", str(study), "--out", str(tmp_path / "sim"), "--noise", "0.01", "--seed", "4"]) == 0
     capsys.readouterr()
     assert main(["identify", str(study), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id"), "--no-plots"]) == 0
