@@ -40,6 +40,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..parallel import single_threaded_blas
 from .structured_fit import StructuredFit, fit_structured, refit
 
 __all__ = ["StructuredEstimate", "structured_estimate", "select_structured", "model_average", "MAX_CHI2_PER_DOF", "MAX_MODES", "SELECT_MAX_LINES", "REFIT_MAX_LINES", "STRUCTURED_MAX_DOFS", "POLE_LIST_FACTOR"]
@@ -182,7 +183,9 @@ def structured_estimate(hz, lines, common=None) -> StructuredEstimate:
         No structured model could be fitted (singular covariances).
     """
     t0 = time.perf_counter()
-    with np.errstate(all="ignore"):  # a degenerate candidate (a pole at infinity) must not abort the run; checked below
+    # small matrices: BLAS threads only contend (as in methods/smoothing); a degenerate
+    # candidate (a pole at infinity) must not abort the run: non-finite results are checked below
+    with single_threaded_blas(), np.errstate(all="ignore"):
         return _estimate(np.asarray(hz, float), lines, common, t0)
 
 
