@@ -49,6 +49,7 @@ Both recover the joint from exact FRFs to ~1e-9.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -417,13 +418,18 @@ def _structured(freq: Frequency, lines, options: CouplingOptions, cal, applied) 
         return None, "the structured joint model could not be fitted (singular per-line covariances): each term smoothed on its own instead"
 
 
+def _median_relative_std(variance: np.ndarray, value: np.ndarray) -> float:
+    """Median over lines of ``sqrt(variance) / |value|`` of one term (NaN when no line has one)."""
+    with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN: a layout without redundancy
+        return float(np.nanmedian(np.sqrt(variance) / np.abs(value)))
+
+
 def _exact(lines) -> bool:
-    """Every term's per-line estimates are exact to :data:`SMOOTH_MIN_RELATIVE_STD` (median relative std)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rel = np.sqrt(lines.variance) / np.abs(lines.stiffness)
-    rel = np.where(np.isfinite(rel), rel, np.inf)  # no redundancy (NaN scale): not exact
-    n = rel.shape[1]
-    return not any(np.median(rel[:, a, b]) > SMOOTH_MIN_RELATIVE_STD for a in range(n) for b in range(a, n))
+    """Every term's per-line estimates are exact to :data:`SMOOTH_MIN_RELATIVE_STD` (median relative std; NaN: not exact)."""
+    n = lines.stiffness.shape[1]
+    return all(_median_relative_std(lines.variance[:, a, b], lines.stiffness[:, a, b]) <= SMOOTH_MIN_RELATIVE_STD
+               for a in range(n) for b in range(a, n))
 
 
 def term_scale(K: np.ndarray) -> np.ndarray:
@@ -479,9 +485,7 @@ def _smooth_terms(freq: Frequency, n_dofs, lines, options: CouplingOptions):
     for a, b in pairs:
         name = f"K_{labels[a]}_{labels[b]}"
         y, v = lines.stiffness[:, a, b], lines.variance[:, a, b]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rel = np.sqrt(v) / np.abs(y)
-        if options.smoothing == "none" or F < 8 or not np.nanmedian(rel) > SMOOTH_MIN_RELATIVE_STD:
+        if options.smoothing == "none" or F < 8 or not _median_relative_std(v, y) > SMOOTH_MIN_RELATIVE_STD:
             edf[name] = None
             continue
         re = smooth_series(freq.hz, y.real, v / 2.0, options.n_basis)

@@ -138,17 +138,23 @@ class _Problem:
         c = np.conj(self.U.T) @ v
         return v - self.U @ (self.shrink.reshape(-1, *([1] * (v.ndim - 1))) * c)
 
+    def coupling(self, D, inverses: bool):
+        """``x`` (upper triangle of ``X = (I + D Ynn)^-1 D``) and, if ``inverses``, ``(I + D Ynn)^-1``, ``(I + Ynn D)^-1``
+        (``dX = Li dD Ri``)."""
+        eye = np.eye(self.model.n)
+        L = eye[None] + D @ self.Ynn
+        x = np.linalg.solve(L, D)[:, self.iu[0], self.iu[1]]
+        if not inverses:
+            return x, None, None
+        return x, np.linalg.inv(L), np.linalg.inv(eye[None] + self.Ynn @ D)
+
     def x_model(self, theta, jac: bool):
         out = structured_stiffness(theta, self.hz, self.model, jacobian=jac)
         Dp, Jp = out if jac else (out, None)
         D = Dp * self.SS
-        eye = np.eye(self.model.n)
-        L = eye[None] + D @ self.Ynn
-        X = np.linalg.solve(L, D)
-        x = X[:, self.iu[0], self.iu[1]]
+        x, Li, Ri = self.coupling(D, jac)
         if not jac:
             return x, None
-        Li, Ri = np.linalg.inv(L), np.linalg.inv(eye[None] + self.Ynn @ D)
         JD = Jp * self.SS[None, :, :, None]
         F, n = D.shape[0], self.model.n
         Kx = Li[:, self.iu[0], :, None] * Ri[:, None, :, self.iu[1]].transpose(0, 3, 1, 2)  # (F, p, n, n): Li_ik Ri_lj
@@ -277,33 +283,38 @@ def _grid_start(hz, Ks, Vs, model: StructuredModel, theta_base: np.ndarray) -> n
     return pack(Av / a0, Bv, E, modes, gam)
 
 
-def _mode_start(prob: _Problem, theta: np.ndarray, nu: float):
-    """Start for the last mode of ``prob.model`` at ``mu = exp(nu)``: rank-1 part of the best linear ``C``; and its linearized cost."""
+def _mode_starts(prob: _Problem, theta: np.ndarray) -> list:
+    """Starts for the last mode of ``prob.model`` at every pole ``mu = exp(nu)`` of the grid, with their linearized costs.
+
+    Around the fit without that mode, ``x(D + h C) ~ x(D) + Li (h C) Ri`` with
+    ``h = -w'^4 / (g mu - w'^2)``: linear least squares for the real symmetric ``C``,
+    cut to its rank-1 part. The linearization does not depend on ``mu`` and is formed once.
+    """
     model = prob.model
     n, Eb = model.n, sym_basis(model.n)
     base = model.with_order(model.n_modes - 1, model.g_basis, model.residual)
     th_base = drop_last_mode(theta, model)
-    D = structured_stiffness(th_base, prob.hz, base) * prob.SS
-    gam = unpack(th_base, base)[4]
-    g = base.g_design(prob.hz) @ gam
+    x, Li, Ri = prob.coupling(structured_stiffness(th_base, prob.hz, base) * prob.SS, True)
+    r = (prob.xw - np.einsum("fij,fj->fi", prob.W, x)).ravel()
+    rr = np.r_[r.real, r.imag]
+    dX = Li[:, None] @ (prob.SS * Eb)[None] @ Ri[:, None]  # (F, p, n, n): dX / dC_k per unit h
+    M0 = np.einsum("fij,fkj->fik", prob.W, dX[:, :, prob.iu[0], prob.iu[1]])  # (F, p, p)
+    g = base.g_design(prob.hz) @ unpack(th_base, base)[4]
     w2 = (prob.hz / model.f_ref) ** 2
-    h = -(w2 ** 2) / (g * np.exp(nu) - w2)
-    eye = np.eye(n)
-    L = eye[None] + D @ prob.Ynn
-    Li, Ri = np.linalg.inv(L), np.linalg.inv(eye[None] + prob.Ynn @ D)
-    X = np.linalg.solve(L, D)
-    r = (prob.xw - np.einsum("fij,fj->fi", prob.W, X[:, prob.iu[0], prob.iu[1]])).ravel()
-    dX = Li[:, None] @ (h[:, None, None, None] * (prob.SS * Eb)[None]) @ Ri[:, None]  # (F, p, n, n)
-    M = np.einsum("fij,fkj->fik", prob.W, dX[:, :, prob.iu[0], prob.iu[1]]).reshape(-1, model.p)
-    Mr, rr = np.vstack([M.real, M.imag]), np.r_[r.real, r.imag]
-    coef = np.linalg.lstsq(Mr, rr, rcond=None)[0]
-    lam, V = np.linalg.eigh(np.einsum("k,kij->ij", coef, Eb))
-    out = theta.copy()
     s = model.sizes
     i0 = s["A"] + s["B"] + s["E"] + (model.n_modes - 1) * (n + 1)
-    out[i0:i0 + n] = np.sqrt(max(lam[-1], 1e-8)) * V[:, -1]
-    out[i0 + n] = nu
-    return out, float(np.sum((rr - Mr @ coef) ** 2))
+    starts = []
+    for nu in _NU_GRID:  # 40 poles, each one small least-squares problem over all lines
+        M = (-(w2 ** 2) / (g * np.exp(nu) - w2))[:, None, None] * M0
+        M = M.reshape(-1, model.p)
+        Mr = np.vstack([M.real, M.imag])
+        coef = np.linalg.lstsq(Mr, rr, rcond=None)[0]
+        lam, V = np.linalg.eigh(np.einsum("k,kij->ij", coef, Eb))
+        out = theta.copy()
+        out[i0:i0 + n] = np.sqrt(max(lam[-1], 1e-8)) * V[:, -1]
+        out[i0 + n] = nu
+        starts.append((out, float(np.sum((rr - Mr @ coef) ** 2))))
+    return starts
 
 
 def base_model(hz, lines) -> StructuredModel:
@@ -361,7 +372,7 @@ def fit_structured(hz, lines, order=(0, 1, False), common=None, start: Structure
         m2 = cur_model.with_order(cur_model.n_modes + 1, cur_model.g_basis, cur_model.residual)
         p2 = problem(m2)
         grown = extend(cur, cur_model, m2)
-        starts = [_mode_start(p2, grown, nu) for nu in _NU_GRID]
+        starts = _mode_starts(p2, grown)
         cost = np.array([c for _, c in starts])
         interior = (cost[1:-1] <= cost[:-2]) & (cost[1:-1] <= cost[2:])
         minima = np.r_[cost[0] < cost[1], interior, cost[-1] < cost[-2]]
