@@ -57,6 +57,8 @@ _NU_GRID = np.log(np.geomspace(0.2, 4.0, 40) ** 2)
 _TOL = 1e-8
 #: Loss angles of the first mode's grid start.
 _PHASES = np.arctan(np.array([0.02, 0.05, 0.1, 0.15, 0.2, 0.3]))
+#: Function evaluations each start of an added mode gets before the best one is fitted to convergence.
+_SCREEN_NFEV = 20
 
 
 @dataclass(frozen=True, eq=False)
@@ -381,8 +383,9 @@ def fit_structured(hz, lines, order=(0, 1, False), common=None, start: Structure
         if m2.n_modes == 1:  # the first mode also from the Du-space grid (robust to a poor 0-mode fit)
             curves = curves or _smoothed_curves(hz, lines)
             trials.append(_grid_start(hz, *curves, m2, grown))
-        best = min((_solve(p2, th) for th in trials), key=lambda s: s.cost)
-        cur, cur_model = best.x, m2
+        if len(trials) > 1:  # screen every start briefly, polish the best one
+            trials = [min((_solve(p2, th, max_nfev=_SCREEN_NFEV) for th in trials), key=lambda s: s.cost).x]
+        cur, cur_model = _solve(p2, trials[0]).x, m2
     if target.g_basis != cur_model.g_basis:
         m2 = cur_model.with_order(cur_model.n_modes, target.g_basis, cur_model.residual)
         cur, cur_model = _solve(problem(m2), extend(cur, cur_model, m2)).x, m2
