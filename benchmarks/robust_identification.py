@@ -9,9 +9,9 @@ beam end (node 1), Model 3 layout, 100-1000 Hz:
 2. ``--seeds N`` realizations (default 50) of 1 % complex relative noise on exact
    FRFs: median and 90th-percentile error per term, and the fraction of lines whose
    truth lies within +-1.645 sigma (real and imaginary part) per term;
-3. ``--hammer-seeds N`` realizations of the virtual hammer test (1 % response and
-   force noise): the same figures, and the median error of lines flagged reliable
-   and unreliable per term.
+3. ``--hammer-seeds N`` realizations of the virtual hammer test (1 % response
+   noise and ``--force-noise`` of the peak force, default 1 %): the same figures,
+   and the median error of lines flagged reliable and unreliable per term.
 
 ``--cases A10,B1`` restricts the cases (material and joint node), to split a long
 run over processes.
@@ -96,12 +96,13 @@ def _realizations(st, n, hammer):
         yield ex.frf.band(100, 1000), ex.truth[ex.frf.frequency.mask(100, 1000)]
 
 
-def seeds(n: int, cases=CASES, hammer: bool = False) -> None:
-    what = "virtual hammer tests (1 % response + 1 % force noise)" if hammer else "1 % complex relative noise on exact FRFs"
+def seeds(n: int, cases=CASES, hammer: bool = False, force_noise: float = 0.01) -> None:
+    what = (f"virtual hammer tests (1 % response + {100 * force_noise:g} % force noise)" if hammer
+            else "1 % complex relative noise on exact FRFs")
     print(f"\n{n} realizations of {what}: median / p90 error %, coverage of +-1.645 sigma (re, im), "
           "median error % of lines flagged reliable | unreliable", flush=True)
     for mat, node in cases:
-        st = study(mat, node)
+        st = study(mat, node, **({"force_noise": force_noise} if hammer else {}))
         rels, inside, hl, flags, used, secs = [], [], [], [], [], []
         for s, (frf, truth) in enumerate(_realizations(st, n, hammer)):
             t = time.perf_counter()
@@ -135,6 +136,7 @@ if __name__ == "__main__":
     p.add_argument("--hammer-seeds", type=int, default=0)
     p.add_argument("--cases", default=",".join(f"{m}{n}" for m, n in CASES), help="e.g. A10,B1")
     p.add_argument("--skip-experiments", action="store_true")
+    p.add_argument("--force-noise", type=float, default=0.01, help="of the peak force, for --hammer-seeds (0: response noise only)")
     a = p.parse_args()
     cases = [(c[0], int(c[1:])) for c in a.cases.split(",")]
     if not a.skip_experiments:
@@ -142,4 +144,4 @@ if __name__ == "__main__":
     if a.seeds:
         seeds(a.seeds, cases)
     if a.hammer_seeds:
-        seeds(a.hammer_seeds, cases, hammer=True)
+        seeds(a.hammer_seeds, cases, hammer=True, force_noise=a.force_noise)
