@@ -342,7 +342,8 @@ def fit_structured(hz, lines, order=(0, 1, False), common=None, start: Structure
     start : StructuredFit, optional
         A fit of a nested (smaller) model to grow from; else grown from the linear start.
     n_starts : int
-        Pole starts fitted for each added mode (the local minima of the linearized cost).
+        Pole starts tried for each added mode (the local minima of the linearized cost); each
+        gets ``_SCREEN_NFEV`` evaluations and only the best is fitted to convergence.
 
     Returns
     -------
@@ -383,6 +384,8 @@ def fit_structured(hz, lines, order=(0, 1, False), common=None, start: Structure
         if m2.n_modes == 1:  # the first mode also from the Du-space grid (robust to a poor 0-mode fit)
             curves = curves or _smoothed_curves(hz, lines)
             trials.append(_grid_start(hz, *curves, m2, grown))
+        if not trials:
+            raise ValueError("no start for the added internal mode")
         if len(trials) > 1:  # screen every start briefly, polish the best one
             trials = [min((_solve(p2, th, max_nfev=_SCREEN_NFEV) for th in trials), key=lambda s: s.cost).x]
         cur, cur_model = _solve(p2, trials[0]).x, m2
