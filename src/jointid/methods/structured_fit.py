@@ -362,15 +362,22 @@ def fit_structured(hz, lines, order=(0, 1, False), common=None, start: Structure
     def problem(model):
         return _Problem(hz, lines.x, lines.x_covariance, lines.Ynn, model, common)
 
-    curves = None
+    curves, last = None, None  # last: (problem, solution) of the latest step
+
+    def step(model, theta0):
+        prob = problem(model)
+        return model, (prob, _solve(prob, theta0))
+
     if start is None:
         curves = _smoothed_curves(hz, lines)
-        cur, cur_model = _solve(problem(base), _initial(hz, *curves, base)).x, base
+        cur_model, last = step(base, _initial(hz, *curves, base))
+        cur = last[1].x
     else:
         cur, cur_model = start.theta, start.model
     if target.residual and not cur_model.residual:
         m2 = cur_model.with_order(cur_model.n_modes, cur_model.g_basis, True)
-        cur, cur_model = _solve(problem(m2), extend(cur, cur_model, m2)).x, m2
+        cur_model, last = step(m2, extend(cur, cur_model, m2))
+        cur = last[1].x
     while cur_model.n_modes < target.n_modes:
         m2 = cur_model.with_order(cur_model.n_modes + 1, cur_model.g_basis, cur_model.residual)
         p2 = problem(m2)
@@ -388,12 +395,15 @@ def fit_structured(hz, lines, order=(0, 1, False), common=None, start: Structure
             raise ValueError("no start for the added internal mode")
         if len(trials) > 1:  # screen every start briefly, polish the best one
             trials = [min((_solve(p2, th, max_nfev=_SCREEN_NFEV) for th in trials), key=lambda s: s.cost).x]
-        cur, cur_model = _solve(p2, trials[0]).x, m2
+        cur_model, last = m2, (p2, _solve(p2, trials[0]))
+        cur = last[1].x
     if target.g_basis != cur_model.g_basis:
         m2 = cur_model.with_order(cur_model.n_modes, target.g_basis, cur_model.residual)
-        cur, cur_model = _solve(problem(m2), extend(cur, cur_model, m2)).x, m2
-    prob = problem(target)
-    return _finish(prob, _solve(prob, cur), t0)
+        cur_model, last = step(m2, extend(cur, cur_model, m2))
+        cur = last[1].x
+    if last is None or cur_model.order != target.order:  # grown from a fit of this very order: refit it here
+        cur_model, last = step(target, cur)
+    return _finish(*last, t0)
 
 
 def refit(fit: StructuredFit, hz, lines, common=None, max_nfev: int = 100) -> StructuredFit:
