@@ -32,7 +32,9 @@ The default inverse method of jointid. Three steps, each documented where it liv
    data) is left as it is: any smoother could only add its approximation error.
    With ``calibration = "auto"`` (default) a force-calibration error common to each
    excitation column (:mod:`jointid.methods.column_calibration`) is tested for,
-   and corrected with its uncertainty added to the bands when it is significant.
+   and corrected with its uncertainty added to the bands when it is significant;
+   the weights are then the variance left after it (the coherence's column-common
+   part split off: :func:`~jointid.methods.frf_variance.column_noise_fraction`).
 3. **Flags**: a term is reliable on a line when its predicted relative standard
    deviation ``sqrt(var Re + var Im) / |K|`` is at most ``max_relative_std``
    (default 10 %), the weighted design is well conditioned, and (diagonal terms)
@@ -62,7 +64,7 @@ from ..frf import FRF
 from ..physics.free_model import as_free_model
 from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
-from .frf_variance import WEIGHTINGS, frf_variance
+from .frf_variance import WEIGHTINGS, column_noise_fraction, frf_variance
 from .inverse import check_layout, dof_term_labels, joint_term, stiffness_columns
 from .smoothing import smooth_series
 from .structured_select import MAX_CHI2_PER_DOF, STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
@@ -381,8 +383,13 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         if options.calibration == "columns":
             raise IdentificationError(f"calibration = 'columns' needs the full per-line design, too large for {nn} joint DOFs on {freq.size} lines; use 'auto' or 'none'")
     elif options.calibration != "none":
-        cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, options.calibration_basis)
+        # the calibration removes the column-common error: what is left in each value is its
+        # variance without the column-common part (frf_variance.column_noise_fraction)
+        left = variance * column_noise_fraction(H, measured.coherence) if source == "coherence" else variance
+        cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, left, options.symmetric, options.calibration_basis)
         applied = cal is not None and (options.calibration == "columns" or cal.significant)
+        if applied:
+            variance = left
     common = None
     if applied:
         H, variance = cal.apply(H, variance)
