@@ -385,7 +385,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     elif options.calibration != "none":
         # the calibration removes the column-common error: what is left in each value is its
         # variance without the column-common part (frf_variance.column_noise_fraction)
-        left = variance * column_noise_fraction(H, measured.coherence) if source == "coherence" else variance
+        left = variance * column_noise_fraction(H, getattr(measured, "coherence", None)) if source == "coherence" else variance
         cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, left, options.symmetric, options.calibration_basis)
         applied = cal is not None and (options.calibration == "columns" or cal.significant)
         if applied:
