@@ -51,8 +51,8 @@ def test_split_of_a_virtual_hammer_test_matches_its_force_and_response_noise():
 
     def q(**noise):
         ex = experiment(dataclasses.replace(st, experiment=dataclasses.replace(st.experiment, **noise)), seed=0, periodic=True)
-        g2 = ex.frf.band(100, 1000).coherence
-        return ex.frf.band(100, 1000), frf_variance(np.ones(g2.shape), (1 / (1 + (1 - g2) / g2)), "coherence")[0]
+        frf = ex.frf.band(100, 1000)
+        return frf, frf_variance(np.ones(frf.data.shape), frf.coherence, "coherence")[0]  # smoothed (1 - g^2) / g^2
 
     both, _ = q()
     _, qa = q(response_noise=0.0)  # smoothed (1 - g^2) / g^2 of the force noise alone

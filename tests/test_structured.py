@@ -108,13 +108,16 @@ def test_data_from_a_finer_mesh_with_noise_every_term_beats_hong_lee_and_meets_t
     assert np.all(e_new < e_plain), (e_new, e_plain)
 
 
+def _hammer_at_the_beam_end(seed):
+    """Identify Material B at node 1 from a virtual hammer test (1 % response + force noise); (result, true Du)."""
+    st = _study("B", node=1)
+    ex = experiment(st, seed=seed, periodic=True)
+    return identify(st, ex.frf.band(100, 1000)), ex.truth[ex.frf.frequency.mask(100, 1000)]
+
+
 def test_virtual_hammer_with_force_noise_at_the_beam_end():
     """The issue's hardest case: Material B, joint at node 1, 1 % response and force noise, 5 averages, seed 0."""
-    st = _study("B", node=1)
-    ex = experiment(st, seed=0, periodic=True)
-    keep = ex.frf.frequency.mask(100, 1000)
-    r = identify(st, ex.frf.band(100, 1000))
-    truth = ex.truth[keep]
+    r, truth = _hammer_at_the_beam_end(seed=0)
     e = _errors(r.stiffness, truth)
     # measured: 0.01-0.05 / 0.3 / 1.0-2.2 % (the P-spline per term: 1.7 / 16 / 36 %)
     assert r.estimator == "structured" and r.calibration_applied
@@ -133,11 +136,7 @@ def test_force_noise_left_after_the_column_calibration_is_not_weighted_as_if_it_
     removed it, this seed gave K_theta_theta 19 % with bands holding the truth on 0.71-0.75
     of the lines; with the split (frf_variance.column_noise_fraction) 2.5 % and 1.0.
     """
-    st = _study("B", node=1)
-    ex = experiment(st, seed=1, periodic=True)
-    keep = ex.frf.frequency.mask(100, 1000)
-    r = identify(st, ex.frf.band(100, 1000))
-    truth = ex.truth[keep]
+    r, truth = _hammer_at_the_beam_end(seed=1)
     e = _errors(r.stiffness, truth)
     assert r.estimator == "structured" and r.calibration_applied
     assert np.all(e < [0.01, 0.05, 0.05]), e
