@@ -119,7 +119,7 @@ def test_virtual_hammer_with_force_noise_at_the_beam_end():
     """The issue's hardest case: Material B, joint at node 1, 1 % response and force noise, 5 averages, seed 0."""
     r, truth = _hammer_at_the_beam_end(seed=0)
     e = _errors(r.stiffness, truth)
-    # measured: 0.01-0.05 / 0.3 / 1.0-2.2 % (the P-spline per term: 1.7 / 16 / 36 %)
+    # measured: 0.12 / 1.9 / 6.5 % (50 tests: medians 0.10 / 1.3 / 5.2 %; the P-spline per term: 1.7 / 16 / 36 %)
     assert r.estimator == "structured" and r.calibration_applied
     assert np.all(e < [0.01, 0.05, 0.10]), e
     rel = np.abs(r.stiffness - truth) / np.abs(truth)
@@ -144,6 +144,24 @@ def test_force_noise_left_after_the_column_calibration_is_not_weighted_as_if_it_
         z_re = np.abs(r.stiffness[:, i, j].real - truth[:, i, j].real) / r.std_real[:, i, j]
         z_im = np.abs(r.stiffness[:, i, j].imag - truth[:, i, j].imag) / r.std_imag[:, i, j]
         assert np.mean(z_re < 1.645) > 0.85 and np.mean(z_im < 1.645) > 0.85, (i, j)
+
+
+def test_k_ww_bands_at_mid_span_hold_with_force_noise():
+    """Material A at node 10, 1 % force + response noise, seed 1: the calibration's errors reach K_ww.
+
+    Before the errors-in-variables compensation of the calibration, the residual-based weights and
+    keeping only models with the residual term, K_ww's bands held the truth on 0.35 / 0.64 of the lines
+    (real / imaginary; 50 tests 0.67 / 0.72); now 0.92 / 0.85 (50 tests 0.87 / 0.87).
+    """
+    st = _study("A", node=10)
+    ex = experiment(st, seed=1, periodic=True)
+    r, truth = identify(st, ex.frf.band(100, 1000)), ex.truth[ex.frf.frequency.mask(100, 1000)]
+    assert r.estimator == "structured" and r.calibration_applied
+    assert all(order[2] for order in r.structured.fits), list(r.structured.fits)  # every model kept has the residual E
+    z_re = np.abs(r.stiffness[:, 0, 0].real - truth[:, 0, 0].real) / r.std_real[:, 0, 0]
+    z_im = np.abs(r.stiffness[:, 0, 0].imag - truth[:, 0, 0].imag) / r.std_imag[:, 0, 0]
+    assert np.mean(z_re < 1.645) > 0.8 and np.mean(z_im < 1.645) > 0.8, (np.mean(z_re < 1.645), np.mean(z_im < 1.645))
+    assert np.all(_errors(r.stiffness, truth) < [0.001, 0.005, 0.005])
 
 
 def test_a_joint_outside_the_class_falls_back_to_per_term_smoothing():

@@ -32,9 +32,12 @@ The default inverse method of jointid. Three steps, each documented where it liv
    data) is left as it is: any smoother could only add its approximation error.
    With ``calibration = "auto"`` (default) a force-calibration error common to each
    excitation column (:mod:`jointid.methods.column_calibration`) is tested for,
-   and corrected with its uncertainty added to the bands when it is significant;
-   the weights are then the variance left after it (the coherence's column-common
-   part split off: :func:`~jointid.methods.frf_variance.column_noise_fraction`).
+   and corrected with its uncertainty added to the bands when it is significant.
+   It is first estimated with the coherence's column-common part split off
+   (:func:`~jointid.methods.frf_variance.column_noise_fraction`); the variance left
+   in each value is then measured from the residuals of the corrected per-line fit
+   (:func:`~jointid.methods.column_calibration.residual_variance`), and the
+   calibration, the per-line fit and the structured model use those weights.
 3. **Flags**: a term is reliable on a line when its predicted relative standard
    deviation ``sqrt(var Re + var Im) / |K|`` is at most ``max_relative_std``
    (default 10 %), the weighted design is well conditioned, and (diagonal terms)
@@ -62,7 +65,7 @@ from ..errors import IdentificationError
 from ..frequency import Frequency
 from ..frf import FRF
 from ..physics.free_model import as_free_model
-from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration
+from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration, residual_variance
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
 from .frf_variance import WEIGHTINGS, column_noise_fraction, frf_variance
 from .inverse import check_layout, dof_term_labels, joint_term, stiffness_columns
@@ -388,8 +391,12 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         left = variance * column_noise_fraction(H, getattr(measured, "coherence", None)) if source == "coherence" else variance
         cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, left, options.symmetric, options.calibration_basis)
         applied = cal is not None and (options.calibration == "columns" or cal.significant)
-        if applied:
-            variance = left
+        if applied:  # weights: the variance left once the column error is removed, measured from the residuals
+            variance = residual_variance(Ymn, Yne, Yme - cal.apply(H, left)[0], left, options.symmetric)
+            if variance is None:
+                variance = left
+            else:
+                cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, options.calibration_basis) or cal
     common = None
     if applied:
         H, variance = cal.apply(H, variance)

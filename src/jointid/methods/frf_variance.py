@@ -49,7 +49,10 @@ per column: ``b_rj = s_r t_j / |H_rj|^2``, so per line::
 are raised to it). Caveats: it needs ``m >= 3`` responses and ``e >= 2`` columns with
 :data:`SPLIT_MIN_REDUNDANCY` more values than unknowns per line, else nothing
 is split; response noise that is not a floor per channel (e.g. a mass-loading
-or cable error proportional to ``|H|``) is taken as column-common.
+or cable error proportional to ``|H|``) is taken as column-common. The split
+gives the column calibration its first weights; the final ones are measured from
+the residuals once the column error is removed
+(:func:`jointid.methods.column_calibration.residual_variance`).
 """
 
 from __future__ import annotations
