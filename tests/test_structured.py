@@ -4,6 +4,7 @@ Figures over many seeds are in benchmarks/robust_identification.py; here fixed s
 """
 
 import dataclasses
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ from jointid.frf import FRF
 from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
 from jointid.methods.inverse import InverseOptions
 from jointid.methods.structured_model import StructuredModel, structured_stiffness
+from jointid.methods.structured_select import model_average
 from jointid.physics.joints import parametric_joint
 from jointid.physics.synthesis import synthesize_frf
 from jointid.pipeline import experiment, free_model, identify, simulate
@@ -199,3 +201,16 @@ def test_structured_asked_for_but_not_applicable_is_said(material_b):
     assert r.estimator == "gcv" and r.structured is None
     assert r.findings()[0] == ('smoothing = "structured" not used: symmetric = false (the structured model is symmetric); '
                                "each term smoothed on its own instead")
+
+
+def test_a_model_whose_parameters_the_data_do_not_determine_is_left_out_of_the_average():
+    """Its bands (here 100x wider) would swamp the average; a model with plausibly wider bands (5x) stays in."""
+    K = np.full((50, 2, 2), 1e6 + 1e5j)
+
+    def fit(aic, width):
+        return SimpleNamespace(aic=aic, stiffness=K, std_real=np.full(K.shape, width * 1e3), std_imag=np.full(K.shape, width * 1e3))
+
+    _, sr, _, w = model_average({"a": fit(100.0, 1.0), "b": fit(101.0, 100.0)})
+    assert list(w) == ["a"] and np.allclose(sr, 1e3)
+    _, sr, _, w = model_average({"a": fit(100.0, 1.0), "b": fit(101.0, 5.0)})
+    assert set(w) == {"a", "b"} and np.all(sr > 2e3)

@@ -48,7 +48,7 @@ import numpy as np
 from ..parallel import single_threaded_blas
 from .structured_fit import StructuredFit, fit_structured, refit
 
-__all__ = ["StructuredEstimate", "structured_estimate", "select_structured", "model_average", "MAX_CHI2_PER_DOF", "MAX_MODES", "SELECT_MAX_LINES", "REFIT_MAX_LINES", "STRUCTURED_MAX_DOFS", "POLE_LIST_FACTOR"]
+__all__ = ["StructuredEstimate", "structured_estimate", "select_structured", "model_average", "MAX_CHI2_PER_DOF", "MAX_MODES", "SELECT_MAX_LINES", "REFIT_MAX_LINES", "STRUCTURED_MAX_DOFS", "POLE_LIST_FACTOR", "DEGENERATE_BAND_RATIO"]
 
 #: The structured estimate is used when its best model's chi^2 per degree of freedom is at most this.
 MAX_CHI2_PER_DOF = 1.5
@@ -64,6 +64,8 @@ STRUCTURED_MAX_DOFS = 6
 POLE_LIST_FACTOR = 4.0
 #: Models with an Akaike weight below this are left out of the average.
 _MIN_WEIGHT = 1e-4
+#: Models whose bands are this many times wider than the lowest-AIC model's on some term are left out of the average.
+DEGENERATE_BAND_RATIO = 20.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,8 +156,17 @@ def select_structured(hz, lines, common=None, max_modes: int = MAX_MODES, max_g_
 
 
 def model_average(fits: dict) -> tuple:
-    """Akaike-weighted average of the fits: ``(stiffness, std_real, std_imag, weights)``."""
+    """Akaike-weighted average of the fits: ``(stiffness, std_real, std_imag, weights)``.
+
+    A fit whose bands are :data:`DEGENERATE_BAND_RATIO` times wider than the lowest-AIC fit's on
+    some term (median over lines) is left out: its parameters are not determined by the data (a
+    flat direction of its likelihood, e.g. a modulus spline confounded with a mode), which AIC does
+    not penalize, and its bands would swamp the average (measured: material A at the beam end,
+    response noise only, one test with K_ww bands of +-108 % around an error of 0.007 %).
+    """
     ic = {o: f.aic for o, f in fits.items() if f is not None and np.isfinite(f.aic)}
+    ref = _band_width(fits[min(ic, key=ic.get)])
+    ic = {o: v for o, v in ic.items() if np.all(_band_width(fits[o]) <= DEGENERATE_BAND_RATIO * ref)}
     lo = min(ic.values())
     w = {o: np.exp(-(v - lo) / 2.0) for o, v in ic.items()}
     tot = sum(w.values())
@@ -166,6 +177,12 @@ def model_average(fits: dict) -> tuple:
     vr = sum(v * (fits[o].std_real ** 2 + (fits[o].stiffness.real - K.real) ** 2) for o, v in w.items())
     vi = sum(v * (fits[o].std_imag ** 2 + (fits[o].stiffness.imag - K.imag) ** 2) for o, v in w.items())
     return K, np.sqrt(vr), np.sqrt(vi), w
+
+
+def _band_width(fit: StructuredFit) -> np.ndarray:
+    """Median over lines of each term's ``sqrt(std_re^2 + std_im^2) / |K|``, shape (n, n)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.nan_to_num(np.median(np.hypot(fit.std_real, fit.std_imag) / np.abs(fit.stiffness), axis=0), nan=np.inf)
 
 
 def _subset(lines, common, idx):
