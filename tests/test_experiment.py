@@ -88,7 +88,7 @@ def test_too_short_pulse_is_an_error():
 
 
 def test_experiment_is_deterministic_with_seed():
-    study = _study(experiment={"averages": 2, "duration": 1.0})
+    study = _study(experiment={"averages": 1, "duration": 0.5})
     a, b, c = experiment(study, seed=3), experiment(study, seed=3), experiment(study, seed=4)
     assert np.array_equal(a.frf.data, b.frf.data)
     assert not np.array_equal(a.frf.data, c.frf.data)

@@ -188,8 +188,9 @@ def _split(logq: np.ndarray, logM: np.ndarray, m: int, e: int) -> np.ndarray:
         wa, wb = np.exp(la - lmod), np.exp(lb - lmod)  # shares of the model
         J = np.concatenate([wa[:, :, None] * Sa, wb[:, :, None] * Ss, wb[:, :, None] * St], axis=2)  # d lmod / d theta
         r = logq - lmod
-        JJ = np.einsum("fik,fil->fkl", J, J)
-        g = np.einsum("fik,fi->fk", J, r)
+        Jt = np.swapaxes(J, 1, 2)
+        JJ = Jt @ J  # batched BLAS (einsum's loop took 10 s on a 196-line frame test)
+        g = (Jt @ r[..., None])[..., 0]
         D = np.einsum("fkk->fk", JJ) + 1e-12
         step = np.linalg.solve(JJ + lam[:, None, None] * D[:, :, None] * np.eye(JJ.shape[1]), g[..., None])[..., 0]
         trial = theta + step
