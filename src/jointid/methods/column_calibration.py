@@ -63,7 +63,7 @@ import numpy as np
 from scipy import stats
 from scipy.ndimage import uniform_filter1d
 
-from .coupling_lines import symmetric_parametrization
+from .coupling_lines import symmetric_parametrization, whitened_line_design
 from .smoothing import _basis as bspline_basis
 
 __all__ = ["ColumnCalibration", "estimate_column_calibration", "residual_variance", "RESIDUAL_VARIANCE_LINES", "CALIBRATION_BASIS", "CALIBRATION_P_VALUE", "CALIBRATION_MIN_F", "CALIBRATION_MIN_ERROR"]
@@ -169,7 +169,7 @@ def estimate_column_calibration(
     dof = F * (m * e - p) - e * nb  # complex residual degrees of freedom
     if nb < 4 or F < 2 * nb or dof <= 0:
         return None
-    sw, cs, Q, R = _line_projection(Ymn, Yne, variance, symmetric)
+    sw, cs, Q, R = whitened_line_design(Ymn, Yne, variance, symmetric)
     Qh = np.conj(np.swapaxes(Q, 1, 2))
     # G: column j of H enters the rows (r, j) with the coefficient delta_j
     Gw = np.zeros((F, m, e, e), complex)
@@ -261,7 +261,7 @@ def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, vari
     p = symmetric_parametrization(n, symmetric).shape[1]
     if m * e - p < 3:
         return None
-    sw, _, Q, _ = _line_projection(Ymn, Yne, variance, symmetric)
+    sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric)
     dw = change.reshape(F, m * e) * sw
     rw = dw - np.einsum("fij,fj->fi", Q, np.einsum("fji,fj->fi", Q.conj(), dw))
     r2 = (np.abs(rw) / sw) ** 2  # |residual|^2, (m/N)^2
@@ -272,20 +272,6 @@ def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, vari
     with np.errstate(divide="ignore", invalid="ignore"):
         v = num / den
     return np.where(np.isfinite(v) & (v > 0), v, variance.reshape(F, m * e)).reshape(F, m, e)
-
-
-def _line_projection(Ymn, Yne, variance, symmetric):
-    """Whitened per-line design ``A`` of the coupling parameters, column-equilibrated: ``(sw, cs, Q, R)``
-    with ``sw = 1 / sqrt(variance)`` (F, m e), ``cs`` the column norms (F, p) and ``Q R = A sw / cs``."""
-    F, m, n = Ymn.shape
-    P = symmetric_parametrization(n, symmetric)
-    A = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * Yne.shape[2], n * n) @ P
-    sw = 1.0 / np.sqrt(variance.reshape(F, -1))
-    Aw = A * sw[:, :, None]
-    cs = np.linalg.norm(Aw, axis=1)
-    cs = np.where(cs > 0, cs, 1.0)
-    Q, R = np.linalg.qr(Aw / cs[:, None, :])
-    return sw, cs, Q, R
 
 
 def _hermitian_factor(C: np.ndarray) -> np.ndarray:

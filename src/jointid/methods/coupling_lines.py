@@ -98,7 +98,7 @@ from scipy.ndimage import uniform_filter1d
 
 __all__ = [
     "LineEstimates", "coupling_per_line", "symmetric_parametrization", "relinearize", "uses_kronecker", "DENSE_PATH_BYTES",
-    "separable_weights", "kronecker_basis", "kronecker_variance",
+    "separable_weights", "kronecker_basis", "kronecker_variance", "whitened_line_design",
 ]
 
 #: The exact per-line path is taken while its arrays (the design, its weighted and Q copies, the p x p
@@ -221,20 +221,13 @@ def coupling_per_line(
         return _kronecker_per_line(Ymn, Yne, Ynn, change, variance, symmetric, pool_lines)
     P = symmetric_parametrization(n, symmetric)
     p = P.shape[1]
-    # vec over (row r, column c) of Y[m,n] X Y[n,e]: sum_ik Ymn[r,i] X[i,k] Yne[k,c]
-    A = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * e, n * n) @ P
-    sw = 1.0 / np.sqrt(variance.reshape(F, m * e))
-    Aw = A * sw[:, :, None]
+    sw, cs, Q, R = whitened_line_design(Ymn, Yne, variance, symmetric)
     dw = change.reshape(F, m * e) * sw
-    cs = np.linalg.norm(Aw, axis=1)  # column equilibration
-    cs = np.where(cs > 0, cs, 1.0)
-    Aw = Aw / cs[:, None, :]
-    Q, R = np.linalg.qr(Aw)
     qd = np.einsum("fji,fj->fi", Q.conj(), dw)
     eye = np.broadcast_to(np.eye(p), (F, p, p))
     Ri = np.linalg.solve(R, eye)  # R^-1: p x p per line
     xs = np.einsum("fij,fj->fi", Ri, qd)
-    resid = dw - np.einsum("fij,fj->fi", Aw, xs)
+    resid = dw - np.einsum("fij,fj->fi", Q, qd)  # (I - Q Q^H) dw
     dof = m * e - p
     sv = np.linalg.svd(R, compute_uv=False)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -253,6 +246,33 @@ def coupling_per_line(
     if common_x_covariance is not None:
         common = np.real(np.einsum("fab,fbc,fac->fa", J, common_x_covariance, J.conj())).reshape(F, n, n)
     return LineEstimates(Du, V, scale, cond, dof, common, x, C * scale[:, None, None], common_x_covariance, Ynn, symmetric)
+
+
+def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray, symmetric: bool = True):
+    """The weighted, column-equilibrated per-line design of the coupling parameters, factored.
+
+    Row ``(r, c)`` of ``A`` is ``vec`` of ``Y[m,n] X Y[n,e]`` at ``(r, c)`` in the parameters ``x``
+    (upper triangle of X if ``symmetric``); rows are weighted by ``sw = 1 / sqrt(variance)`` and
+    columns scaled to unit norm by ``cs``.
+
+    Returns
+    -------
+    sw : ndarray, shape (F, m e)
+    cs : ndarray, shape (F, p)
+    Q, R : ndarray, shapes (F, m e, p), (F, p, p), complex
+        ``Q R = diag(sw) A diag(1 / cs)`` per line.
+    """
+    F, m, n = Ymn.shape
+    e = Yne.shape[2]
+    P = symmetric_parametrization(n, symmetric)
+    # vec over (row r, column c) of Y[m,n] X Y[n,e]: sum_ik Ymn[r,i] X[i,k] Yne[k,c]
+    A = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * e, n * n) @ P
+    sw = 1.0 / np.sqrt(variance.reshape(F, m * e))
+    Aw = A * sw[:, :, None]
+    cs = np.linalg.norm(Aw, axis=1)  # column equilibration
+    cs = np.where(cs > 0, cs, 1.0)
+    Q, R = np.linalg.qr(Aw / cs[:, None, :])
+    return sw, cs, Q, R
 
 
 def _pooled_scale(chi2: np.ndarray, dof: int, pool_lines: int | None) -> np.ndarray:

@@ -47,7 +47,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .column_calibration import CALIBRATION_BASIS
-from .coupling_lines import symmetric_parametrization
+from .coupling_lines import symmetric_parametrization, whitened_line_design
 from .smoothing import _LOG_LAMBDA, MAX_BASIS
 from .smoothing import _basis as bspline_basis
 
@@ -150,12 +150,7 @@ def common_variance(
     nb = int(n_basis)
     if nb < 4 or F < 2 * nb or F * (m * e - p) - e * nb <= 0:
         return np.zeros((F, n, n))
-    A = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * e, n * n) @ P
-    sw = 1.0 / np.sqrt(variance.reshape(F, m * e))
-    Aw = A * sw[:, :, None]
-    cs = np.linalg.norm(Aw, axis=1)
-    cs = np.where(cs > 0, cs, 1.0)
-    Q, R = np.linalg.qr(Aw / cs[:, None, :])
+    sw, cs, Q, R = whitened_line_design(Ymn, Yne, variance, symmetric)
     Gw = np.zeros((F, m, e, e), complex)
     idx = np.arange(e)
     Gw[:, :, idx, idx] = H
