@@ -5,9 +5,6 @@ from __future__ import annotations
 import argparse
 
 from ..io.output_dir import OutputSet
-from ..physics.modes import natural_modes
-from ..physics.synthesis import synthesize_frf
-from ..plots.frf import plot_frf
 from .common import add_out_argument, add_study_argument, study_from_args
 
 __all__ = ["add_parser", "run"]
@@ -28,6 +25,10 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..physics.modes import natural_modes
+    from ..physics.synthesis import synthesize_frf
+    from ..plots.frf import plot_frf
+
     study = study_from_args(args)
     with OutputSet(args.out, command="modes") as out:
         beam = study.beam.structure()

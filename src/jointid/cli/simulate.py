@@ -8,8 +8,6 @@ from pathlib import Path
 
 from ..errors import StudyError
 from ..io.output_dir import OutputSet
-from ..methods.inverse import stiffness_columns
-from ..pipeline import simulate, simulate_free, true_beam_study
 from ..study import load_study
 from .common import add_out_argument, add_study_argument, study_from_args
 
@@ -56,6 +54,8 @@ def _noisy(frf, noise: float, seed: int):
 
 def write_true_joints(out, study, frequency, truth) -> list:
     """One ``true_joint[_<name>].csv`` per ``[[joint]]`` of a structure study (its block of ``truth``); returns the paths."""
+    from ..methods.inverse import stiffness_columns
+
     written, i = [], 0
     for joint in study.joints:
         k = len(joint.joint_dofs)
@@ -82,6 +82,7 @@ def _run_structure_free(args: argparse.Namespace, study) -> int:
 def _run_structure(args: argparse.Namespace, study) -> int:
     """A structure study: FRFs of the structure on all its [[joint]] mounts; one true_joint[_<name>].csv per joint."""
     from ..io.uff import write_uff_frf
+    from ..pipeline import simulate
 
     with OutputSet(args.out, command="simulate") as out:
         test = simulate(study)
@@ -98,6 +99,8 @@ def _run_structure(args: argparse.Namespace, study) -> int:
 
 def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
+    from ..methods.inverse import stiffness_columns
+    from ..pipeline import simulate, simulate_free, true_beam_study
 
     if not args.noise >= 0 or args.noise != args.noise or args.noise == float("inf"):
         raise StudyError(f"--noise: expected a relative rms >= 0 (e.g. 0.01), got {args.noise}")
