@@ -6,7 +6,6 @@ import argparse
 from pathlib import Path
 
 from ..studies.config import STUDY_NAMES, load_config
-from ..studies.runner import parse_only, run_reproduce
 from .common import add_out_argument
 
 __all__ = ["add_parser", "run"]
@@ -29,6 +28,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..studies.runner import parse_only, run_reproduce
+
     only = parse_only(args.only)
     config = load_config(args.config, seed=args.seed)
     result = run_reproduce(config, args.out, only, quiet=args.quiet)

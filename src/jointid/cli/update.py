@@ -11,10 +11,10 @@ from pathlib import Path
 
 from ..errors import StudyError
 from ..io.output_dir import OutputSet
-from ..methods.updating import (
-    DEFAULT_PARAMETERS, DEFAULT_STRUCTURE_PARAMETERS, PARAMETERS, STRUCTURE_PARAMETERS, UpdateOptions, check_parameter_names,
+from ..methods.update_parameters import (
+    DEFAULT_MAX_EVALUATIONS, DEFAULT_PARAMETERS, DEFAULT_STRUCTURE_PARAMETERS, PARAMETERS, STRUCTURE_PARAMETERS,
+    check_parameter_names,
 )
-from ..pipeline import read_free_measured, update
 from ..study_edit import replace_study_values
 from .common import add_out_argument, add_study_argument, study_from_args
 
@@ -44,7 +44,7 @@ def add_parser(sub) -> None:
         help=f"comma-separated parameters to fit (default {','.join(DEFAULT_PARAMETERS)}); any of {', '.join(PARAMETERS)}; "
         f"a [structure] study: default and any of {','.join(DEFAULT_STRUCTURE_PARAMETERS)}",
     )
-    p.add_argument("--max-evaluations", type=int, default=UpdateOptions.max_evaluations, metavar="N",
+    p.add_argument("--max-evaluations", type=int, default=DEFAULT_MAX_EVALUATIONS, metavar="N",
                    help="model evaluations allowed to the fit (default %(default)s); more is reported as not converged")
     p.add_argument("--no-plots", action="store_true", help="skip the figure")
     p.set_defaults(func=run)
@@ -84,6 +84,9 @@ def structure_paths_for(study, directory: Path) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..methods.updating import UpdateOptions
+    from ..pipeline import read_free_measured, update
+
     if args.max_evaluations < 1:
         raise StudyError(f"--max-evaluations: expected an integer >= 1, got {args.max_evaluations}")
     study = study_from_args(args)
