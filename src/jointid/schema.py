@@ -21,7 +21,25 @@ from typing import Any, Callable, Mapping
 
 from .errors import StudyError
 
-__all__ = ["Field", "typed", "section", "table", "positive", "nonneg", "choices"]
+__all__ = [
+    "Field", "typed", "section", "table", "positive", "nonneg", "choices", "format_number",
+    "LENGTH", "MODULUS", "DENSITY", "SHEAR_COEFFICIENT", "LOSS_FACTOR", "FREQUENCY", "SCALE",
+]
+
+#: Lengths (m): beam length and section, elastomer length and diameter, cap sizes.
+LENGTH = (1e-6, 1e4)
+#: Elastic and shear moduli (Pa): from soft foams to diamond, with margin.
+MODULUS = (1e3, 1e13)
+#: Densities (kg/m^3): from foams to the densest metals, with margin.
+DENSITY = (1.0, 1e5)
+#: Timoshenko shear coefficients (5/6 for a rectangle, 0.9 for a circle; thin walls ~0.5).
+SHEAR_COEFFICIENT = (0.1, 1.5)
+#: Structural loss factors eta of K (1 + j eta) (metals ~1e-3, elastomers up to ~1.5).
+LOSS_FACTOR = (0.0, 2.0)
+#: Frequencies (Hz) of a study's band and reference frequencies.
+FREQUENCY = (0.0, 1e6)
+#: Scale factors of a [structure]'s matrices (stiffness_scale, mass_scale).
+SCALE = (1e-6, 1e6)
 
 
 @dataclass(frozen=True)
@@ -41,6 +59,8 @@ class Field:
         Unit named in the messages (``"Pa"``).
     check : callable or None
         ``check(value)`` -> a complaint (``"a positive number"``) or None, on the typed value.
+    bounds : (float, float) or None
+        Numbers: the physical range ``lo <= value <= hi`` (in ``unit``), checked after ``check``.
     expected : str or None
         One description for every complaint about this key, type or check
         (``"an integer >= 1"``); the message then shows the value as written in the file.
@@ -55,6 +75,16 @@ class Field:
     check: Callable[[Any], str | None] | None = None  # returns a complaint or None
     expected: str | None = None
     unique: bool = True
+    bounds: tuple[float, float] | None = None
+
+
+def format_number(x: float) -> str:
+    """``x`` short, exponents without ``+`` and leading zeros: ``1e-300``, ``1e13``, ``1e3``, ``0.1``, ``3.9e6``."""
+    if x == 0 or 1e-3 <= abs(x) < 1e3:
+        return f"{x:.6g}"
+    mant, exp = f"{x:.5e}".split("e")
+    mant = mant.rstrip("0").rstrip(".")
+    return f"{mant}e{int(exp)}"
 
 
 def positive(v) -> str | None:
@@ -133,6 +163,15 @@ def typed(section: str | None, key: str, f: Field, value: Any, label: str | None
         complaint = f.check(value)
         if complaint is not None:
             fail(complaint)
+    if f.bounds is not None and f.kind in ("number", "number_list"):
+        lo, hi = f.bounds
+        for v in value if f.kind == "number_list" else (value,):
+            if not lo <= v <= hi:
+                u = f" {f.unit}" if f.unit else ""
+                raise StudyError(
+                    f"{where}: {format_number(v)}{u} is outside {format_number(lo)}-{format_number(hi)}{u}"
+                    + (f"; give it in {f.unit}" if f.unit else "")
+                )
     return value
 
 

@@ -100,6 +100,15 @@ a DOF list) instead of ``[beam]``, one or more ``[[joint]]`` tables (named,
 :mod:`jointid.study_structure` for its keys. ``Study.beam`` and ``Study.joint``
 are then ``None``, ``Study.structure`` and ``Study.joints`` hold it.
 
+Physical bounds (a value outside is refused in one line naming the key, e.g.
+``[beam].elastic_modulus: 1e-300 Pa is outside 1e3-1e13 Pa``; see
+:mod:`jointid.schema`): lengths 1e-6-1e4 m (``length``, ``width``, ``height``,
+``diameter``, elastomer and cap sizes), moduli 1e3-1e13 Pa (``elastic_modulus``,
+``shear_modulus``), densities 1-1e5 kg/m^3, ``shear_coefficient`` 0.1-1.5, loss
+factors 0-2, frequencies 0-1e6 Hz, ``[structure]`` scales 1e-6-1e6; each
+accelerometer lighter than the beam, its rotary inertia below the beam's about
+its middle (m L^2 / 12).
+
 Limits (so that a typo cannot exhaust the memory): ``[beam].nodes`` at most
 :data:`MAX_NODES` (10 000), the ``[frequency]`` grid at most
 :data:`MAX_LINES` (1 000 000) lines.
@@ -116,7 +125,9 @@ from typing import Any, Callable, Mapping
 
 from .dofs import DIRECTIONS
 from .errors import StudyError
+from .schema import DENSITY, FREQUENCY, LENGTH, LOSS_FACTOR, MODULUS, SHEAR_COEFFICIENT
 from .schema import Field as _Field
+from .schema import format_number as _num
 from .schema import choices as _choices
 from .schema import nonneg as _nonneg
 from .schema import positive as _positive
@@ -168,16 +179,16 @@ def _nodes_in_range(section: str, key: str, nodes, n_nodes: int) -> None:
 
 
 _BEAM = {
-    "length": _Field("number", True, unit="m", check=_positive),
-    "width": _Field("number", unit="m", check=_positive),
-    "height": _Field("number", unit="m", check=_positive),
-    "diameter": _Field("number", unit="m", check=_positive),
-    "elastic_modulus": _Field("number", True, unit="Pa", check=_positive),
-    "density": _Field("number", True, unit="kg/m^3", check=_positive),
-    "loss_factor": _Field("number", False, 0.0, check=_nonneg),
+    "length": _Field("number", True, unit="m", check=_positive, bounds=LENGTH),
+    "width": _Field("number", unit="m", check=_positive, bounds=LENGTH),
+    "height": _Field("number", unit="m", check=_positive, bounds=LENGTH),
+    "diameter": _Field("number", unit="m", check=_positive, bounds=LENGTH),
+    "elastic_modulus": _Field("number", True, unit="Pa", check=_positive, bounds=MODULUS),
+    "density": _Field("number", True, unit="kg/m^3", check=_positive, bounds=DENSITY),
+    "loss_factor": _Field("number", False, 0.0, check=_nonneg, bounds=LOSS_FACTOR),
     "poisson_ratio": _Field("number", False, None, check=lambda v: None if -1 < v < 0.5 else "a number in (-1, 0.5)"),
-    "shear_modulus": _Field("number", unit="Pa", check=_positive),
-    "shear_coefficient": _Field("number", False, 5.0 / 6.0, check=_positive),
+    "shear_modulus": _Field("number", unit="Pa", check=_positive, bounds=MODULUS),
+    "shear_coefficient": _Field("number", False, 5.0 / 6.0, check=_positive, bounds=SHEAR_COEFFICIENT),
     "nodes": _Field("int", True, check=lambda v: None if 2 <= v <= MAX_NODES else f"an integer in 2..{MAX_NODES}"),
     "theory": _Field("str", False, "timoshenko", check=_choices("timoshenko", "euler-bernoulli")),
     "elements_per_segment": _Field("int", False, None, check=lambda v: None if 1 <= v <= 64 else "an integer in 1..64"),
@@ -191,9 +202,9 @@ _PARAMETRIC = {
     "k_w_w": _Field("number", True, unit="N/m", check=_positive),
     "k_w_theta": _Field("number", False, 0.0, unit="N/rad"),
     "k_theta_theta": _Field("number", True, unit="N*m/rad", check=_positive),
-    "loss_factor": _Field("number", False, 0.1, check=_nonneg),
+    "loss_factor": _Field("number", False, 0.1, check=_nonneg, bounds=LOSS_FACTOR),
     "growth": _Field("number", False, 0.0, check=_nonneg),
-    "reference_frequency": _Field("number", False, 100.0, unit="Hz", check=_positive),
+    "reference_frequency": _Field("number", False, 100.0, unit="Hz", check=_positive, bounds=FREQUENCY),
     "exponent": _Field("number", False, 1.0, check=_positive),
 }
 _ELASTOMER = {"type": _Field("str", True), **ELASTOMER_MATERIAL_FIELDS}
@@ -222,8 +233,8 @@ _IDENTIFICATION = {
     "cond_rtol": _Field("number", False, 0.01, check=lambda v: None if 0 <= v < 1 else "a number in [0, 1)"),
 }
 _FREQUENCY = {
-    "start": _Field("number", True, unit="Hz", check=_nonneg),
-    "stop": _Field("number", True, unit="Hz", check=_positive),
+    "start": _Field("number", True, unit="Hz", check=_nonneg, bounds=FREQUENCY),
+    "stop": _Field("number", True, unit="Hz", check=_positive, bounds=FREQUENCY),
     "step": _Field("number", True, unit="Hz", check=_positive),
 }
 _EXPERIMENT = {
@@ -323,6 +334,7 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
             a["nodes"] = measurement.observed
         _nodes_in_range("accelerometers", "nodes", a["nodes"], nn)
         acc = AccelerometerSpec(**a)
+        _sensors_below_beam(acc, beam)
     ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
     if ident.model_accelerometers and acc is None:
         raise StudyError("[identification].model_accelerometers = true needs an [accelerometers] section")
@@ -331,6 +343,23 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
     if "truth" in data:
         truth = TruthSpec(**{k: v for k, v in _section(data["truth"], "truth", _TRUTH).items()})
     return Study(beam, joint, measurement, frequency, acc, ident, exp, source, truth)
+
+
+def _sensors_below_beam(acc: AccelerometerSpec, beam: BeamSpec) -> None:
+    """Each sensor lighter than the beam (mass) and than the beam's rotary inertia about its middle, m L^2 / 12."""
+    area = beam.section().area
+    mass = beam.density * area * beam.length
+    if acc.mass >= mass:
+        raise StudyError(
+            f"[accelerometers].mass: {_num(acc.mass)} kg per sensor is not below the beam's mass "
+            f"({_num(mass)} kg); give the mass of one sensor in kg"
+        )
+    inertia = mass * beam.length**2 / 12.0
+    if acc.rotary_inertia >= inertia:
+        raise StudyError(
+            f"[accelerometers].rotary_inertia: {_num(acc.rotary_inertia)} kg*m^2 per sensor is not below the beam's "
+            f"rotary inertia about its middle ({_num(inertia)} kg*m^2); give one sensor's in kg*m^2"
+        )
 
 
 def _frequency(data: Mapping) -> FrequencySpec:

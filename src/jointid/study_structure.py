@@ -78,7 +78,7 @@ import numpy as np
 
 from .dofs import Dof, DofArray, parse_dof
 from .errors import DataError, DofError, ModelError, StudyError
-from .schema import Field, choices, nonneg, positive, section, typed
+from .schema import DENSITY, FREQUENCY, LENGTH, LOSS_FACTOR, MODULUS, SCALE, Field, choices, nonneg, positive, section, typed
 
 __all__ = [
     "StructureSpec", "MountSpec", "ElastomerSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key",
@@ -106,10 +106,10 @@ _STRUCTURE_FIELDS = {
     "mass": Field("str", True, check=_file_name, expected="a file name (a string)"),
     "stiffness": Field("str", True, check=_file_name, expected="a file name (a string)"),
     "dofs": Field("str", True, check=_file_name, expected="a file name (a string)"),
-    "loss_factor": Field("number", default=0.0, check=nonneg),
+    "loss_factor": Field("number", default=0.0, check=nonneg, bounds=LOSS_FACTOR),
     "method": Field("str", default="auto", check=choices("auto", "modal", "direct")),
-    "stiffness_scale": Field("number", default=1.0, check=positive),
-    "mass_scale": Field("number", default=1.0, check=positive),
+    "stiffness_scale": Field("number", default=1.0, check=positive, bounds=SCALE),
+    "mass_scale": Field("number", default=1.0, check=positive, bounds=SCALE),
 }
 #: Schema of ``[joint.model] type = "mount"`` (the stiffness list's length is checked against the joint's DOFs).
 _MOUNT_FIELDS = {
@@ -117,9 +117,9 @@ _MOUNT_FIELDS = {
     "stiffness": Field("number_list", True, unit="N/m, N*m/rad", check=_all_positive,
                        expected="a list of positive stiffnesses, one per DOF of dofs", unique=False),
     "couplings": Field("any", default=[], check=_list_of_lists),
-    "loss_factor": Field("number", default=0.1, check=nonneg),
+    "loss_factor": Field("number", default=0.1, check=nonneg, bounds=LOSS_FACTOR),
     "growth": Field("number", default=0.0, check=nonneg),
-    "reference_frequency": Field("number", default=100.0, unit="Hz", check=positive),
+    "reference_frequency": Field("number", default=100.0, unit="Hz", check=positive, bounds=FREQUENCY),
     "exponent": Field("number", default=1.0, check=positive),
 }
 #: Schema of the elastomer joint's material and geometry keys (as
@@ -127,17 +127,17 @@ _MOUNT_FIELDS = {
 #: ``[joint.model]`` of a ``[beam]`` study and ``type = "elastomer"`` of a ``[[joint]]``.
 ELASTOMER_MATERIAL_FIELDS = {
     "material": Field("str", default="A", check=choices("A", "B")),
-    "elastic_modulus": Field("number", unit="Pa", check=positive),
-    "loss_factor": Field("number", check=nonneg),
-    "density": Field("number", unit="kg/m^3", check=positive),
-    "length": Field("number", unit="m", check=positive),
-    "diameter": Field("number", unit="m", check=positive),
+    "elastic_modulus": Field("number", unit="Pa", check=positive, bounds=MODULUS),
+    "loss_factor": Field("number", check=nonneg, bounds=LOSS_FACTOR),
+    "density": Field("number", unit="kg/m^3", check=positive, bounds=DENSITY),
+    "length": Field("number", unit="m", check=positive, bounds=LENGTH),
+    "diameter": Field("number", unit="m", check=positive, bounds=LENGTH),
     "poisson_ratio": Field("number", check=lambda v: None if -1 < v < 0.5 else "a number in (-1, 0.5)"),
     "elements": Field("int", check=lambda v: None if 2 <= v <= 200 else "an integer in 2..200"),
     "cap": Field("bool"),
-    "cap_diameter": Field("number", unit="m", check=positive),
-    "cap_thickness": Field("number", unit="m", check=positive),
-    "cap_density": Field("number", unit="kg/m^3", check=positive),
+    "cap_diameter": Field("number", unit="m", check=positive, bounds=LENGTH),
+    "cap_thickness": Field("number", unit="m", check=positive, bounds=LENGTH),
+    "cap_density": Field("number", unit="kg/m^3", check=positive, bounds=DENSITY),
 }
 #: Schema of ``[joint.model] type = "elastomer"`` of a ``[[joint]]``.
 _ELASTOMER_FIELDS = {
@@ -180,7 +180,7 @@ class StructureSpec:
         StudyError
             One line naming the ``[structure]`` key and the file that cannot be read.
         """
-        from .io.matrix_files import check_symmetric, read_matrix
+        from .io.matrix_files import check_semidefinite, check_symmetric, read_matrix
         from .physics.sparse_model import SparseModel
 
         mats = []
@@ -189,6 +189,7 @@ class StructureSpec:
             try:
                 A = read_matrix(spec, key, Path(self.base))
                 check_symmetric(A, spec)
+                check_semidefinite(A, spec, key)
             except DataError as exc:
                 raise StudyError(f"[structure].{key}: {exc}") from None
             if A.shape[0] != len(self.dof_array):

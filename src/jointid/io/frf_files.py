@@ -11,10 +11,14 @@ from ..frf import FRF
 from .frf_csv import read_frf_csv, write_frf_csv
 from .uff import read_uff_frf, write_uff_frf
 
-__all__ = ["read_frf", "write_frf", "UFF_EXTENSIONS", "CSV_EXTENSIONS"]
+__all__ = ["read_frf", "write_frf", "UFF_EXTENSIONS", "CSV_EXTENSIONS", "MAX_FRF_MAGNITUDE", "check_frf_magnitudes"]
 
 UFF_EXTENSIONS: tuple[str, ...] = (".uff", ".unv", ".58")
 CSV_EXTENSIONS: tuple[str, ...] = (".csv",)
+#: Largest FRF magnitude accepted after conversion to SI, any kind ((m/s^2)/N, rad/(N*m), ...): far above any
+#: measured structure (a 1 mg point at a resonance of Q = 1e3 is ~1e9 (m/s^2)/N) and far below where squares
+#: and products of FRFs overflow (|H|^4 < 1e60).
+MAX_FRF_MAGNITUDE = 1e15
 
 
 def _format(path: Path) -> str:
@@ -77,11 +81,43 @@ def read_frf(
     """
     path = Path(path)
     if _format(path) == "uff":
-        return read_uff_frf(  # type: ignore[return-value]
+        frf = read_uff_frf(  # type: ignore[assignment]
             path, n_nodes=n_nodes, kind=kind, points=points, axis=axis,
             responses=responses, references=references, coherence=coherence, attach=True,
         )
-    return read_frf_csv(path, n_nodes=n_nodes, kind=kind, points=points, responses=responses, references=references)
+    else:
+        frf = read_frf_csv(path, n_nodes=n_nodes, kind=kind, points=points, responses=responses, references=references)
+    check_frf_magnitudes(frf, path)
+    return frf
+
+
+def check_frf_magnitudes(frf: FRF, source: str | os.PathLike) -> None:
+    """Refuse FRF values that are not finite or above :data:`MAX_FRF_MAGNITUDE` (in SI).
+
+    Raises
+    ------
+    DataError
+        One line naming the file, the (response, reference) pair, the line and the value.
+    """
+    import numpy as np
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        mag = np.abs(frf.data)
+    bad = ~(mag <= MAX_FRF_MAGNITUDE)  # NaN compares False: caught too
+    if not bad.any():
+        return
+    f, i, j = (int(x[0]) for x in np.nonzero(bad))
+    value = frf.data[f, i, j]
+    pair = f"FRF ({frf.responses[i]}, {frf.references[j]})"
+    at = f"at {frf.frequency.hz[f]:g} Hz ({int(bad.sum())} value(s) in the file)"
+    if not np.isfinite(value):
+        raise DataError(f"{source}: {pair} is not finite (NaN or inf) {at}: not a measured FRF; check the file")
+    limit = f"{MAX_FRF_MAGNITUDE:.0e}".replace("e+", "e")
+    raise DataError(
+        f"{source}: {pair} has magnitude {abs(value):.3g} {frf.unit(frf.responses[i], frf.references[j])} {at}, "
+        f"above {limit} in SI after unit conversion: "
+        "not a measured FRF; check the file's units and scaling"
+    )
 
 
 def write_frf(path: str | os.PathLike, frf: FRF, kind: str | None = None, **uff_options) -> Path:

@@ -20,7 +20,9 @@ blank lines are skipped.
 
 Matrices are returned as ``scipy.sparse.csr_array`` (float64) whatever the file
 held. Each is checked: real, finite, square, symmetric within a relative
-tolerance (``max |A - A^T| <= tol * max |A|``), and of the DOF list's size; the
+tolerance (``max |A - A^T| <= tol * max |A|``), positive semidefinite within
+``sqrt(eps) ||A||`` (:func:`check_semidefinite`: a sparse LDL^T of the shifted
+matrix, never a dense eigensolve), and of the DOF list's size; the
 DOF list has no repeated DOF. A failed check raises one
 :class:`~jointid.errors.DataError` line naming the file and what is wrong.
 
@@ -33,6 +35,7 @@ never replaces a file jointid did not write).
 from __future__ import annotations
 
 import csv
+import io
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
@@ -41,6 +44,7 @@ import scipy.sparse as sp
 
 from ..dofs import COMPONENT_CODES, DofArray, pack_dof_keys, parse_component
 from ..errors import DataError, DofError
+from .text import read_utf8
 
 __all__ = [
     "FreeMatrices",
@@ -50,6 +54,7 @@ __all__ = [
     "read_dof_list",
     "read_free_matrices",
     "check_symmetric",
+    "check_semidefinite",
     "write_dof_list",
     "write_free_matrices",
     "FreeMatrixFiles",
@@ -233,6 +238,86 @@ def check_symmetric(A: sp.csr_array, label: str, tol: float = SYMMETRY_TOLERANCE
         raise DataError(f"{label}: the matrix is not symmetric: max |A - A^T| = {asym / scale:.3g} of max |A| (tolerance {tol:g})")
 
 
+def check_semidefinite(A: sp.csr_array, label: str, role: str = "stiffness") -> None:
+    """Raise :class:`DataError` unless the symmetric ``A`` is positive semidefinite within a tolerance.
+
+    A free structure's mass and stiffness matrices are positive semidefinite
+    (kinetic and strain energy are never negative; zero for rigid-body motion or a
+    massless DOF). The test is Sylvester's law of inertia on a sparse
+    :math:`LDL^T` factorization of the shifted matrix
+
+    .. math:: A + \\sigma I = P^T L D L^T P, \\qquad \\sigma = \\sqrt{\\epsilon}\\,\\|A\\|_\\infty,
+
+    (SuperLU with diagonal pivoting and a symmetric fill-reducing ordering, so that
+    ``U = D L^T``): ``A`` has an eigenvalue below ``-sigma`` exactly when ``D`` has a
+    negative entry (the number of negative entries is the number of eigenvalues below
+    ``-sigma``). The shift is far above the factorization's rounding (a backward
+    error ``~ n eps ||A||``), so a semidefinite matrix with rigid-body modes passes,
+    and far below any physical eigenvalue that matters: an eigenvalue between
+    ``-sigma`` and 0 is taken as a rounding zero. A negative diagonal entry (a negative
+    mass, a negated stiffness) is refused before any factorization. If SuperLU has to
+    leave the diagonal (an exactly zero pivot), the smallest eigenvalue is found by a
+    few Lanczos steps (``eigsh(which="SA")``) instead. Matrices of at most 200 DOFs
+    are checked by their eigenvalues directly (``eigvalsh``, as cheap as a factorization there);
+    never a dense eigensolve on a large model.
+
+    Parameters
+    ----------
+    A : scipy.sparse array, shape (N, N)
+        Real and symmetric (see :func:`check_symmetric`).
+    label : str
+        The file, for the message.
+    role : {"mass", "stiffness"}
+        Named in the message.
+
+    Raises
+    ------
+    DataError
+        ``"<file>: the mass matrix is not positive semidefinite: ..."``.
+    """
+    if A.nnz == 0:
+        return
+    what = f"{label}: the {role} matrix is not positive semidefinite"
+    energy = "kinetic" if role == "mass" else "strain"
+    diag = A.diagonal()
+    norm = float(abs(A).sum(axis=1).max())  # ||A||_inf >= spectral radius
+    sigma = np.sqrt(np.finfo(float).eps) * norm
+    if diag.min() < -sigma:
+        i = int(np.argmin(diag))
+        raise DataError(
+            f"{what}: diagonal entry {i + 1} is {diag[i]:.3g} (a negative {role}); its {energy} energy would be "
+            "negative: check the sign and the matrix file"
+        )
+    negative = _negative_eigenvalues(A, sigma)
+    if negative:
+        raise DataError(
+            f"{what}: {negative} eigenvalue(s) below -{sigma:.3g} (the tolerance sqrt(eps) ||A||); "
+            f"some motion would have negative {energy} energy: check the matrix file"
+        )
+
+
+def _negative_eigenvalues(A: sp.csr_array, sigma: float) -> int:
+    """How many eigenvalues of the symmetric ``A`` lie below ``-sigma`` (at least 1 if any, by the fallback)."""
+    import scipy.sparse.linalg as spla
+
+    n = A.shape[0]
+    if n <= 200:
+        return int(np.count_nonzero(np.linalg.eigvalsh(A.toarray()) < -sigma))
+    S = sp.csc_matrix(A + sigma * sp.eye_array(n, format="csr"))
+    try:
+        lu = spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    except RuntimeError:  # an exactly zero pivot: A + sigma I is singular (A has the eigenvalue -sigma)
+        lu = None
+    if lu is not None and np.array_equal(lu.perm_r, lu.perm_c):
+        return int(np.count_nonzero(lu.U.diagonal() < 0))  # Sylvester: inertia of D = inertia of A + sigma I
+    try:  # SuperLU left the diagonal: a few Lanczos steps for the smallest eigenvalue
+        lam = float(spla.eigsh(A, k=1, which="SA", tol=1e-6, maxiter=20 * n, return_eigenvectors=False)[0])
+    except spla.ArpackNoConvergence as exc:
+        vals = np.asarray(exc.eigenvalues)
+        lam = float(vals.min()) if vals.size else 0.0
+    return int(lam < -sigma)
+
+
 def read_dof_list(path: "str | Path", base: "Path | None" = None) -> DofArray:
     """The DOF of each matrix row from a CSV of ``node,component`` rows.
 
@@ -261,28 +346,28 @@ def read_dof_list(path: "str | Path", base: "Path | None" = None) -> DofArray:
     nodes: list[int] = []
     codes: list[int] = []
     rows: list[int] = []
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        for lineno, row in enumerate(csv.reader(fh), start=1):
-            cells = [c.strip() for c in row]
-            if not cells or not any(cells) or cells[0].startswith("#"):
-                continue
-            if not nodes and not rows and [c.lower() for c in cells[:2]] == ["node", "component"]:
-                continue
-            if len(cells) != 2:
-                raise DataError(f"row {lineno} of {path}: expected 'node,component', got {','.join(row)!r}")
-            try:
-                node = int(cells[0])
-            except ValueError:
-                node = 0
-            if node < 1:
-                raise DataError(f"row {lineno} of {path}: node must be an integer >= 1, got {cells[0]!r}")
-            try:
-                comp = parse_component(cells[1])
-            except DofError:
-                raise DataError(f"row {lineno} of {path}: unknown component {cells[1]!r}; use x, y, z, rx, ry, rz, 1-6, or 0 for a scalar point") from None
-            nodes.append(node)
-            codes.append(COMPONENT_CODES[comp])
-            rows.append(lineno)
+    text = read_utf8(path, "DOF list")
+    for lineno, row in enumerate(csv.reader(io.StringIO(text, newline="")), start=1):
+        cells = [c.strip() for c in row]
+        if not cells or not any(cells) or cells[0].startswith("#"):
+            continue
+        if not nodes and not rows and [c.lower() for c in cells[:2]] == ["node", "component"]:
+            continue
+        if len(cells) != 2:
+            raise DataError(f"row {lineno} of {path}: expected 'node,component', got {','.join(row)!r}")
+        try:
+            node = int(cells[0])
+        except ValueError:
+            node = 0
+        if node < 1:
+            raise DataError(f"row {lineno} of {path}: node must be an integer >= 1, got {cells[0]!r}")
+        try:
+            comp = parse_component(cells[1])
+        except DofError:
+            raise DataError(f"row {lineno} of {path}: unknown component {cells[1]!r}; use x, y, z, rx, ry, rz, 1-6, or 0 for a scalar point") from None
+        nodes.append(node)
+        codes.append(COMPONENT_CODES[comp])
+        rows.append(lineno)
     if not nodes:
         raise DataError(f"{path}: the DOF list has no rows")
     dofs = DofArray(nodes, codes)
@@ -339,6 +424,7 @@ def read_free_matrices(
         path, name = _split_spec(spec, base)
         label = str(path) if name is None else f"{path}:{name}"
         check_symmetric(A, label, symmetry_tolerance)
+        check_semidefinite(A, label, role)
         if A.shape[0] != len(dof_array):
             raise DataError(f"{label}: the {role} matrix is {A.shape[0]} x {A.shape[1]} but the DOF list {dofs} has {len(dof_array)} DOFs")
         out.append(A)
