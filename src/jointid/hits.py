@@ -25,7 +25,7 @@ import dataclasses
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -39,7 +39,7 @@ __all__ = ["HIT_EXTENSIONS", "HitsFRF", "read_hits", "frf_from_hits"]
 HIT_EXTENSIONS: dict[str, str] = {".npz": "npz", ".csv": "csv", ".uff": "uff", ".unv": "uff", ".58": "uff"}
 
 
-def _read_one(path: Path) -> tuple[ImpactRecord, ...]:
+def _read_one(path: Path, points=None, axis: str | None = "+Z", n_nodes: int | None = None) -> tuple[tuple[ImpactRecord, ...], tuple[str, ...]]:
     from .io.impact_files import read_impact_csv, read_impact_npz, read_impact_uff
 
     layout = HIT_EXTENSIONS.get(path.suffix.lower())
@@ -50,15 +50,25 @@ def _read_one(path: Path) -> tuple[ImpactRecord, ...]:
         )
     if not path.is_file():
         raise DataError(f"hits file {path} does not exist")
-    if layout == "npz":
-        return (read_impact_npz(path),)
-    if layout == "csv":
-        return read_impact_csv(path)
-    return read_impact_uff(path)
+    if layout == "uff":
+        return read_impact_uff(path, points=points, axis=axis, n_nodes=n_nodes, with_notes=True)
+    if points is not None or axis != "+Z":
+        raise DataError(
+            f"{path}: a point map and a measurement axis apply to UFF time records only; a .{layout} hits file "
+            "names model DOFs itself (\"9w\")"
+        )
+    return ((read_impact_npz(path),) if layout == "npz" else read_impact_csv(path)), ()
 
 
-def read_hits(paths: str | os.PathLike | Sequence[str | os.PathLike], n_nodes: int | None = None) -> tuple[ImpactRecord, ...]:
-    """Read impact records from hit files, one record per excited DOF.
+def read_hits(
+    paths: str | os.PathLike | Sequence[str | os.PathLike],
+    n_nodes: int | None = None,
+    *,
+    points: Mapping[int, int] | None = None,
+    axis: str | None = "+Z",
+    with_notes: bool = False,
+) -> "tuple[ImpactRecord, ...] | tuple[tuple[ImpactRecord, ...], tuple[str, ...]]":
+    """Read impact records from hit files, one record per excited DOF, in SI.
 
     Parameters
     ----------
@@ -68,11 +78,21 @@ def read_hits(paths: str | os.PathLike | Sequence[str | os.PathLike], n_nodes: i
         :mod:`jointid.io.impact_files`. CSV responses are accelerations.
     n_nodes : int, optional
         Number of beam nodes; a DOF outside ``1..n_nodes`` is an error.
+    points : mapping of int to int, optional
+        UFF files: file point id -> model node (records at other points are skipped).
+    axis : {"+Z", "-Z", "+X", "-X", "+Y", "-Y"} or None
+        UFF files: the file's direction that is ``w`` (``None``: 3-D components);
+        see :func:`jointid.io.impact_files.read_impact_uff`. ``points`` and a
+        non-default ``axis`` are refused for ``.npz``/``.csv`` files (they name DOFs).
+    with_notes : bool
+        Also return the readers' notes (units converted, point map, skipped records).
 
     Returns
     -------
     tuple of ImpactRecord
         In file order, then in order of appearance within a file.
+    (records, notes)
+        If ``with_notes``.
 
     Raises
     ------
@@ -87,9 +107,12 @@ def read_hits(paths: str | os.PathLike | Sequence[str | os.PathLike], n_nodes: i
     if n_nodes is not None and not (isinstance(n_nodes, (int, np.integer)) and n_nodes >= 1):
         raise DataError(f"n_nodes must be an integer >= 1, got {n_nodes!r}")
     out: list[ImpactRecord] = []
+    notes: list[str] = []
     source: dict = {}
     for p in map(Path, paths):
-        for rec in _read_one(p):
+        recs, file_notes = _read_one(p, points, axis, n_nodes)
+        notes.extend(file_notes)
+        for rec in recs:
             if rec.reference in source:
                 raise DataError(
                     f"{p}: excited node {rec.reference} is also in {source[rec.reference]}; "
@@ -104,7 +127,7 @@ def read_hits(paths: str | os.PathLike | Sequence[str | os.PathLike], n_nodes: i
                         f"(nodes 1..{n_nodes}); check the node numbers or --n-nodes"
                     )
             out.append(rec)
-    return tuple(out)
+    return (tuple(out), tuple(notes)) if with_notes else tuple(out)
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,10 +140,13 @@ class HitsFRF:
         H1, H2, coherence, averages per excited node, rejected hits, window notes.
     estimator : str
         ``"h1"`` or ``"h2"``: the one :attr:`frf` returns.
+    input_notes : tuple of str
+        What the readers did: units converted to SI, point map and axis, skipped records.
     """
 
     impact: ImpactFRF
     estimator: str = "h1"
+    input_notes: tuple[str, ...] = ()
 
     @property
     def frf(self) -> FRF:
@@ -137,12 +163,12 @@ class HitsFRF:
         return rejected_hits_table(self.impact.rejected)
 
     def summary(self) -> list[str]:
-        """One line per excited node (accepted / total hits), then window notes."""
+        """The input notes, one line per excited node (accepted / total hits), then window and data notes."""
         imp = self.impact
         n_rej: dict = {}
         for r in imp.rejected:
             n_rej[r.reference] = n_rej.get(r.reference, 0) + 1
-        lines = [
+        lines = list(self.input_notes) + [
             f"excited node {ref}: {n} average(s) ({n + n_rej.get(ref, 0)} hit(s), {n_rej.get(ref, 0)} rejected)"
             for ref, n in zip(imp.references, imp.n_averages)
         ]
@@ -165,6 +191,9 @@ def frf_from_hits(
     options: ImpactOptions | None = None,
     estimator: str = "h1",
     n_nodes: int | None = None,
+    *,
+    points: Mapping[int, int] | None = None,
+    axis: str | None = "+Z",
 ) -> HitsFRF:
     """H1 or H2 and coherence from roving-hammer hits (files or records).
 
@@ -181,6 +210,8 @@ def frf_from_hits(
         Which estimate :attr:`HitsFRF.frf` returns (both are computed).
     n_nodes : int, optional
         Number of beam nodes (files only); DOFs outside ``1..n_nodes`` are an error.
+    points, axis :
+        UFF files: point map and measurement axis (:func:`read_hits`).
 
     Returns
     -------
@@ -195,12 +226,12 @@ def frf_from_hits(
         raise DataError(f"estimator must be 'h1' or 'h2', got {estimator!r}")
     hits = [hits] if isinstance(hits, (str, os.PathLike)) else list(hits)
     if hits and all(isinstance(h, ImpactRecord) for h in hits):
-        records = tuple(hits)
+        records, notes = tuple(hits), ()
     else:
-        records = read_hits(hits, n_nodes=n_nodes)
+        records, notes = read_hits(hits, n_nodes=n_nodes, points=points, axis=axis, with_notes=True)
     o = options or ImpactOptions()
     if o.band_hz is None:
         r0 = records[0]
         n_fft = r0.n_samples if o.n_fft is None else int(o.n_fft)
         o = dataclasses.replace(o, band_hz=(r0.sample_rate_hz / n_fft, r0.sample_rate_hz / 2))
-    return HitsFRF(estimate_frfs(records, o), estimator)
+    return HitsFRF(estimate_frfs(records, o), estimator, tuple(notes))

@@ -9,7 +9,7 @@ from ..errors import DataError
 from ..frf import KINDS
 from .common import add_out_argument
 
-__all__ = ["add_parser", "run", "impact_options_from_args"]
+__all__ = ["add_parser", "run", "impact_options_from_args", "parse_points", "mapping_from_args"]
 
 #: (flag, ImpactOptions field, must be > 0 (else >= 0)) of the window options given in ms (converted x / 1000).
 _MS_OPTIONS = (
@@ -60,6 +60,13 @@ def add_parser(sub) -> None:
     p.add_argument("--flat-top-samples", metavar="N", type=int, default=3,
                    help="consecutive samples at a channel's maximum that mean saturation (0: off; default 3)")
     p.add_argument("--n-nodes", metavar="N", type=int, default=None, help="number of beam nodes: a DOF outside 1..N is an error")
+    p.add_argument("--axis", choices=("+Z", "-Z", "+X", "-X", "+Y", "-Y"), default=None,
+                   help="UFF time records: the file's direction that is the beam's w (default +Z; write a negative one as --axis=-Y); signals along the "
+                        "opposite direction are sign-flipped, other directions skipped")
+    p.add_argument("--points", nargs="+", metavar="P=N", default=None,
+                   help="UFF time records: file point id = model node, e.g. 1001=1 1003=3 (records at other points are skipped)")
+    p.add_argument("--study", metavar="STUDY", default=None,
+                   help="take the axis, point map and node count from this study's [measurement] (and [beam].nodes)")
     p.add_argument("--no-plots", action="store_true", help="skip DIR/frf.png")
     p.set_defaults(func=run)
 
@@ -98,6 +105,45 @@ def impact_options_from_args(args: argparse.Namespace):
     )
 
 
+def parse_points(items) -> dict[int, int] | None:
+    """``["1001=1", "1003=3"]`` (or comma-separated) -> {1001: 1, 1003: 3}; each point and node once."""
+    if items is None:
+        return None
+    out: dict[int, int] = {}
+    for item in (x for arg in items for x in arg.split(",") if x.strip()):
+        key, sep, value = item.partition("=")
+        try:
+            point, node = int(key), int(value)
+        except ValueError:
+            point = node = 0
+        if not sep or point < 1 or node < 1:
+            raise DataError(f"--points: expected POINT=NODE with integers >= 1 (e.g. 1001=1), got {item!r}")
+        if point in out:
+            raise DataError(f"--points: point {point} is given twice")
+        if node in out.values():
+            other = next(k for k, v in out.items() if v == node)
+            raise DataError(f"--points: points {other} and {point} both map to node {node}; map each node once")
+        out[point] = node
+    return out
+
+
+def mapping_from_args(args: argparse.Namespace) -> tuple[dict[int, int] | None, str | None, int | None]:
+    """(points, axis, n_nodes) of the command line, or of ``--study``'s ``[measurement]`` (the mapping ``identify`` uses)."""
+    points = parse_points(args.points)
+    if args.study is None:
+        return points, args.axis or "+Z", args.n_nodes
+    if args.points is not None or args.axis is not None:
+        raise DataError("--study gives the axis and the point map ([measurement] axis and [measurement.points]); "
+                        "drop --axis/--points or --study")
+    from ..study import load_study
+
+    study = load_study(args.study)
+    m = study.measurement
+    axis = None if study.is_structure else m.axis
+    n_nodes = args.n_nodes if study.is_structure else (args.n_nodes or study.beam.nodes)
+    return m.point_map, axis, n_nodes
+
+
 def run(args: argparse.Namespace) -> int:
     from ..hits import frf_from_hits
     from ..io.frf_files import write_frf
@@ -105,8 +151,9 @@ def run(args: argparse.Namespace) -> int:
     from ..plots.impact import plot_impact_frf
 
     options = impact_options_from_args(args)
+    points, axis, n_nodes = mapping_from_args(args)
     with OutputSet(args.out, command="frf") as out:  # validated and locked before computing
-        result = frf_from_hits(args.hits, options, estimator=args.estimator, n_nodes=args.n_nodes)
+        result = frf_from_hits(args.hits, options, estimator=args.estimator, n_nodes=n_nodes, points=points, axis=axis)
         frf = result.frf.to(args.kind)  # fails here (one line), before any file is written, at a 0 Hz line
         rejected = result.rejected_table()
         figure = None if args.no_plots else plot_impact_frf(result.impact, args.estimator, kind=args.kind)

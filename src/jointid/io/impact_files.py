@@ -18,9 +18,16 @@
   type 1 (time response), grouped by reference ``(ref_node, ref_dir)`` and
   by ``load_case_id`` = hit number. The force record has ordinate specific data
   type 13 (excitation force); responses have 12 (acceleration), 11 (velocity)
-  or 8 (displacement), all the same. Direction codes: 3 (+Z) is ``w``; a
-  signal recorded along -Z (-3) is sign-flipped; other directions (X, Y,
-  rotations) are not accepted (they are never measured). Reference direction
+  or 8 (displacement), all the same. Directions and points are mapped as
+  FRF records are (:mod:`jointid.io.uff_records`): the file's ``axis``
+  (default +Z, code 3) is ``w``, a signal recorded along the opposite
+  direction is sign-flipped (a time record is one signal: only its own
+  direction counts), records in other directions are skipped and counted;
+  ``points`` maps file point ids (1001, ...) to nodes; ``axis=None`` reads 3-D
+  components (codes 1-6 = x .. rz). Units: each record's ordinate label (``g``,
+  ``mm/s^2``, ``lbf``, ...) or the file's dataset 164, converted exactly to SI
+  or refused naming the record (:func:`jointid.io.uff_units.signal_units`).
+  Reference direction
   0 means "no reference", as acquisition systems write time records: the
   excited DOF is then the node of the load case's force record (one force
   record per load case, so every hit needs its own ``load_case_id``). The
@@ -35,7 +42,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -249,75 +256,147 @@ def _is_float(x: str) -> bool:
         return not x.strip()
 
 
-def _uff_rate(s: dict, where: str) -> float:
-    """Sample rate of a UFF58 time record (see the module docstring on the 6-digit increment)."""
-    fs = _rate_from_time(np.asarray(s["x"], dtype=float), where)
-    inc = float(s.get("abscissa_inc") or 0.0)
+def _uff_rate(s: dict, where: str, seconds: float = 1.0) -> float:
+    """Sample rate of a UFF58 time record (see the module docstring on the 6-digit increment); ``seconds``: abscissa unit, s."""
+    fs = _rate_from_time(np.asarray(s["x"], dtype=float) * seconds, where)
+    inc = float(s.get("abscissa_inc") or 0.0) * seconds
     if int(s.get("abscissa_spacing", 0) or 0) == 1 and inc > 0:
         cand = round(1.0 / inc)
-        half_digit = 0.5 * 10.0 ** (math.floor(math.log10(inc)) - 5)
+        half_digit = 0.5 * 10.0 ** (math.floor(math.log10(inc / seconds)) - 5) * seconds
         if cand > 0 and abs(1.0 / cand - inc) <= half_digit * (1.0 + 1e-9):
             return float(cand)
     return fs
 
 
-def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
-    """Read UFF58 time records (function type 1) as records, one per reference DOF.
+def read_impact_uff(
+    path: str | Path,
+    *,
+    points: Mapping[int, int] | None = None,
+    axis: str | None = "+Z",
+    n_nodes: int | None = None,
+    with_notes: bool = False,
+) -> "tuple[ImpactRecord, ...] | tuple[tuple[ImpactRecord, ...], tuple[str, ...]]":
+    """Read UFF58 time records (function type 1) as records, one per reference DOF, in SI.
 
     Hits are told apart by ``load_case_id``; the force record of a hit has
     ordinate specific data type 13, the responses 12/11/8 (see module docstring).
     Records with reference direction 0 (no reference) belong to the excited
     DOF of their load case's force record.
 
+    Parameters
+    ----------
+    path : str or Path
+        ``.uff`` / ``.unv`` / ``.58`` file.
+    points : mapping of int to int, optional
+        File point id -> model node (e.g. 1001 -> 1); records at points it does
+        not list are skipped. Default: point ids are node numbers.
+    axis : {"+Z", "-Z", "+X", "-X", "+Y", "-Y"} or None
+        The file's direction that is the model's ``w``: a signal recorded along
+        the opposite direction is sign-flipped, records in other directions are
+        skipped and counted. ``None`` (3-D models): direction codes 1-6 are the
+        components ``x .. rz``, negative codes flip the sign. The mapping is the
+        FRF reader's (:mod:`jointid.io.uff_records`).
+    n_nodes : int, optional
+        Number of model nodes: a (mapped) node outside ``1..n_nodes`` is an error.
+    with_notes : bool
+        Also return the notes: one line on the unit conversion (if any), one on
+        the point map and axis (if not the default), one on skipped records (if any).
+
+    Returns
+    -------
+    tuple of ImpactRecord
+        Values in SI (N, m/s^2, m/s, m; s) whatever the file's units
+        (:func:`jointid.io.uff_units.signal_units`: labels, dataset 164).
+    (records, notes)
+        If ``with_notes``.
+
     Raises
     ------
     DataError
-        No time records, a hit without force, unknown directions, a load case
-        without reference whose force record is missing or ambiguous, a
-        non-uniform or inconsistent abscissa (naming the excited node and hit).
+        No time records, a hit without force, an unknown or contradictory units
+        label (naming the record), a load case without reference whose force
+        record is missing or ambiguous, a non-uniform or inconsistent abscissa
+        (naming the excited node and hit).
     """
     import pyuff
 
+    from .uff_records import AXES, Selection, _map
+    from .uff_units import SI, conversion_line, signal_units, time_factor, units_from_164
+
     path = Path(path)
+    if axis is not None and axis not in AXES:
+        raise DataError(f"unknown measurement axis {axis!r}; expected one of {', '.join(AXES)}")
     try:
         sets = pyuff.UFF(str(path)).read_sets()
     except Exception as e:  # pyuff raises bare Exceptions on malformed files
         raise DataError(f"{path}: cannot read as UFF ({e})") from None
     if isinstance(sets, dict):
         sets = [sets]
-    sets = [s for s in sets if s.get("type") == 58 and int(s.get("func_type", 0)) == FUNC_TIME]
-    if not sets:
+    sel = Selection(n_nodes=n_nodes, points=None if points is None else {int(k): int(v) for k, v in points.items()}, axis=axis)
+
+    def signal_dof(node, direction, where) -> tuple[Dof, float] | str:
+        """The model DOF and sign of one signal direction, or why the record is skipped (the FRF reader's mapping)."""
+        if not isinstance(direction, (int, np.integer)):
+            return f"in direction {direction}"
+        ref_dir = abs(int(direction)) if axis is None else AXES[axis]
+        mapped = _map({"rsp_node": node, "rsp_dir": int(direction), "ref_node": node, "ref_dir": ref_dir}, sel, where)
+        return mapped if isinstance(mapped, str) else (mapped[0], mapped[2])
+
+    # pass 1: units, mapping, values in SI; every 58 record counts in the numbering (as in the FRF reader)
+    system = SI
+    units: dict[tuple[str, str, float], int] = {}
+    kept: list[dict] = []
+    n_time = 0
+    for i, s in enumerate(sets):
+        index = i + 1
+        if s.get("type") == 164:
+            system = units_from_164(s, f"record {index} of {path}", index)
+            continue
+        if s.get("type") != 58 or int(s.get("func_type", 0)) != FUNC_TIME:
+            continue
+        n_time += 1
+        h = int(s.get("load_case_id", 0))
+        where = (f"record {index} of {path} (time record, node {s.get('rsp_node')} dir {s.get('rsp_dir')}, "
+                 f"load case {h})")
+        spec = int(s.get("ordinate_spec_data_type", 0))
+        if spec not in (_UFF_FORCE, *_UFF_KIND):
+            raise DataError(f"{where}: ordinate specific data type {spec} is not a force (13), acceleration (12), "
+                            "velocity (11) or displacement (8)")
+        sig = signal_dof(s.get("rsp_node"), s.get("rsp_dir"), where)
+        if isinstance(sig, str):
+            sel.skipped[sig] += 1
+            continue
+        ref = None
+        if int(s.get("ref_dir", 0) or 0) != 0:
+            r = signal_dof(s.get("ref_node"), s.get("ref_dir"), where)
+            if isinstance(r, str):
+                sel.skipped[r if not r.startswith("in ") else r + " (reference)"] += 1
+                continue
+            ref = r[0]
+        u = signal_units(s, spec, system, where)
+        what = "force" if spec == _UFF_FORCE else "response"
+        key = (what, f"{u.text} ({u.source})", u.factor)
+        units[key] = units.get(key, 0) + 1
+        seconds = time_factor(s, where)
+        kept.append({"set": s, "case": h, "dof": sig[0], "ref": ref, "force": spec == _UFF_FORCE, "spec": spec,
+                     "data": sig[1] * u.factor * np.real(np.asarray(s["data"])),
+                     "seconds": seconds})
+    if not n_time:
         raise DataError(f"{path}: no UFF58 time-response records (function type 1)")
-
-    def dof(node, direction, what):
-        if abs(int(direction)) != _Z:
-            raise DataError(
-                f"{path}: {what} direction code {direction} is not supported: impact records are transverse "
-                "(+Z = 3 is w, -Z = -3 is w with the sign flipped; a reference direction 0 means no reference); "
-                "X, Y and rotations are never measured"
-            )
-        return Dof(int(node), "w")
-
-    def signed(s) -> np.ndarray:
-        """The record's samples in the +Z convention: a signal measured along -Z is sign-flipped.
-
-        A time record is one signal (its own direction ``rsp_dir``); the reference
-        direction only names the excited DOF, it does not change the signal's sign.
-        """
-        return np.sign(int(s["rsp_dir"])) * np.real(np.asarray(s["data"]))
-
-    def is_force(s) -> bool:
-        return int(s.get("ordinate_spec_data_type", 0)) == _UFF_FORCE
+    skipped = sel.skipped_line()
+    if not kept:
+        raise DataError(f"{path}: no time record along {axis or 'X/Y/Z/RX/RY/RZ'} at a mapped point"
+                        + (f"; {skipped}" if skipped else "") + "; give the measurement axis (--axis) or the point map (--points)")
 
     # records without a reference (direction 0) take the excited DOF from their load case's force record
     case_force: dict[int, set[Dof]] = {}
-    for s in sets:
-        if int(s["ref_dir"]) == 0 and is_force(s):
-            case_force.setdefault(int(s.get("load_case_id", 0)), set()).add(dof(s["rsp_node"], s["rsp_dir"], "force"))
+    for k in kept:
+        if k["ref"] is None and k["force"]:
+            case_force.setdefault(k["case"], set()).add(k["dof"])
     groups: dict[Dof, dict[int, dict]] = {}
-    for s in sets:
-        h = int(s.get("load_case_id", 0))
-        if int(s["ref_dir"]) == 0:
+    for k in kept:
+        h = k["case"]
+        if k["ref"] is None:
             refs = case_force.get(h, set())
             if len(refs) != 1:
                 found = "no force record" if not refs else f"force records at {sorted(str(d) for d in refs)}"
@@ -328,12 +407,12 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
                 )
             ref = next(iter(refs))
         else:
-            ref = dof(s["ref_node"], s["ref_dir"], "reference")
+            ref = k["ref"]
         g = groups.setdefault(ref, {}).setdefault(h, {"force": None, "resp": {}})
-        if is_force(s):
-            g["force"] = s
+        if k["force"]:
+            g["force"] = k
         else:
-            g["resp"][dof(s["rsp_node"], s["rsp_dir"], "response")] = s
+            g["resp"][k["dof"]] = k
     records = []
     for ref, hits in groups.items():
         labels = None
@@ -341,16 +420,16 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
         for i, (h, g) in enumerate(sorted(hits.items())):
             where = f"{path}: {where_hit(ref, i)} (load case {h})"
             if g["force"] is None:
-                raise DataError(f"{where}: no force record (ordinate specific data type 13)")
+                raise DataError(f"{where}: no force record (ordinate specific data type 13)" + (f"; {skipped}" if skipped else ""))
             if labels is None:
                 labels = sorted(g["resp"])
             if sorted(g["resp"]) != labels:
                 raise DataError(f"{where}: response DOFs {[str(d) for d in sorted(g['resp'])]} differ from hit 0's")
             if not labels:
-                raise DataError(f"{where}: no response records")
+                raise DataError(f"{where}: no response records" + (f"; {skipped}" if skipped else ""))
             fs = None
-            for name, s in [("force", g["force"])] + [(f"response {d}", g["resp"][d]) for d in labels]:
-                fs_s = _uff_rate(s, f"{where}, {name}")
+            for name, k in [("force", g["force"])] + [(f"response {d}", g["resp"][d]) for d in labels]:
+                fs_s = _uff_rate(k["set"], f"{where}, {name}", k["seconds"])
                 if fs is None:
                     fs = fs_s
                 elif not math.isclose(fs_s, fs, rel_tol=1e-6):
@@ -359,17 +438,39 @@ def read_impact_uff(path: str | Path) -> tuple[ImpactRecord, ...]:
                 fs0 = fs
             elif not math.isclose(fs, fs0, rel_tol=1e-6):
                 raise DataError(f"{where}: sample rate {fs:g} Hz differs from {fs0:g} Hz of hit 0")
-            ks = {_UFF_KIND.get(int(g["resp"][d].get("ordinate_spec_data_type", 12)), None) for d in labels}
-            if None in ks or len(ks) != 1:
+            ks = {_UFF_KIND[g["resp"][d]["spec"]] for d in labels}
+            if len(ks) != 1:
                 raise DataError(f"{where}: responses must all be acceleration (12), velocity (11) or displacement (8)")
             kind = ks.pop()
-            forces.append(signed(g["force"]))
-            resps.append([signed(g["resp"][d]) for d in labels])
+            forces.append(g["force"]["data"])
+            resps.append([g["resp"][d]["data"] for d in labels])
         try:
             records.append(ImpactRecord(forces, resps, fs0, tuple(labels), ref, kind))
         except DataError as e:
             raise DataError(f"{path}: {e}") from None
-    return tuple(records)
+    if not with_notes:
+        return tuple(records)
+    notes = [conversion_line(units)]
+    if points is not None or axis != "+Z":
+        pm = sel.points or {}
+        where_pts = f"points {_ranges(sorted(pm))} mapped to nodes {_ranges(sorted(pm[p] for p in pm))}" if pm else "point ids are node numbers"
+        along = ("direction codes 1-6 are x .. rz (negative codes sign-flipped)" if axis is None
+                 else f"{axis} is w (signals along {('-' if axis[0] == '+' else '+') + axis[1]} sign-flipped)")
+        notes.append(f"{path.name}: {where_pts}; {along}")
+    notes.append(skipped and f"{path.name}: {skipped}")
+    return tuple(records), tuple(n if not n or n.startswith(path.name) else f"{path.name}: {n}" for n in notes if n)
+
+
+def _ranges(xs: Sequence[int]) -> str:
+    """``1001-1010, 1015`` for a sorted list of integers."""
+    out, i = [], 0
+    while i < len(xs):
+        j = i
+        while j + 1 < len(xs) and xs[j + 1] == xs[j] + 1:
+            j += 1
+        out.append(str(xs[i]) if i == j else f"{xs[i]}-{xs[j]}")
+        i = j + 1
+    return ", ".join(out)
 
 
 def write_impact_uff(path: str | Path, records: Sequence[ImpactRecord]) -> Path:

@@ -32,6 +32,16 @@ Rules (what :mod:`jointid.io.uff` applies to every FRF record it keeps)
   a contradiction and an error; with an SI dataset 164 (which exporters
   write by default) the labels are taken as they are.
 * The abscissa (record 8) is in Hz: label blank, ``Hz`` or ``kHz``.
+
+Time records (function type 1, :func:`signal_units`)
+----------------------------------------------------
+A time record is one signal: its ordinate label (record 9) names the unit of
+that signal alone, a force (data type 13: ``N``, ``kN``, ``mN``, ``lbf``,
+``kgf``) or a motion of the record's data type (12, 11, 8: the motion labels
+of the table above, without a force), with the same rules for blank labels,
+dataset 164 and contradictions. The abscissa is time: label blank, ``s`` or
+``ms`` (:func:`time_factor`). :func:`conversion_line` says in one line what
+was converted.
 """
 
 from __future__ import annotations
@@ -40,7 +50,8 @@ import math
 import re
 from dataclasses import dataclass
 
-__all__ = ["G0", "INCH", "FOOT", "LBF", "KGF", "UnitSystem", "SI", "units_from_164", "ordinate_units", "abscissa_factor", "OrdinateUnits"]
+__all__ = ["G0", "INCH", "FOOT", "LBF", "KGF", "UnitSystem", "SI", "units_from_164", "ordinate_units", "abscissa_factor", "OrdinateUnits",
+           "signal_units", "time_factor", "conversion_line"]
 
 G0 = 9.80665  # m/s^2, standard gravity (exact)
 INCH = 0.0254  # m (exact)
@@ -282,3 +293,109 @@ def abscissa_factor(d: dict, where: str) -> float:
     if s == "khz":
         return 1e3
     raise DataError(f"{where}: abscissa units label {str(lab).strip()!r} is not a frequency; expected Hz")
+
+
+def signal_units(d: dict, data_type: int, system: UnitSystem, where: str) -> OrdinateUnits:
+    """SI factor of a dataset 58 time record (one signal) from its ordinate units label (or the file's units).
+
+    Parameters
+    ----------
+    d : dict
+        pyuff dataset 58 dict (``ordinate_axis_units_lab``).
+    data_type : int
+        Ordinate specific data type: 13 (excitation force), 12 (acceleration),
+        11 (velocity) or 8 (displacement).
+    system : UnitSystem
+        Units in effect (the last dataset 164 before the record, or :data:`SI`).
+    where : str
+        File and record, for error messages.
+
+    Returns
+    -------
+    OrdinateUnits
+        ``factor`` such that ``value_SI = factor * value_file`` (N, m/s^2, m/s or m).
+
+    Raises
+    ------
+    DataError
+        An unknown label, a label of another quantity than ``data_type``, or one
+        that contradicts a non-SI dataset 164 (naming ``where``).
+    """
+    from ..errors import DataError
+
+    quantity = _DATA_QUANTITY[data_type]
+    lab = d.get("ordinate_axis_units_lab")
+    fallback = "dataset 164" if system.record is not None else "default SI"
+    if _blank(lab):
+        if quantity == _FORCE:
+            return OrdinateUnits(system.force_n, system.force_name, fallback)
+        return OrdinateUnits(system.length_m, f"{system.length_name}{_SUFFIX[quantity]}", fallback)
+    lab = str(lab).strip()
+    if quantity == _FORCE:
+        f = _force(lab)
+        if f is None:
+            what = "a motion" if _motion(lab) is not None else "an unknown unit"
+            raise DataError(
+                f"{where}: ordinate units label {lab!r} is {what}, but the record is an excitation force "
+                "(data type 13); jointid reads N, kN, mN, lbf, kgf: fix the label in the file"
+            )
+        if not system.is_si and abs(f / system.force_n - 1.0) > 1e-9:
+            raise DataError(f"{where}: force units label {lab!r} contradicts the file's {system.describe()}; "
+                            "fix the label or the units dataset")
+        return OrdinateUnits(f, lab, "labels")
+    m = _motion(lab)
+    if m is None:
+        if _force(lab) is not None:
+            raise DataError(f"{where}: ordinate units label {lab!r} is a force, but the record's data type is "
+                            f"{data_type} ({quantity}); fix the label or the data type")
+        raise DataError(
+            f"{where}: unknown ordinate units label {lab!r}; jointid reads g, m/s^2, mm/s^2, in/s^2, m/s, mm/s, "
+            "in/s, m, mm, in (and cm, um, ft): fix the label in the file"
+        )
+    if m[0] != quantity:
+        raise DataError(f"{where}: ordinate units label {lab!r} ({m[0]}) contradicts the record's data type "
+                        f"{data_type} ({quantity}); fix the label or the data type")
+    if not system.is_si and m[2] is not None and abs(_LENGTHS[m[2]] / system.length_m - 1.0) > 1e-9:
+        raise DataError(f"{where}: ordinate units label {lab!r} (length in {m[2]}) contradicts the file's "
+                        f"{system.describe()}; fix the label or the units dataset")
+    return OrdinateUnits(m[1], lab, "labels")
+
+
+def time_factor(d: dict, where: str) -> float:
+    """Factor to seconds of a time record's abscissa units label (blank, ``s``: 1; ``ms``: 1e-3)."""
+    from ..errors import DataError
+
+    lab = d.get("abscissa_axis_units_lab")
+    if _blank(lab):
+        return 1.0
+    s = _norm(str(lab)).lower()
+    if s in ("s", "sec", "second", "seconds"):
+        return 1.0
+    if s == "ms":
+        return 1e-3
+    raise DataError(f"{where}: abscissa units label {str(lab).strip()!r} is not a time; expected s or ms")
+
+
+def conversion_line(groups: dict[tuple[str, str, float], int]) -> str | None:
+    """One line on what was converted to SI, e.g. ``units: 20 response records in g (labels) converted to SI: x 9.80665``.
+
+    Parameters
+    ----------
+    groups : dict
+        ``(what, "unit (source)", factor) -> number of records``; ``what`` names
+        the records (``"force"``, ``"response"``). Groups already in SI are left
+        out; records with no label and no dataset 164 are said to be read as SI.
+
+    Returns
+    -------
+    str or None
+        None when every record was in SI (labelled or from an SI dataset 164).
+    """
+    parts = []
+    for (what, text, factor), n in groups.items():
+        noun = f"{n} {what} record{'s' if n != 1 else ''}"
+        if text.endswith("(default SI)"):
+            parts.append(f"{noun} without units labels (and no units dataset 164) read as SI {text.split(' (')[0]}")
+        elif factor != 1.0:
+            parts.append(f"{noun} in {text} converted to SI: x {factor:.15g}")
+    return "units: " + "; ".join(parts) if parts else None
