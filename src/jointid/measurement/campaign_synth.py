@@ -30,6 +30,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -187,8 +188,8 @@ def synthesize_campaign(
     noise : float
         Relative noise rms on both channels.
     seed : int
-        Base random seed (each test gets its own stream, so a file does not
-        depend on which other tests are generated).
+        Base random seed; each test's stream is seeded by it and the file
+        name, so a file does not depend on which other tests are generated.
     specimens : sequence of str
         Specimen names (same truth; independent noise).
     parallel_joints : int
@@ -208,16 +209,18 @@ def synthesize_campaign(
         raise DataError("synthesize_campaign: temperatures, amplitudes, frequencies, preloads and specimens must not be empty")
     f = np.asarray(frequencies_hz, dtype=float)
     rows = []
-    for si, spec in enumerate(specimens):
-        for ti, t in enumerate(temperatures_c):
-            for ai, a in enumerate(amplitudes_m):
-                for pi, p in enumerate(preloads_n):
+    for spec in specimens:
+        for t in temperatures_c:
+            for a in amplitudes_m:
+                for p in preloads_n:
                     k = truth.stiffness(f, float(t), float(a), float(p))
-                    test_seed = int(np.random.SeedSequence([seed, si, ti, ai, pi]).generate_state(1)[0])
+                    name = _name(str(spec), float(t), float(a), float(p))
+                    if any(r[0] == name for r in rows):
+                        raise DataError(f"synthesize_campaign: two tests map to the file {name}; use distinct specimens and values")
+                    test_seed = int(np.random.SeedSequence([int(seed), zlib.crc32(name.encode())]).generate_state(1)[0])
                     blocks = synthesize_stepsine(f, k, float(a), parallel_joints=parallel_joints, cycles=cycles,
                                                  settling_cycles=settling_cycles, samples_per_cycle=samples_per_cycle,
                                                  displacement_noise=noise, force_noise=noise, seed=test_seed)
-                    name = _name(str(spec), float(t), float(a), float(p))
                     write_stepsine_csv(out / name, blocks)
                     rows.append((name, str(spec), repr(float(t)), repr(float(a)), repr(float(p)), str(int(parallel_joints))))
     from ..io.atomic import atomic_write_text
