@@ -15,6 +15,7 @@ __all__ = [
     "StudyError",
     "DataError",
     "IdentificationError",
+    "Terminated",
 ]
 
 
@@ -47,3 +48,17 @@ class DataError(JointIdError, ValueError):
 
 class IdentificationError(JointIdError, ValueError):
     """An identification cannot be carried out as asked (e.g. too few coordinates)."""
+
+
+class Terminated(BaseException):
+    """The process was asked to stop (SIGTERM, e.g. a batch scheduler's time limit).
+
+    Raised by the ``jointid`` command's signal handler so that the run unwinds like
+    Ctrl-C (:class:`KeyboardInterrupt`): an open
+    :class:`~jointid.io.output_dir.OutputSet` removes its staging area and lock.
+    A ``BaseException``, so ``except Exception`` does not swallow it.
+    """
+
+    def __init__(self, signum: int = 15):
+        super().__init__(signum)
+        self.signum = signum

@@ -3,22 +3,29 @@
 Every subcommand lives in its own module with ``add_parser(subparsers)`` and
 ``run(args) -> int``. Errors jointid raises on purpose (:class:`JointIdError`)
 and file errors print as one line on stderr with exit code 2; an interrupt
-exits 130. No traceback unless ``--debug``.
+(SIGINT) exits 130, SIGTERM 143, both after removing the run's staging area and
+lock (no partial output). No traceback unless ``--debug`` (before or after the
+subcommand); Python warnings of a run (numerical overflow, ...) become one
+``finding`` line on stderr instead of raw warnings.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
+import warnings
 from importlib import import_module
+from pathlib import Path
 
 from .. import __version__
-from ..errors import JointIdError
+from ..errors import JointIdError, Terminated
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: Subcommand modules under :mod:`jointid.cli`, in help order.
-COMMANDS = ("reproduce", "modes", "simulate", "identify", "update", "experiment", "frf", "direct", "design")
+COMMANDS = ("reproduce", "modes", "simulate", "identify", "update", "experiment", "frf", "direct", "design", "campaign")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -28,7 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Identify the frequency-dependent dynamic stiffness of elastomeric joints.",
     )
     parser.add_argument("--version", action="version", version=f"jointid {__version__}")
-    parser.add_argument("--debug", action="store_true", help="show a traceback on errors")
+    parser.add_argument("--debug", action="store_true", help="show a traceback on errors (also accepted after the subcommand)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMANDS:
@@ -36,29 +43,97 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _split_debug(argv: list[str]) -> tuple[list[str], bool]:
+    """``argv`` without ``--debug`` (accepted before or after the subcommand; not after ``--``), and whether it was there."""
+    head, sep, tail = (argv[: argv.index("--")], ["--"], argv[argv.index("--") + 1:]) if "--" in argv else (argv, [], [])
+    kept = [a for a in head if a != "--debug"]
+    return kept + sep + tail, len(kept) != len(head)
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def _signal_handlers():
+    """SIGTERM raises :class:`~jointid.errors.Terminated`, SIGINT ``KeyboardInterrupt`` (also if it was ignored),
+    so a run unwinds through its OutputSet's cleanup; the previous handlers come back afterwards."""
+    saved = {}
+    try:
+        saved[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_sigterm)
+        saved[signal.SIGINT] = signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:  # not the main thread (main() called from a thread): leave the handlers alone
+        pass
+    try:
+        yield
+    finally:
+        for s, h in saved.items():
+            signal.signal(s, h)
+
+
+def _warning_line(command: str, caught: list) -> str | None:
+    """One line for the warnings a run raised (numerical ones: overflow, invalid value), or None."""
+    shown = [w for w in caught if not issubclass(w.category, (DeprecationWarning, PendingDeprecationWarning))]
+    if not shown:
+        return None
+    w = shown[0]
+    where = f"{Path(w.filename).name}:{w.lineno}"
+    more = f" (and {len(shown) - 1} more)" if len(shown) > 1 else ""
+    return (
+        f"jointid {command}: finding: a numerical problem occurred: {w.category.__name__}: "
+        f"{' '.join(str(w.message).split())} in {where}{more}; the inputs are probably out of range "
+        "(check their units and values; rerun with --debug to see the warnings)"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; returns the exit code (0 success, 2 error, 130 interrupted)."""
+    """Run the CLI; returns the exit code (0 success, 2 error, 3 internal error, 130 interrupted, 143 terminated).
+
+    ``--debug`` (before or after the subcommand) shows tracebacks and Python's warnings as they are;
+    without it an error is one line on stderr and the warnings of a run (overflow, invalid value, ...)
+    are summarized in one ``finding`` line. SIGTERM and SIGINT unwind the run: no partial output.
+    """
+    argv, debug_anywhere = _split_debug(list(sys.argv[1:] if argv is None else argv))
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print("jointid: interrupted; no partial output was written", file=sys.stderr)
-        return 130
-    except (JointIdError, OSError) as exc:
-        if args.debug:
-            raise
-        msg = str(exc) if isinstance(exc, JointIdError) else f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")
-        print(f"jointid {args.command}: error: {msg}", file=sys.stderr)
-        return 2
-    except Exception as exc:  # pragma: no cover - last resort, still one line
-        if args.debug:
-            raise
-        print(
-            f"jointid {args.command}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for a traceback)",
-            file=sys.stderr,
-        )
-        return 3
+    debug = bool(args.debug or debug_anywhere)
+    args.debug = debug
+    caught: list = []
+    with contextlib.ExitStack() as stack:
+        if not debug:
+            caught = stack.enter_context(warnings.catch_warnings(record=True))
+            warnings.simplefilter("always")
+            warnings.simplefilter("ignore", DeprecationWarning)
+            warnings.simplefilter("ignore", PendingDeprecationWarning)
+        try:
+            with _signal_handlers():
+                code = int(args.func(args) or 0)
+        except KeyboardInterrupt:
+            print(f"jointid {args.command}: interrupted; no partial output was written", file=sys.stderr)
+            return 130
+        except Terminated as exc:
+            name = signal.Signals(exc.signum).name if exc.signum in signal.Signals._value2member_map_ else str(exc.signum)
+            print(f"jointid {args.command}: terminated ({name}); no partial output was written", file=sys.stderr)
+            return 128 + exc.signum
+        except (JointIdError, OSError) as exc:
+            if debug:
+                raise
+            msg = str(exc) if isinstance(exc, JointIdError) else f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")
+            print(f"jointid {args.command}: error: {msg}", file=sys.stderr)
+            return 2
+        except Exception as exc:  # pragma: no cover - last resort, still one line
+            if debug:
+                raise
+            print(
+                f"jointid {args.command}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for a traceback)",
+                file=sys.stderr,
+            )
+            return 3
+        finally:
+            line = _warning_line(args.command, caught)
+            if line is not None:
+                print(line, file=sys.stderr)
+    return code
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -31,7 +31,12 @@ What a user can rely on
   after *all* of them were produced; an exception before that (a failing
   computation, Ctrl-C, a full disk while staging) leaves ``DIR`` exactly as it
   was (a ``DIR`` this run created is removed again), with no temporary debris.
-  Staging left by a killed run is removed by the next run into ``DIR``.
+  SIGTERM and SIGINT unwind the same way under the ``jointid`` command (its
+  handlers raise :class:`~jointid.errors.Terminated` / ``KeyboardInterrupt``):
+  staging area and lock removed, ``DIR`` as before. A signal that arrives while
+  the files are being renamed into place or the staging area is being removed is
+  held until that step is done (the set is then complete, or untouched).
+  Staging left by a killed run (SIGKILL) is removed by the next run into ``DIR``.
 * Files of the same command's previous set that this run does not produce (a
   PNG after ``--no-plots``) are removed, if unchanged. The sets of other
   commands writing into the same ``DIR`` are kept (``jointid simulate --out d``
@@ -55,7 +60,9 @@ import hashlib
 import json
 import os
 import shutil
+import signal
 import tempfile
+import threading
 from pathlib import Path, PurePosixPath
 from typing import Callable, Mapping, Sequence
 
@@ -84,6 +91,33 @@ class OutputError(JointIdError, OSError):
 
     def __str__(self) -> str:
         return str(self.args[0]) if self.args else ""
+
+
+_DEFERRED_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGINT") if hasattr(signal, name))
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """SIGTERM/SIGINT arriving inside the block are handled when it ends (main thread; elsewhere a no-op)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending: list[int] = []
+    saved = {}
+    for s in _DEFERRED_SIGNALS:
+        with contextlib.suppress(ValueError, OSError):
+            saved[s] = signal.signal(s, lambda signum, frame: pending.append(signum))
+    try:
+        yield
+    finally:
+        for s, h in saved.items():
+            signal.signal(s, h)
+        if pending:
+            h = saved.get(pending[0])
+            if callable(h):
+                h(pending[0], None)
+            elif h == signal.SIG_DFL:
+                signal.raise_signal(pending[0])
 
 
 def _sha256(path: Path) -> str:
@@ -257,6 +291,10 @@ class OutputSet:
             os.close(fd)
 
     def _release(self, failed: bool) -> None:
+        with _signals_held():
+            self._release_now(failed)
+
+    def _release_now(self, failed: bool) -> None:
         if self._staging is not None:
             shutil.rmtree(self._staging, ignore_errors=True)
             self._staging = None
@@ -372,6 +410,13 @@ class OutputSet:
         for cmd in sets:  # a file this run writes now belongs to this command
             sets[cmd] = {k: v for k, v in sets[cmd].items() if k not in new}
         dirs = list(self._manifest["directories"])
+        with _signals_held():
+            self._commit_files(new, sets, previous, dirs)
+        self._committed = True
+        return tuple(d / key for key in self._files)
+
+    def _commit_files(self, new: dict, sets: dict, previous: dict, dirs: list) -> None:
+        d = self.directory
         try:
             # 1. a manifest valid whatever happens next: old and new content of each file
             transition = dict(previous)
@@ -410,5 +455,3 @@ class OutputSet:
             _write_manifest(d, {**_empty_manifest(), "sets": {**sets, self.command: {k: [h] for k, h in new.items()}}, "directories": sorted(kept)})
         except OSError as exc:
             raise OutputError(f"cannot write into --out {d}: {exc.strerror or exc}") from exc
-        self._committed = True
-        return tuple(d / key for key in self._files)
