@@ -67,7 +67,8 @@ from ..frf import FRF
 from ..physics.free_model import as_free_model
 from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration, residual_variance
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
-from .frf_variance import WEIGHTINGS, column_noise_fraction, frf_variance
+from .frf_screening import check_visibility, floor_exact_zeros, noise_level_unknown, screen_measured
+from .frf_variance import RELATIVE_FLOOR, WEIGHTINGS, column_noise_fraction, frf_variance
 from .inverse import check_layout, dof_term_labels, joint_term, stiffness_columns
 from .smoothing import smooth_series
 from .structured_select import MAX_CHI2_PER_DOF, STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
@@ -183,6 +184,8 @@ class CouplingResult:
         it is the result; else the P-spline is, and :meth:`findings` says why).
     estimator_note : str
         Why the structured model was not fitted when it was asked for or failed (a finding), else "".
+    data_notes : tuple of str
+        What the data screening found (:mod:`jointid.methods.frf_screening`): channels left out, an unknown noise level.
     """
 
     frequency: Frequency
@@ -203,6 +206,7 @@ class CouplingResult:
     calibration_applied: bool = False
     structured: StructuredEstimate | None = None
     estimator_note: str = ""
+    data_notes: tuple[str, ...] = ()
 
     method = "receptance"
 
@@ -277,6 +281,7 @@ class CouplingResult:
             self.frequency, dofs, self.stiffness[blk], self.std_real[blk], self.std_imag[blk], self.per_line[blk],
             self.per_line_std[blk], self.reliable_terms[blk], self.passive[:, idx], self.condition, self.residual_scale,
             self.weighting, edf, self.options, self.calibration, self.calibration_applied, self.structured, self.estimator_note,
+            self.data_notes,
         )
 
     def columns(self) -> dict[str, np.ndarray]:
@@ -293,7 +298,7 @@ class CouplingResult:
     def findings(self) -> list[str]:
         """One line per term that the FRFs cannot determine on some lines, naming the bands and the predicted error."""
         f = self.frequency.hz
-        out = []
+        out = list(self.data_notes)
         st = self.structured
         if st is not None and not st.accepted and st.best.chi2_per_dof > MAX_CHI2_PER_DOF:
             out.append(f"the structured joint model does not fit these FRFs (chi^2/dof {st.best.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
@@ -361,7 +366,8 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     Raises
     ------
     IdentificationError
-        Too few observed or excited coordinates, a DOF not in the model, a 0 Hz line.
+        Too few observed or excited coordinates (also once dead channels are left out), a DOF not in the model,
+        a 0 Hz line, a dead acquisition, joint DOFs the FRFs cannot see (:mod:`jointid.methods.frf_screening`).
     """
     options = options or CouplingOptions()
     model = as_free_model(free)
@@ -377,10 +383,39 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     if freq.hz[0] <= 0.0:
         raise IdentificationError("the receptance method needs frequencies > 0 Hz (a free structure is singular at 0 Hz); drop the 0 Hz line")
     H = measured.to("receptance").data
+    coherence = getattr(measured, "coherence", None)
     Y = model.receptance(freq, tuple(m_dofs) + tuple(n_dofs), tuple(n_dofs) + tuple(e_dofs))  # one call: rows m, n; cols n, e
     nm, nn = len(m_dofs), len(n_dofs)
     Ymn, Yme, Ynn, Yne = (np.ascontiguousarray(b) for b in (Y[:, :nm, :nn], Y[:, :nm, nn:], Y[:, nm:, :nn], Y[:, nm:, nn:]))
-    variance, source = frf_variance(H, getattr(measured, "coherence", None), options.weighting, options.averages)
+    # dead, invisible and degenerate data are found before anything is solved (jointid.methods.frf_screening)
+    screen = screen_measured(H, coherence, Yme, m_dofs, e_dofs)
+    if screen.findings:
+        r, c = screen.rows, screen.cols
+        dropped = [str(m_dofs[i]) for i in range(nm) if i not in r] + [str(e_dofs[j]) for j in range(len(e_dofs)) if j not in c]
+        if r.size < nn or c.size < nn:
+            raise IdentificationError(
+                f"after leaving out the dead channel(s) {', '.join(dropped)}, {r.size} observed and {c.size} excited DOFs remain "
+                f"for {nn} joint DOFs (each needs at least {nn}): the joint's terms cannot be identified; repeat the measurement "
+                "with those channels working"
+            )
+        m_dofs, e_dofs = tuple(m_dofs[i] for i in r), tuple(e_dofs[j] for j in c)
+        H, Ymn, Yne, Yme = H[:, r][:, :, c], Ymn[:, r], Yne[:, :, c], Yme[:, r][:, :, c]
+        coherence = None if coherence is None else np.asarray(coherence)[:, r][:, :, c]
+        nm = len(m_dofs)
+    check_visibility(Ymn, Ynn, Yne, n_dofs)
+    variance, source = frf_variance(H, coherence, options.weighting, options.averages)
+    variance = floor_exact_zeros(variance, H, RELATIVE_FLOOR)
+    notes = list(screen.findings)
+    if source == "coherence" and noise_level_unknown(coherence):
+        measured_var = residual_variance(Ymn, Yne, Yme - H, variance, options.symmetric)
+        if measured_var is None:
+            notes.append("the coherence is identically 1 (one average per excitation, or noise-free data): the FRF noise level "
+                         "is unknown and the layout has too little redundancy to measure it from the residuals; the bands "
+                         "come from the per-line residual scale only")
+        else:
+            variance = floor_exact_zeros(measured_var, H, RELATIVE_FLOOR)
+            notes.append("the coherence is identically 1 (one average per excitation, or noise-free data): the FRF noise level "
+                         "is unknown, so it was measured from the residuals of the per-line fit")
     cal, applied = None, False
     if uses_kronecker(freq.size, nm, len(e_dofs), nn, options.symmetric):  # many joint DOFs: no full design, no calibration
         if options.calibration == "columns":
@@ -388,7 +423,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     elif options.calibration != "none":
         # the calibration removes the column-common error: what is left in each value is its
         # variance without the column-common part (frf_variance.column_noise_fraction)
-        left = variance * column_noise_fraction(H, getattr(measured, "coherence", None)) if source == "coherence" else variance
+        left = variance * column_noise_fraction(H, coherence) if source == "coherence" and not noise_level_unknown(coherence) else variance
         cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, left, options.symmetric, options.calibration_basis)
         applied = cal is not None and (options.calibration == "columns" or cal.significant)
         if applied:  # weights: the variance left once the column error is removed, measured from the residuals
@@ -402,7 +437,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         H, variance = cal.apply(H, variance)
         common = cal.x_covariance
     lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
-    return _finish(freq, n_dofs, lines, source, options, cal, applied)
+    return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes))
 
 
 def _structured(freq: Frequency, lines, options: CouplingOptions, cal, applied) -> tuple[StructuredEstimate | None, str]:
@@ -462,7 +497,7 @@ def term_scale(K: np.ndarray) -> np.ndarray:
     return np.maximum(np.abs(K), floor)
 
 
-def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False) -> CouplingResult:
+def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False, data_notes=()) -> CouplingResult:
     """Estimate over frequency (structured model, or each term smoothed and relinearized), propagate the variance, set the flags."""
     structured, note = _structured(freq, lines, options, cal, applied)
     if structured is not None and structured.accepted:
@@ -482,7 +517,7 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     reliable[:, diag, diag] &= passive
     return CouplingResult(
         freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(np.maximum(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0), 0.0)),
-        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured, note,
+        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured, note, data_notes,
     )
 
 
