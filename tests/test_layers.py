@@ -61,6 +61,7 @@ RANKS = {
     "studies": 4,
     "report": 4,
     "plots": 4,
+    "campaign": 4,
     "cli": 5,
     "": 6,
 }

@@ -1,0 +1,238 @@
+"""The campaign's tables (Apache Arrow, written as Parquet and CSV): readable without jointid.
+
+``results``: one row per test and frequency line (and joint term, for ``identify``
+tests): ``manifest_row``, the manifest's columns (``file``, ``specimen``,
+``temperature_c``, ``amplitude_m``, ``preload_n``, ``kind``, ``parallel_joints``,
+``study`` when present, the free columns as text), then ``term`` (``K21`` for a direct
+test: the blocked transfer stiffness per joint), ``frequency_hz``, ``stiffness_real``,
+``stiffness_imag`` (N/m), ``magnitude``, ``loss_factor``, ``stiffness_real_std``,
+``stiffness_imag_std`` (1-sigma, where the method gives them: ``identify``; else null),
+``amplitude_ok``, ``amplitude_ratio`` (``direct``), ``reliable`` (``identify``),
+``log10_shift`` and ``reduced_frequency_hz`` (``f aT``; specimens with a master curve).
+
+``tests``: one row per test: ``manifest_row``, the manifest's columns, ``status``
+(``ok``/``failed``), ``reason``, ``file_sha256``, the per-test parameters of the
+processing (lines, band, achieved amplitude, median storage and loss factor, force
+distortion and fit residuals; for ``identify``: method, reliable fraction) and
+``log10_shift``.
+
+``amplitude`` / ``preload``: one row per Kraus / preload fit (specimen, temperature,
+preload or amplitude, frequency) with the fit's parameters and their ``_std``.
+
+A value that is not given is null (empty in CSV); a computed value that is not a
+number (a loss factor over a zero storage part) is NaN (``nan``).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+
+import numpy as np
+
+__all__ = ["results_table", "tests_table", "fit_table", "table_csv", "table_parquet", "STANDARD_LINE_COLUMNS"]
+
+#: Line columns of the results table, in order (absent from a method: null).
+STANDARD_LINE_COLUMNS = (
+    "term", "frequency_hz", "stiffness_real", "stiffness_imag", "magnitude", "loss_factor",
+    "stiffness_real_std", "stiffness_imag_std", "amplitude_ok", "amplitude_ratio", "reliable",
+)
+_BOOL = {"amplitude_ok", "reliable"}
+
+
+def _meta_columns(manifest) -> list[tuple[str, str]]:
+    """(column, arrow type name) of the manifest's columns in the tables."""
+    cols = [("file", "string"), ("specimen", "string"), ("temperature_c", "float64"), ("amplitude_m", "float64"),
+            ("preload_n", "float64"), ("kind", "string"), ("parallel_joints", "int64")]
+    if "study" in manifest.columns:
+        cols.append(("study", "string"))
+    cols += [(c, "string") for c in manifest.extra_columns]
+    return cols
+
+
+def _meta_value(test, column: str):
+    v = {"file": test.value("file"), "specimen": test.specimen, "temperature_c": test.temperature_c,
+         "amplitude_m": test.amplitude_m, "preload_n": test.preload_n, "kind": test.kind,
+         "parallel_joints": test.parallel_joints, "study": test.value("study") or None}.get(column)
+    if v is None and column not in ("study",):
+        v = test.value(column)
+    if isinstance(v, float) and math.isnan(v):
+        return None
+    return v
+
+
+def _array(values, typename: str):
+    import pyarrow as pa
+
+    return pa.array(values, type=getattr(pa, typename)())
+
+
+def _shift(analysis, test):
+    a = analysis.get(test.specimen)
+    if a is None or a.master_curve is None or test.kind != "direct":
+        return None
+    return a.master_curve
+
+
+def results_table(manifest, outcomes, analysis=None):
+    """The results table (see the module docstring) as a :class:`pyarrow.Table`.
+
+    Parameters
+    ----------
+    manifest : Manifest
+    outcomes : mapping of int to TestOutcome
+        By manifest row; failed tests have no rows.
+    analysis : mapping of str to SpecimenAnalysis, optional
+        For the shift columns.
+    """
+    import pyarrow as pa
+
+    analysis = analysis or {}
+    meta = _meta_columns(manifest)
+    parts = {name: [] for name, _ in meta}
+    lines = {name: [] for name in STANDARD_LINE_COLUMNS}
+    masks = {name: [] for name in STANDARD_LINE_COLUMNS}
+    rows, shift, reduced = [], [], []
+    for t in manifest.tests:
+        o = outcomes[t.row]
+        if not o.ok:
+            continue
+        n = len(o.lines["frequency_hz"])
+        rows.append(np.full(n, t.row, dtype=np.int64))
+        for name, _ in meta:
+            parts[name].extend([_meta_value(t, name)] * n)
+        for name in STANDARD_LINE_COLUMNS:
+            if name in o.lines:
+                lines[name].append(np.asarray(o.lines[name]))
+                masks[name].append(np.zeros(n, dtype=bool))
+            else:
+                lines[name].append(np.zeros(n, dtype=bool if name in _BOOL else float))
+                masks[name].append(np.ones(n, dtype=bool))
+        mc = _shift(analysis, t)
+        if mc is None:
+            shift.append(np.full(n, np.nan))
+            reduced.append(np.full(n, np.nan))
+        else:
+            s = float(mc.log10_shift(t.temperature_c))
+            shift.append(np.full(n, s))
+            reduced.append(np.asarray(o.lines["frequency_hz"], dtype=float) * 10.0**s)
+    cols = {"manifest_row": pa.array(np.concatenate(rows) if rows else np.zeros(0, np.int64))}
+    for name, typ in meta:
+        cols[name] = _array(parts[name], typ)
+    for name in STANDARD_LINE_COLUMNS:
+        if not lines[name]:
+            cols[name] = _array([], "string" if name == "term" else "bool_" if name in _BOOL else "float64")
+            continue
+        values = np.concatenate(lines[name])
+        mask = np.concatenate(masks[name])
+        if name == "term":
+            cols[name] = pa.array(values.astype(str).tolist(), type=pa.string())
+        else:
+            cols[name] = pa.array(values, mask=mask if mask.any() else None)
+    for name, vals in (("log10_shift", shift), ("reduced_frequency_hz", reduced)):
+        v = np.concatenate(vals) if vals else np.zeros(0)
+        cols[name] = pa.array(v, mask=np.isnan(v) if np.isnan(v).any() else None)
+    return pa.table(cols)
+
+
+def tests_table(manifest, outcomes, analysis=None, sha256=None):
+    """The per-test table (see the module docstring) as a :class:`pyarrow.Table`.
+
+    Parameters
+    ----------
+    manifest : Manifest
+    outcomes : mapping of int to TestOutcome
+        By manifest row.
+    analysis : mapping of str to SpecimenAnalysis, optional
+    sha256 : mapping of int to str, optional
+        The data file's SHA-256 by manifest row.
+    """
+    import pyarrow as pa
+
+    analysis = analysis or {}
+    sha256 = sha256 or {}
+    meta = _meta_columns(manifest)
+    names: dict[str, None] = {}
+    for t in manifest.tests:
+        names.update(dict.fromkeys(outcomes[t.row].parameters))
+    cols: dict[str, list] = {"manifest_row": [], **{m: [] for m, _ in meta}, "status": [], "reason": [], "file_sha256": []}
+    cols.update({p: [] for p in names})
+    cols["log10_shift"] = []
+    for t in manifest.tests:
+        o = outcomes[t.row]
+        cols["manifest_row"].append(t.row)
+        for m, _ in meta:
+            cols[m].append(_meta_value(t, m))
+        cols["status"].append("ok" if o.ok else "failed")
+        cols["reason"].append(None if o.ok else o.reason)
+        cols["file_sha256"].append(sha256.get(t.row))
+        for p in names:
+            v = o.parameters.get(p)
+            cols[p].append(v)
+        mc = _shift(analysis, t) if o.ok else None
+        cols["log10_shift"].append(None if mc is None else float(mc.log10_shift(t.temperature_c)))
+    types = dict(meta)
+    out = {}
+    for name, values in cols.items():
+        if name in types:
+            out[name] = _array(values, types[name])
+        elif name == "manifest_row":
+            out[name] = pa.array(values, type=pa.int64())
+        else:
+            out[name] = pa.array(values)  # inferred: float64, int64, bool or string, null where absent
+    return pa.table(out)
+
+
+def _flat(prefix: str, value, out: dict) -> None:
+    if isinstance(value, dict):
+        if "value" in value:
+            out[prefix] = value.get("value")
+            if "std" in value:
+                out[f"{prefix}_std"] = value.get("std")
+            return
+        for k, v in value.items():
+            _flat(f"{prefix}_{k}" if prefix else str(k), v, out)
+    elif isinstance(value, (list, tuple)):
+        out[prefix] = "; ".join(map(str, value)) if all(isinstance(v, str) for v in value) else json.dumps(value)
+    else:
+        out[prefix] = value
+
+
+def fit_table(specimen_rows):
+    """One row per fit: ``(specimen, keys, fit)`` items -> :class:`pyarrow.Table` with the fit's ``to_dict()`` flattened.
+
+    Parameters
+    ----------
+    specimen_rows : iterable of (str, dict, object)
+        The specimen, the row's leading columns (temperature, preload or amplitude,
+        frequency, counts) and the fit (``to_dict()``: ``{"value", "std"}`` entries
+        become ``name`` and ``name_std``; lists of findings become one text cell).
+    """
+    import pyarrow as pa
+
+    rows = []
+    for specimen, keys, fit in specimen_rows:
+        flat: dict = {}
+        _flat("", fit.to_dict(), flat)
+        rows.append({"specimen": specimen, **keys, **flat})
+    names = list(dict.fromkeys(k for r in rows for k in r))
+    return pa.table({n: pa.array([r.get(n) for r in rows]) for n in names})
+
+
+def table_parquet(table) -> bytes:
+    """``table`` as Parquet bytes."""
+    import pyarrow.parquet as pq
+
+    buf = io.BytesIO()
+    pq.write_table(table, buf)
+    return buf.getvalue()
+
+
+def table_csv(table) -> bytes:
+    """``table`` as CSV bytes (header row; floats round-trip exactly; null: empty cell)."""
+    import pyarrow.csv as pcsv
+
+    buf = io.BytesIO()
+    pcsv.write_csv(table, buf, write_options=pcsv.WriteOptions(quoting_style="needed"))
+    return buf.getvalue()

@@ -1,0 +1,72 @@
+"""``jointid campaign``: many tests (temperatures, amplitudes, preloads, specimens) from one manifest.
+
+Exit codes: 0 every test processed; 1 some tests failed (listed in ``DIR/campaign.json``
+with a one-line reason each, printed on stderr; the others are written); 2 bad input
+(manifest, missing file, ``--out``, ``--scheduler``), before anything is computed.
+Heavy imports happen inside :func:`run` (``jointid --help`` stays fast).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .common import OUT_HELP
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> None:
+    """Register the ``campaign`` subcommand on an argparse subparsers object."""
+    p = sub.add_parser(
+        "campaign",
+        help="a test campaign: many direct (and inverse) tests from a manifest -> one results table, master curves, report",
+        description="Process every test of MANIFEST.csv (one row per test: file, specimen, temperature_c, amplitude_m, "
+        "preload_n; optional kind = direct|identify, study, parallel_joints; free columns are carried into the tables) "
+        "on every core (or a Dask cluster with --scheduler) and write DIR/results.parquet and .csv (one row per test "
+        "and frequency line), DIR/tests.parquet and .csv (one row per test), master_curve.json (time-temperature "
+        "superposition per specimen: shift factors, WLF, Arrhenius, fitted modulus), amplitude/preload fits, "
+        "campaign.json ({tests, computed, reused, failed}) and report.html. Resumable: each test's result is stored "
+        "under DIR/.jointid-cache as it finishes; a re-run computes only what is missing or changed. Exit code 1 when "
+        "some tests failed (the others are written), 2 on bad input.",
+    )
+    p.add_argument("manifest", type=Path, metavar="MANIFEST.csv", help="the campaign manifest (CSV, one row per test)")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help=OUT_HELP)
+    p.add_argument("--workers", type=int, default=None, metavar="N", help="local worker processes (default: every core; 1: no pool)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the tests on an existing Dask distributed cluster (e.g. tcp://host:8786; pip install 'jointid[dask]')")
+    p.add_argument("--reference-temperature", type=float, default=None, metavar="C",
+                   help="reference temperature of the master curves, C (default: per specimen, the tested one nearest the median)")
+    p.add_argument("--vertical-shift", action="store_true", help="also shift the master curves vertically (density-temperature factor)")
+    p.add_argument("--tolerance", type=float, default=0.05,
+                   help="flag step-sine lines whose achieved amplitude is off by more than this fraction (default 0.05)")
+    p.add_argument("--no-plots", action="store_true", help="no figures (the report has the tables only)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``jointid campaign``; returns 0, or 1 when some tests failed."""
+    import math
+
+    from ..campaign.driver import CampaignOptions, run_campaign
+    from ..campaign.tasks import ProcessingOptions
+    from ..errors import DataError
+
+    if not (math.isfinite(args.tolerance) and args.tolerance > 0):
+        raise DataError(f"--tolerance must be a positive fraction (e.g. 0.05), got {args.tolerance}")
+    if args.reference_temperature is not None and not (math.isfinite(args.reference_temperature) and args.reference_temperature > -273.15):
+        raise DataError(f"--reference-temperature must be a temperature in degrees C, got {args.reference_temperature}")
+    options = CampaignOptions(processing=ProcessingOptions(tolerance=args.tolerance), reference_temperature_c=args.reference_temperature,
+                              vertical_shift=args.vertical_shift, plots=not args.no_plots)
+    result = run_campaign(args.manifest, args.out, options, workers=args.workers, scheduler=args.scheduler)
+    s = result.summary
+    for a in result.analysis.values():
+        for finding in a.findings:
+            print(f"jointid campaign: note: {finding}", file=sys.stderr)
+    for f in s["failed"]:
+        print(f"jointid campaign: test failed: {args.manifest}: row {f['row']} ({f['file']}): {f['reason']}", file=sys.stderr)
+    curves = sum(a.master_curve is not None for a in result.analysis.values())
+    print(f"campaign: {s['tests']} tests ({s['computed']} computed, {s['reused']} reused, {len(s['failed'])} failed), "
+          f"{curves} master curve(s); wrote {args.out}/results.parquet, tests.parquet, master_curve.json, campaign.json, report.html")
+    return 1 if s["failed"] else 0

@@ -1,0 +1,252 @@
+"""``jointid campaign``: tables, counts, resumability, failures, bad manifests (small synthetic campaigns)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from campaign_data import FREQUENCIES_HZ, manifest_rows, small_campaign, write_manifest
+from jointid.campaign import read_manifest, run_campaign
+from jointid.campaign.driver import CampaignOptions
+from jointid.campaign.store import CACHE_DIR
+from jointid.cli.main import main
+from jointid.measurement.stepsine import process_stepsine, read_stepsine_csv
+
+ISSUE_KEYS = {"reference_temperature_c", "shift_factors", "wlf", "arrhenius", "modulus"}
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    """A 6-test campaign (3 temperatures x 2 amplitudes, 5 lines each) and its first run (2 worker processes)."""
+    root = tmp_path_factory.mktemp("campaign")
+    manifest = small_campaign(root / "data")
+    out = root / "out"
+    rc = main(["campaign", str(manifest), "--out", str(out), "--workers", "2", "--no-plots"])
+    return manifest, out, rc
+
+
+def _cache_entries(out: Path) -> int:
+    return len(list((out / CACHE_DIR).glob("??/*.json")))
+
+
+def _json(path: Path) -> dict:
+    return json.loads(path.read_text(), parse_constant=lambda c: pytest.fail(f"{path}: non-standard JSON {c}"))
+
+
+def test_end_to_end_tables_counts_and_master_curve(campaign):
+    manifest, out, rc = campaign
+    assert rc == 0
+    rows = manifest_rows(manifest)
+    n = len(rows)
+    assert _json(out / "campaign.json") == {"tests": n, "computed": n, "reused": 0, "failed": [], "manifest": str(manifest)}
+    results = pq.read_table(out / "results.parquet")
+    assert results.num_rows == n * len(FREQUENCIES_HZ)
+    for col in ("manifest_row", "file", "specimen", "temperature_c", "amplitude_m", "preload_n", "batch", "frequency_hz",
+                "stiffness_real", "stiffness_imag", "magnitude", "loss_factor", "stiffness_real_std", "amplitude_ok"):
+        assert col in results.column_names
+    df = results.to_pandas()
+    assert list(df["batch"].unique()) == [f"{i:03d}" for i in range(n)]  # free column carried as written (text)
+    # every test's lines are exactly what the step-sine processing of its file gives
+    for i, row in enumerate(rows, start=1):
+        r = process_stepsine(read_stepsine_csv(manifest.parent / row["file"]), parallel_joints=int(row["parallel_joints"]),
+                             commanded_amplitude_m=float(row["amplitude_m"]))
+        got = df[df["manifest_row"] == i].sort_values("frequency_hz")
+        assert got["file"].iloc[0] == row["file"] and got["temperature_c"].iloc[0] == float(row["temperature_c"])
+        np.testing.assert_array_equal(got["frequency_hz"], r.frequency_hz)
+        np.testing.assert_array_equal(got["stiffness_real"] + 1j * got["stiffness_imag"], r.stiffness)
+        np.testing.assert_array_equal(got["loss_factor"], r.stiffness.imag / r.stiffness.real)
+        np.testing.assert_array_equal(got["amplitude_ok"], r.amplitude_ok)
+    assert df["stiffness_real_std"].isna().all()  # the step-sine method gives no standard deviation: null, not 0
+    # the CSV is the same table
+    import pandas as pd
+
+    csv = pd.read_csv(out / "results.csv", dtype={"batch": str})
+    np.testing.assert_array_equal(csv["stiffness_real"], df["stiffness_real"])
+    tests = pq.read_table(out / "tests.parquet").to_pandas()
+    assert list(tests["status"]) == ["ok"] * n and list(tests["manifest_row"]) == list(range(1, n + 1))
+    assert (tests["lines"] == len(FREQUENCIES_HZ)).all()
+    master = _json(out / "master_curve.json")
+    assert set(master["specimens"]) == {"S1"}
+    s1 = master["specimens"]["S1"]
+    assert ISSUE_KEYS <= set(s1)
+    assert s1["reference_temperature_c"] == 20.0 and s1["reference_amplitude_m"] == 2e-5
+    # tables hold the shift of the master curve
+    shifts = {x["temperature_c"]: x["log10_shift"] for x in s1["shift_factors"]}
+    assert shifts[20.0] == 0.0
+    assert "<img" not in (out / "report.html").read_text()  # --no-plots
+    assert _cache_entries(out) == n
+
+
+def test_second_run_recomputes_nothing_and_writes_the_same_tables(campaign, tmp_path, capsys):
+    manifest, out, _ = campaign
+    before = pq.read_table(out / "results.parquet")
+    assert main(["campaign", str(manifest), "--out", str(out), "--workers", "2", "--no-plots"]) == 0
+    s = _json(out / "campaign.json")
+    assert (s["computed"], s["reused"], s["failed"]) == (0, s["tests"], [])
+    assert pq.read_table(out / "results.parquet").equals(before)
+    printed = capsys.readouterr().out
+    assert f"campaign: {s['tests']} tests, {s['tests']} stored by a previous run, 0 to compute" in printed
+
+
+def test_changed_file_is_recomputed_alone(campaign, tmp_path):
+    manifest, out, _ = campaign
+    data = tmp_path / "data"
+    shutil.copytree(manifest.parent, data)
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+    rows = manifest_rows(data / "manifest.csv")
+    path = data / rows[2]["file"]
+    path.write_text(path.read_text().replace("\n", "\n", 1) + "\n")  # same data, new content (a trailing empty line)
+    assert main(["campaign", str(data / "manifest.csv"), "--out", str(work), "--no-plots", "--workers", "1"]) == 0
+    s = _json(work / "campaign.json")
+    assert (s["computed"], s["reused"]) == (1, len(rows) - 1)
+    # a changed option (the amplitude tolerance) is a new key for every test
+    assert main(["campaign", str(data / "manifest.csv"), "--out", str(work), "--no-plots", "--tolerance", "0.2"]) == 0
+    assert _json(work / "campaign.json")["computed"] == len(rows)
+
+
+def test_progress_lines_when_not_a_terminal(campaign, tmp_path, capsys):
+    manifest, _, _ = campaign
+    assert main(["campaign", str(manifest), "--out", str(tmp_path / "o"), "--workers", "1", "--no-plots"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    n = len(manifest_rows(manifest))
+    assert any(line.startswith(f"campaign: 1/{n} tests done") and "ETA" in line for line in out)
+    assert any(line.startswith(f"campaign: {n}/{n} tests done") and line.endswith("done") for line in out)
+
+
+def test_failing_test_is_listed_exit_1_and_the_others_written(campaign, tmp_path, capsys):
+    manifest, _, _ = campaign
+    data = tmp_path / "data"
+    shutil.copytree(manifest.parent, data)
+    rows = manifest_rows(data / "manifest.csv")
+    bad = data / rows[1]["file"]
+    lines = bad.read_text().splitlines()
+    lines[5] = lines[5].split(",")[0] + ",x,1,2"  # time 'x' on data line 5
+    bad.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    assert main(["campaign", str(data / "manifest.csv"), "--out", str(out), "--no-plots", "--workers", "2"]) == 1
+    s = _json(out / "campaign.json")
+    assert s["tests"] == len(rows) and s["computed"] == len(rows)
+    assert len(s["failed"]) == 1
+    f = s["failed"][0]
+    assert (f["row"], f["file"]) == (2, rows[1]["file"])
+    assert f["reason"] == f"{bad}: column 'time_s', data line 5: 'x' is not a number"
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"jointid campaign: test failed: {data / 'manifest.csv'}: row 2 ({rows[1]['file']}): {f['reason']}"]
+    results = pq.read_table(out / "results.parquet").to_pandas()
+    assert sorted(results["manifest_row"].unique()) == [1] + list(range(3, len(rows) + 1))
+    tests = pq.read_table(out / "tests.parquet").to_pandas()
+    assert tests.loc[1, "status"] == "failed" and tests.loc[1, "reason"] == f["reason"]
+    # a bad-data failure is a result too: the re-run reuses it (and still exits 1)
+    assert main(["campaign", str(data / "manifest.csv"), "--out", str(out), "--no-plots"]) == 1
+    assert _json(out / "campaign.json")["computed"] == 0
+
+
+@pytest.mark.parametrize("column,value,message", [
+    ("temperature_c", "warm", "row 2 (line 3), column 'temperature_c': expected a number (degrees C), got 'warm'"),
+    ("amplitude_m", "-1e-5", "row 2 (line 3), column 'amplitude_m': expected a positive displacement amplitude (m, peak), got '-1e-5'"),
+    ("file", "nowhere.csv", "row 2 (line 3), column 'file': {dir}/nowhere.csv does not exist; give the test's data file relative to the manifest"),
+    ("kind", "guess", "row 2 (line 3), column 'kind': expected one of direct, identify, got 'guess'"),
+    ("parallel_joints", "two", "row 2 (line 3), column 'parallel_joints': expected an integer >= 1 (joints loaded in parallel), got 'two'"),
+    ("specimen", "", "row 2 (line 3), column 'specimen': empty; name the specimen"),
+])
+def test_bad_manifest_row_one_line_exit_2_nothing_computed(campaign, tmp_path, capsys, column, value, message):
+    manifest, _, _ = campaign
+    rows = manifest_rows(manifest)
+    for r in rows:
+        r.setdefault("kind", "direct")
+    rows[1][column] = value
+    m = write_manifest(manifest.parent / f"bad_{column}.csv", rows)
+    out = tmp_path / "out"
+    assert main(["campaign", str(m), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"jointid campaign: error: {m}: " + message.format(dir=manifest.parent)]
+    assert not out.exists()  # validated before anything was computed or created
+
+
+def test_missing_column_and_empty_manifest(tmp_path, capsys):
+    m = tmp_path / "m.csv"
+    m.write_text("file,specimen,temperature_c,amplitude_m\na.csv,S1,20,1e-5\n")
+    assert main(["campaign", str(m), "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"jointid campaign: error: {m}: missing column 'preload_n' (columns present: file, specimen, temperature_c, amplitude_m); "
+        "a manifest needs file, specimen, temperature_c, amplitude_m, preload_n")
+    m.write_text("file,specimen,temperature_c,amplitude_m,preload_n\n")
+    assert main(["campaign", str(m), "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err.strip() == f"jointid campaign: error: {m}: no tests; add one row per test after the header"
+
+
+def test_simulated_crash_keeps_finished_tests(campaign, tmp_path):
+    """A run that dies after 3 tests wrote nothing but the 3 stored results; the re-run computes only the rest."""
+    manifest, out_full, _ = campaign
+    n = len(manifest_rows(manifest))
+    out = tmp_path / "out"
+    done = []
+
+    class Crash(Exception):
+        pass
+
+    def die(outcome):
+        done.append(outcome)
+        if len(done) == 3:
+            raise Crash
+
+    with pytest.raises(Crash):
+        run_campaign(manifest, out, CampaignOptions(plots=False), workers=1, on_done=die, stream=open(os.devnull, "w"))
+    assert _cache_entries(out) == 3
+    assert not (out / "results.parquet").exists() and not (out / "campaign.json").exists()
+    result = run_campaign(manifest, out, CampaignOptions(plots=False), workers=2, stream=open(os.devnull, "w"))
+    assert (result.summary["computed"], result.summary["reused"]) == (n - 3, 3)
+    assert pq.read_table(out / "results.parquet").equals(pq.read_table(out_full / "results.parquet"))
+
+
+def test_sigkill_mid_run_resumes(campaign, tmp_path):
+    """A real ``kill -9`` of a campaign after its first test: the re-run reuses what was stored and computes the rest."""
+    manifest, out_full, _ = campaign
+    n = len(manifest_rows(manifest))
+    out = tmp_path / "out"
+    jointid = Path(sys.executable).parent / "jointid"
+    proc = subprocess.Popen([str(jointid), "campaign", str(manifest), "--out", str(out), "--workers", "1", "--no-plots"],
+                            stdout=subprocess.PIPE, text=True, start_new_session=True,
+                            env={**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"})
+    try:
+        for line in proc.stdout:
+            if line.startswith(f"campaign: 1/{n} tests done"):
+                os.killpg(proc.pid, signal.SIGKILL)
+                break
+    finally:
+        proc.wait(timeout=60)
+    stored = _cache_entries(out)
+    assert 1 <= stored, "the first finished test was not stored"
+    assert not (out / "campaign.json").exists() or stored == n
+    result = run_campaign(manifest, out, CampaignOptions(plots=False), workers=1, stream=open(os.devnull, "w"))
+    assert (result.summary["computed"], result.summary["reused"]) == (n - stored, stored)
+    assert pq.read_table(out / "results.parquet").equals(pq.read_table(out_full / "results.parquet"))
+
+
+def test_tampered_cache_entry_is_recomputed(campaign, tmp_path):
+    manifest, out_full, _ = campaign
+    out = tmp_path / "out"
+    shutil.copytree(out_full, out)
+    entry = sorted((out / CACHE_DIR).glob("??/*.json"))[0]
+    entry.write_text(entry.read_text().replace('"ok":true', '"ok":false', 1))
+    result = run_campaign(manifest, out, CampaignOptions(plots=False), workers=1, stream=open(os.devnull, "w"))
+    assert result.summary["computed"] == 1 and result.summary["failed"] == []
+
+
+def test_manifest_api(campaign):
+    manifest, _, _ = campaign
+    m = read_manifest(manifest)
+    assert m.extra_columns == ("batch",)
+    assert [t.row for t in m.tests] == list(range(1, len(m.tests) + 1))
+    t = m.tests[0]
+    assert t.kind == "direct" and t.parallel_joints == 2 and t.file.is_file() and t.value("batch") == "000"
