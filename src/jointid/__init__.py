@@ -49,12 +49,15 @@ __getattr__, __dir__, __all__ = attach(
         # measurement: impact and step-sine test processing, virtual tests
         ".measurement.stepsine": ("process_stepsine", "read_stepsine_csv", "StepSineResult"),
         ".measurement.stepsine_synth": ("synthesize_stepsine", "example_stepsine"),
+        ".measurement.campaign_synth": ("synthesize_campaign", "CampaignTruth"),
         ".measurement.impact": ("estimate_frfs", "ImpactRecord", "ImpactOptions", "ImpactFRF"),
         ".measurement.virtual_hammer": ("simulate_hits", "HammerSettings"),
         # methods: inverse, direct
         ".methods.inverse": ("identify_joint", "InverseOptions", "InverseResult"),
         ".methods.coupling": ("identify_joint_coupling", "CouplingOptions", "CouplingResult"),
         ".methods.material_fit": ("fit_material", "MaterialFit", "static_estimate", "fit_zener"),
+        ".methods.master_curve": ("build_master_curve", "MasterCurve", "TemperatureCurve"),
+        ".methods.amplitude_dependence": ("fit_kraus", "KrausFit"),
         # files
         ".io.frf_files": ("read_frf", "write_frf"),
         ".io.output_dir": ("OutputSet",),

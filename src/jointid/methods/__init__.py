@@ -15,6 +15,10 @@ The main API, re-exported here (imported on first use)::
   :mod:`.fit_statistics`: ``ParameterEstimate``;
 * test design -- :mod:`.design`: ``design_layout``, ``LayoutDesign``, ``LayoutPredictor``, ``Sensors``
   (where to measure and hit, from the predicted covariance of the default method).
+* test campaigns -- :mod:`.master_curve`: ``build_master_curve``, ``MasterCurve``, ``TemperatureCurve``
+  (time-temperature superposition); :mod:`.shift_laws`: ``fit_wlf``, ``fit_arrhenius``;
+  :mod:`.shift_estimation` (shift between two curves); :mod:`.amplitude_dependence`: ``fit_kraus``,
+  ``fit_kraus_loss``, ``fit_preload`` (Payne effect, preload);
 * free-structure model updating -- :mod:`.updating`: ``update_free_model``, ``UpdateOptions``,
   ``UpdateResult``, ``ModelFamily``; :mod:`.updating_structure`: ``ScaledMatrixFamily`` (stiffness and
   mass scales and loss factor of a structure's matrices).
@@ -52,6 +56,9 @@ __getattr__, __dir__, __all__ = attach(
         ".design": ("design_layout", "LayoutDesign", "LayoutPredictor", "Sensors"),
         ".updating": ("update_free_model", "UpdateOptions", "UpdateResult", "ModelFamily"),
         ".updating_structure": ("ScaledMatrixFamily",),
+        ".master_curve": ("build_master_curve", "MasterCurve", "TemperatureCurve"),
+        ".shift_laws": ("fit_wlf", "fit_arrhenius", "WLFFit", "ArrheniusFit"),
+        ".amplitude_dependence": ("fit_kraus", "KrausFit", "fit_kraus_loss", "KrausLossFit", "fit_preload", "PreloadFit"),
     },
     submodules=(
         "coupling",
@@ -69,5 +76,9 @@ __getattr__, __dir__, __all__ = attach(
         "design",
         "updating",
         "updating_structure",
+        "master_curve",
+        "shift_laws",
+        "shift_estimation",
+        "amplitude_dependence",
     ),
 )

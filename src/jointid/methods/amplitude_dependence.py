@@ -168,6 +168,14 @@ def fit_kraus(amplitude_m, storage_n_m, storage_std=None) -> KrausFit:
     def resid(p):
         return (kraus_storage(a, *unpack(p)) - v) * w
 
+    def jac(p):
+        K0, Kinf, Ac, m = unpack(p)
+        la = np.log(a / Ac)
+        u = np.exp(2.0 * m * la)
+        D = 1.0 + u
+        g = (K0 - Kinf) * 2.0 * m * u / D**2
+        return np.column_stack([K0 / D, Kinf * (1.0 - 1.0 / D), g, -g * la]) * w[:, None]
+
     order = np.argsort(a)
     vs, as_ = v[order], a[order]
     k0, kinf = float(vs[0]), float(vs[-1])
@@ -184,7 +192,7 @@ def fit_kraus(amplitude_m, storage_n_m, storage_std=None) -> KrausFit:
                 for widen in (1.0, 1.25):  # plateaus beyond the sweep
                     k0s, kis = (k0 * widen, kinf / widen) if k0 > kinf else (k0 / widen, kinf * widen)
                     p0 = np.log([k0s, kis, ac * acs, m0])
-                    sol = least_squares(resid, p0, method="lm", xtol=1e-14, ftol=1e-14, max_nfev=4000)
+                    sol = least_squares(resid, p0, jac=jac, method="lm", xtol=1e-14, ftol=1e-14, max_nfev=4000)
                     if np.all(np.isfinite(sol.fun)) and (best is None or sol.cost < best.cost):
                         best = sol
     if best is None:

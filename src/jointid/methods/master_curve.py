@@ -369,7 +369,9 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
         tried = [p for ti, tj, p in pairs if t in (ti, tj)]
         reason = "; ".join(p.reason for p in tried if p.reason) or "no overlapping neighbour"
         not_overlapping.append((t, f"does not overlap the curves connected to {temps[anchor]:g} deg C ({reason})"))
-        findings.append(f"{t:g} deg C: its curve does not overlap the others; left out of the master curve and the shift laws")
+        findings.append(f"{t:g} deg C: its curve does not overlap the others; left out of the master curve and the shift laws "
+                        "(curves that differ by a constant factor need the vertical shift; a thermorheologically complex "
+                        "material does not superpose)")
     T = np.array([temps[k] for k in nodes])
     # shift laws
     wlf = arr = None

@@ -24,8 +24,10 @@ The laws are compared by ``AIC = chi2 + 2 k`` (k fitted parameters);
 the lower one is preferred (:func:`preferred_law`).
 
 When the reference temperature was not measured, the shift factors are only
-known up to a constant; ``free_offset=True`` fits that constant ``o`` too
-(``s = law(T) + o``) and :meth:`WLFFit.log10_shift` leaves it out.
+known up to a constant; ``free_offset=True`` accounts for that constant ``o``
+(``s = law(T) + o``; :meth:`WLFFit.log10_shift` leaves it out): fitted as a
+parameter, or, when one shift factor has zero variance (the anchor of chained
+shifts, ``s = 0`` there), fixed by it, ``o = -law(T_anchor)``.
 """
 
 from __future__ import annotations
@@ -157,7 +159,14 @@ class ArrheniusFit:
 
 
 def _prepare(temperature_c, log10_shift, covariance, reference_temperature_c, free_offset):
-    """Points to fit and the whitening matrix; drops exact zero-variance points at Tref (the law passes through 0 there)."""
+    """Points to fit, the whitening matrix and the anchor temperature.
+
+    A zero-variance point is the anchor of the shift factors (``s = 0`` by
+    definition). At Tref every law passes through it and it is dropped; with
+    ``free_offset`` (Tref not measured) it fixes the constant,
+    ``o = -law(T_anchor)``, and the other points are fitted as
+    ``s = law(T) - law(T_anchor)``.
+    """
     t = np.asarray(temperature_c, dtype=float).reshape(-1)
     s = np.asarray(log10_shift, dtype=float).reshape(-1)
     if t.shape != s.shape:
@@ -173,13 +182,18 @@ def _prepare(temperature_c, log10_shift, covariance, reference_temperature_c, fr
         if C.shape != (t.size, t.size) or not np.all(np.isfinite(C)):
             raise DataError(f"shift law: covariance must be finite with shape ({t.size},) std or ({t.size}, {t.size})")
     keep = np.ones(t.size, dtype=bool)
-    if C is not None and not free_offset:
+    anchor = None
+    if C is not None:
         zero = np.diag(C) <= 0
-        at_ref = np.abs(t - reference_temperature_c) <= 1e-9
-        if np.any(zero & ~at_ref):
-            raise DataError("shift law: a shift factor away from the reference temperature has zero variance")
         if np.any(np.abs(s[zero]) > 1e-12):
-            raise DataError("shift law: a zero-variance shift factor at the reference temperature is not 0")
+            raise DataError("shift law: a zero-variance shift factor (the anchor) is not 0")
+        if not free_offset:
+            if np.any(zero & (np.abs(t - reference_temperature_c) > 1e-9)):
+                raise DataError("shift law: a shift factor away from the reference temperature has zero variance")
+        elif zero.sum() > 1:
+            raise DataError("shift law: more than one shift factor has zero variance")
+        elif zero.sum() == 1:
+            anchor = float(t[zero][0])
         keep = ~zero
     t, s = t[keep], s[keep]
     W = None
@@ -190,7 +204,7 @@ def _prepare(temperature_c, log10_shift, covariance, reference_temperature_c, fr
         except np.linalg.LinAlgError:
             raise DataError("shift law: the covariance of the shift factors is not positive definite") from None
         W = np.linalg.inv(L)
-    return t, s, W
+    return t, s, W, anchor
 
 
 def _finish(sol_fun, jac, W, n, k):
@@ -241,41 +255,57 @@ def fit_wlf(temperature_c, log10_shift, reference_temperature_c: float, covarian
     DataError
         Fewer points than parameters (2, or 3 with the offset), or bad input.
     """
-    t, s, W = _prepare(temperature_c, log10_shift, covariance, reference_temperature_c, free_offset)
-    k = 3 if free_offset else 2
+    t, s, W, anchor = _prepare(temperature_c, log10_shift, covariance, reference_temperature_c, free_offset)
+    fit_offset = free_offset and anchor is None
+    k = 3 if fit_offset else 2
     if t.size < k:
         raise DataError(f"WLF fit: needs at least {k} shift factors away from the anchor, got {t.size}")
     x = t - reference_temperature_c
+    xa = (anchor - reference_temperature_c) if anchor is not None else 0.0
     # start: x / s = -(c2 + x) / c1 is linear in x
     nz = np.abs(s) > 1e-12
     c1, c2 = 10.0, 100.0
-    if nz.sum() >= 2 and not free_offset:
+    if nz.sum() >= 2 and not free_offset:  # (with an offset the plain start is used)
         A = np.column_stack([np.ones(nz.sum()), x[nz]])
         (a0, a1), *_ = np.linalg.lstsq(A, x[nz] / s[nz], rcond=None)
         if a1 < 0 and a0 < 0:
             c1, c2 = -1.0 / a1, a0 / a1
     Wm = np.eye(t.size) if W is None else W
 
-    def resid(p):
-        law = -p[0] * x / (p[1] + x) + (p[2] if free_offset else 0.0)
-        return Wm @ (s - law)
+    def law(p):
+        return -p[0] * x / (p[1] + x) + (p[2] if fit_offset else 0.0) + p[0] * xa / (p[1] + xa)
 
-    p0 = np.array([c1, c2] + ([0.0] if free_offset else []))
+    def resid(p):
+        return Wm @ (s - law(p))
+
+    def jac(p):
+        cols = [-x / (p[1] + x) + xa / (p[1] + xa), p[0] * x / (p[1] + x) ** 2 - p[0] * xa / (p[1] + xa) ** 2]
+        if fit_offset:
+            cols.append(np.ones_like(x))
+        return -Wm @ np.column_stack(cols)
+
+    p0 = np.array([c1, c2] + ([0.0] if fit_offset else []))
     best = None
-    for scale in (1.0, 0.5, 2.0):
+    for scale in (1.0, 0.5, 2.0):  # further starts only when the first does not converge to a pole-free law
         q0 = p0.copy()
-        q0[1] = max(p0[1] * scale, -x.min() + 1.0)
-        sol = least_squares(resid, q0, method="lm", xtol=1e-14, ftol=1e-14, max_nfev=2000)
+        q0[1] = max(p0[1] * scale, -min(x.min(), xa) + 1.0)
+        sol = least_squares(resid, q0, jac=jac, method="lm", xtol=1e-14, ftol=1e-14, max_nfev=2000)
         if best is None or sol.cost < best.cost:
             best = sol
+        if best.status > 0 and best.x[1] + min(x.min(), xa) > 0:
+            break
     cov, chi2, aic, _ = _finish(best.fun, best.jac, W, t.size, k)
     sd = np.sqrt(np.diag(cov))
     corr = cov[0, 1] / (sd[0] * sd[1]) if np.all(np.isfinite(sd[:2])) and sd[0] > 0 and sd[1] > 0 else math.nan
     p = best.x
-    law = -p[0] * x / (p[1] + x) + (p[2] if free_offset else 0.0)
+    offset, offset_std = (float(p[2]), float(sd[2])) if fit_offset else (0.0, 0.0)
+    if anchor is not None:  # o = -law(T_anchor) = c1 xa / (c2 + xa)
+        offset = float(p[0] * xa / (p[1] + xa))
+        g = np.array([xa / (p[1] + xa), -p[0] * xa / (p[1] + xa) ** 2])
+        offset_std = float(math.sqrt(max(g @ cov[:2, :2] @ g, 0.0))) if np.all(np.isfinite(cov[:2, :2])) else math.inf
     return WLFFit(float(p[0]), float(p[1]), float(sd[0]), float(sd[1]), float(corr),
-                  float(np.sqrt(np.mean((s - law) ** 2))), chi2, aic, float(reference_temperature_c),
-                  float(p[2]) if free_offset else 0.0, float(sd[2]) if free_offset else 0.0, int(t.size))
+                  float(np.sqrt(np.mean((s - law(p)) ** 2))), chi2, aic, float(reference_temperature_c),
+                  offset, offset_std, int(t.size))
 
 
 def fit_arrhenius(temperature_c, log10_shift, reference_temperature_c: float, covariance=None, *,
@@ -291,20 +321,28 @@ def fit_arrhenius(temperature_c, log10_shift, reference_temperature_c: float, co
     -------
     ArrheniusFit
     """
-    t, s, W = _prepare(temperature_c, log10_shift, covariance, reference_temperature_c, free_offset)
-    k = 2 if free_offset else 1
+    t, s, W, anchor = _prepare(temperature_c, log10_shift, covariance, reference_temperature_c, free_offset)
+    fit_offset = free_offset and anchor is None
+    k = 2 if fit_offset else 1
     if t.size < k:
         raise DataError(f"Arrhenius fit: needs at least {k} shift factors away from the anchor, got {t.size}")
-    g = (1.0 / (t + KELVIN) - 1.0 / (reference_temperature_c + KELVIN)) / (GAS_CONSTANT * math.log(10.0))
-    A = np.column_stack([g] + ([np.ones_like(g)] if free_offset else []))
+
+    def basis(tc):
+        return (1.0 / (tc + KELVIN) - 1.0 / (reference_temperature_c + KELVIN)) / (GAS_CONSTANT * math.log(10.0))
+
+    ga = basis(anchor) if anchor is not None else 0.0
+    g = basis(t) - ga
+    A = np.column_stack([g] + ([np.ones_like(g)] if fit_offset else []))
     Wm = np.eye(t.size) if W is None else W
     p, *_ = np.linalg.lstsq(Wm @ A, Wm @ s, rcond=None)
     r = Wm @ (s - A @ p)
     cov, chi2, aic, _ = _finish(r, -(Wm @ A), W, t.size, k)
     sd = np.sqrt(np.diag(cov))
+    offset, offset_std = (float(p[1]), float(sd[1])) if fit_offset else (0.0, 0.0)
+    if anchor is not None:  # o = -law(T_anchor)
+        offset, offset_std = float(-p[0] * ga), float(abs(ga) * sd[0])
     return ArrheniusFit(float(p[0]), float(sd[0]), float(np.sqrt(np.mean((s - A @ p) ** 2))), chi2, aic,
-                        float(reference_temperature_c), float(p[1]) if free_offset else 0.0,
-                        float(sd[1]) if free_offset else 0.0, int(t.size))
+                        float(reference_temperature_c), offset, offset_std, int(t.size))
 
 
 def preferred_law(wlf: WLFFit | None, arrhenius: ArrheniusFit | None) -> str | None:
