@@ -217,3 +217,12 @@ def test_bad_input_one_line():
         build_master_curve([TemperatureCurve(20.0, F, bad), *_exact_curves(temps=(30.0,))], 20.0)
     with pytest.raises(DataError, match="reference temperature"):
         build_master_curve(_exact_curves(), float("nan"))
+
+
+def test_flat_curves_do_not_determine_a_shift():
+    # a purely elastic joint (constant complex stiffness) superposes at any shift: refused, not forced
+    flat = [TemperatureCurve(t, F, np.full(F.size, 1e6 * (1 + 0.1j))) for t in (20.0, 30.0)]
+    mc = build_master_curve(flat, 20.0)
+    assert [t for t, _ in mc.not_overlapping] == [30.0]
+    assert "flat" in mc.not_overlapping[0][1]
+    assert mc.shift_factors == ((20.0, 0.0, 0.0),)

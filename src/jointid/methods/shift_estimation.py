@@ -182,7 +182,8 @@ def estimate_pair_shift(xi, yi, wi, xj, yj, wj, *, ratio: float = 3.0, floor: fl
         si, sj = _window(xi, xj, d)
         if si.sum() < 2 or sj.sum() < 2:
             return PairShift(math.nan, math.nan, math.nan, noise, int(si.sum()), int(sj.sum()), False,
-                             "fewer than 2 lines of each curve in the overlap")
+                             "the best-matching shift leaves fewer than 2 lines of each curve in the overlap "
+                             "(the curves only touch)")
         key = (tuple(si), tuple(sj))
         if key == sel:
             break
@@ -191,6 +192,11 @@ def estimate_pair_shift(xi, yi, wi, xj, yj, wj, *, ratio: float = 3.0, floor: fl
     si, sj = _window(xi, xj, d)
     limit = max(ratio * noise, floor)
     ok = math.isfinite(rms) and rms <= limit and math.isfinite(std)
-    reason = "" if ok else (f"best overlap misfit {rms:.3g} exceeds {limit:.3g} ({ratio:g} x the curves' noise "
-                            f"{noise:.3g} or the floor {floor:g}, ln K units)")
+    if ok:
+        reason = ""
+    elif not math.isfinite(std):
+        reason = "the curves are flat where they overlap: the shift is not determined"
+    else:
+        reason = (f"best overlap misfit {rms:.3g} exceeds {limit:.3g} ({ratio:g} x the curves' noise "
+                  f"{noise:.3g} or the floor {floor:g}, ln K units)")
     return PairShift(d, std, rms, noise, int(si.sum()), int(sj.sum()), bool(ok), reason)
