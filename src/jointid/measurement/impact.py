@@ -50,6 +50,11 @@ from .impact_records import ImpactOptions, ImpactRecord, where_hit
 from .impact_windows import WindowMode, correct_exponential_window, exponential_window, force_window
 from .sensor_correction import roving_sensor_correction
 
+#: An exponential window that keeps less than this fraction of the responses' energy is reported (a ms/s slip).
+WINDOW_MIN_ENERGY = 0.01
+#: A response whose median coherence over the band is below this (with >= 2 averages) is reported as dead.
+DEAD_CHANNEL_COHERENCE = 0.1
+
 __all__ = [
     "ImpactRecord",
     "ImpactOptions",
@@ -93,7 +98,10 @@ class ImpactFRF:
     window_modes : tuple of WindowMode
         Modes fitted for the window correction (empty if none).
     notes : tuple of str
-        Mode bands that were detected but not corrected, and why.
+        Data checks, one line each: a response channel that is flat zero (dead), a median coherence
+        below :data:`DEAD_CHANNEL_COHERENCE`, an exponential window that keeps less than
+        :data:`WINDOW_MIN_ENERGY` of the responses' energy; then mode bands that were detected but
+        not corrected, and why.
     """
 
     frequency: Frequency
@@ -122,7 +130,8 @@ class ImpactFRF:
 
 
 def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: int):
-    """Averaged Gxx (K,), Gyy (K, C), Gxy (K, C) over the kept hits (one batched rfft)."""
+    """Averaged Gxx (K,), Gyy (K, C), Gxy (K, C) over the kept hits (one batched rfft), and the fraction of the
+    responses' energy the exponential window keeps (1.0 without one)."""
     fs = record.sample_rate_hz
     F = record.force[keep]
     Y = record.responses[keep]
@@ -133,13 +142,17 @@ def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: in
     if o.exp_tau_s is not None:
         w = exponential_window(record.n_samples, fs, t_start - o.force_pretrigger_s, o.exp_tau_s)
         F = F * w
+        e0 = float(np.sum(Y ** 2))
         Y = Y * w[:, None, :]
+        kept = float(np.sum(Y ** 2)) / e0 if e0 > 0 else 1.0
+    else:
+        kept = 1.0
     X = scipy.fft.rfft(F, n=n_fft, axis=-1)  # (H, K)
     Yf = scipy.fft.rfft(Y, n=n_fft, axis=-1)  # (H, C, K)
     gxx = np.mean(np.abs(X) ** 2, axis=0)
     gyy = np.mean(np.abs(Yf) ** 2, axis=0).T
     gxy = np.mean(np.conj(X)[:, None, :] * Yf, axis=0).T
-    return gxx, gyy, gxy
+    return gxx, gyy, gxy, kept
 
 
 def estimate_frf(record: ImpactRecord, options: ImpactOptions | None = None) -> ImpactFRF:
@@ -221,6 +234,8 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
 
     rejected: list[RejectedHit] = []
     gxx, gyy, gxy, n_avg = [], [], [], []
+    checks: list[str] = []
+    dead: dict = {}
     for rec in records:
         bad = check_hits(rec, o)
         rejected.extend(bad)
@@ -230,7 +245,15 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
             raise DataError(
                 f"excited node {rec.reference}: all {rec.n_hits} hits were rejected: " + " | ".join(b.reason for b in bad)
             )
-        a, b, c = _spectra(rec, keep, o, n_fft)
+        a, b, c, kept = _spectra(rec, keep, o, n_fft)
+        if kept < WINDOW_MIN_ENERGY:
+            checks.append(
+                f"excited node {rec.reference}: the exponential window (tau {1e3 * o.exp_tau_s:g} ms) keeps "
+                f"{100 * kept:.2g} % of the responses' energy: it damps every mode far more than the structure does; "
+                f"check the time constant (--exp-tau-ms is in ms: {1e3 * o.exp_tau_s:g} ms = {o.exp_tau_s:g} s)"
+            )
+        for ch in np.flatnonzero(~np.any(rec.responses[keep] != 0, axis=(0, 2))):
+            dead.setdefault(rec.response_dofs[ch], []).append(str(rec.reference))
         gxx.append(a[sel])
         gyy.append(b[sel])
         gxy.append(c[sel])
@@ -244,6 +267,15 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
     den = gxx * gyy
     coh = np.divide(np.abs(gxy) ** 2, den, out=np.zeros_like(gyy), where=den > 0)
     coh = np.clip(coh, 0.0, 1.0)
+    for d, refs_d in dead.items():
+        checks.append(f"response {d}: flat zero in every hit of excited node(s) {', '.join(refs_d)} (a dead channel): "
+                      "its FRF is 0 and its coherence 0; check the sensor and its cable")
+    if all(n > 1 for n in n_avg):
+        med = np.median(coh, axis=0)  # (r, c)
+        for i, j in zip(*np.nonzero(med < DEAD_CHANNEL_COHERENCE)):
+            if r0.response_dofs[i] not in dead:
+                checks.append(f"response {r0.response_dofs[i]}, excited node {refs[j]}: median coherence {med[i, j]:.2g} over "
+                              f"the band (below {DEAD_CHANNEL_COHERENCE:g}): a dead or disconnected channel, or no signal")
     freq = Frequency(hz[sel])
     modes: tuple[WindowMode, ...] = ()
     notes: tuple[str, ...] = ()
@@ -266,7 +298,7 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
         rejected=tuple(rejected),
         exp_tau_s=o.exp_tau_s,
         window_modes=modes,
-        notes=notes,
+        notes=tuple(checks) + notes,
     )
 
 
