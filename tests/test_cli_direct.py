@@ -49,14 +49,14 @@ def test_direct_writes_stiffness_fit_and_plot(tmp_path, main, capsys):
     joint = _data(tmp_path / "data.csv")
     out = tmp_path / "out"
     assert main(["direct", str(tmp_path / "data.csv"), "--out", str(out), "--amplitude", str(AMP)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == [".jointid-manifest.json", "direct_fit.json", "direct_stiffness.csv", "direct_stiffness.png"]
+    assert sorted(p.name for p in out.iterdir()) == [".jointid-manifest.json", "direct_fit.json", "direct_stiffness.csv", "direct_stiffness.png", "report.html"]
     rows = _read(out / "direct_stiffness.csv")
     assert list(rows[0]) == ["frequency_hz", "stiffness_real", "stiffness_imag", "magnitude", "loss_factor", "amplitude_ratio", "amplitude_ok"]
     f = np.array([float(r["frequency_hz"]) for r in rows])
     k = np.array([float(r["stiffness_real"]) + 1j * float(r["stiffness_imag"]) for r in rows])
     truth = joint.blocked_transfer_stiffness(f)  # per joint: the CLI divided by 2
     assert np.max(np.abs(np.abs(k) / np.abs(truth) - 1)) < 0.005
-    assert [r["amplitude_ok"] for r in rows] == ["false" if x >= 550 else "true" for x in f]
+    assert [r["amplitude_ok"] for r in rows] == ["0" if x >= 550 else "1" for x in f]
     fit = _strict_load(out / "direct_fit.json")
     m = MATERIALS["B"]
     par = fit["fit"]["parameters"]
@@ -91,7 +91,7 @@ def test_single_joint_median_amplitude_and_mapping(tmp_path, main):
     assert np.max(np.abs(k / (2 * np.abs(joint.blocked_transfer_stiffness(F))) - 1)) < 0.005
     fit = _strict_load(out / "direct_fit.json")
     assert fit["commanded_amplitude_source"] == "median achieved amplitude"
-    assert all(r["amplitude_ok"] == "true" for r in rows)
+    assert all(r["amplitude_ok"] == "1" for r in rows)
 
 
 def _block_rows(f, cycles=5.3, spc=40):
@@ -231,3 +231,22 @@ def test_summary_json_is_strict_with_non_finite_values_as_null():
     d = json.loads(text, parse_constant=refuse)
     assert d["a"] is None and d["b"] == [1.0, None] and d["c"] == {"d": 2.0}
     assert d["non_finite_values"] == "2 value(s) were NaN or infinite and are written as null: a, b[1]"
+
+
+def test_example_twice_replaces_its_own_file_and_refuses_a_users(tmp_path, main, capsys, monkeypatch):
+    """--example goes through the output manifest: a re-run replaces the file jointid wrote, never a user's file."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["direct", "--example", "ex.csv"]) == 0
+    first = (tmp_path / "ex.csv").read_bytes()
+    assert main(["direct", "--example", "ex.csv"]) == 0  # issue 24: the second run said jointid did not write it
+    assert (tmp_path / "ex.csv").read_bytes() == first
+    assert main(["direct", "--example", "other.csv"]) == 0  # another example file is another set: both stay
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".jointid-manifest.json", "ex.csv", "other.csv"]
+    capsys.readouterr()
+    (tmp_path / "mine.csv").write_text("a user's data\n")
+    (tmp_path / "ex.csv").write_text("edited by the user\n")
+    for name, why in (("mine.csv", "exists and was not written by jointid"), ("ex.csv", "was changed after jointid wrote it")):
+        assert main(["direct", "--example", name]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == [f"jointid direct: error: {name} {why}; move it or give --example another file name"]
+    assert (tmp_path / "mine.csv").read_text() == "a user's data\n" and (tmp_path / "ex.csv").read_text() == "edited by the user\n"

@@ -65,13 +65,13 @@ def test_user_file_survives_two_runs_and_no_plots_removes_the_png(tmp_path):
     out.mkdir()
     (out / "notes.md").write_text("my notes")
     assert main(["identify", str(study), "--frf", str(sim / "frf.uff"), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "joint_stiffness.csv", "joint_stiffness.png", "notes.md", "summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "joint_stiffness.csv", "joint_stiffness.png", "notes.md", "report.html", "summary.json"]
     assert main(["identify", str(study), "--frf", str(sim / "frf.uff"), "--out", str(out), "--no-plots"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "joint_stiffness.csv", "notes.md", "summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "joint_stiffness.csv", "notes.md", "report.html", "summary.json"]
     assert (out / "notes.md").read_text() == "my notes"
     # identify into the simulation's directory keeps the FRF file it reads (another command's output)
     assert main(["identify", str(study), "--frf", str(sim / "frf.uff"), "--out", str(sim), "--no-plots"]) == 0
-    assert sorted(p.name for p in sim.iterdir()) == [MANIFEST_NAME, "frf.uff", "joint_stiffness.csv", "summary.json", "true_joint.csv"]
+    assert sorted(p.name for p in sim.iterdir()) == [MANIFEST_NAME, "frf.uff", "joint_stiffness.csv", "report.html", "summary.json", "true_joint.csv"]
 
 
 def test_identify_failure_leaves_dir_exactly_as_before(tmp_path, capsys):

@@ -94,22 +94,45 @@ def test_experiment_is_deterministic_with_seed():
     assert not np.array_equal(a.frf.data, c.frf.data)
 
 
-def test_cli_experiment_writes_uff_and_per_line_errors(tmp_path):
-    text = benchmark_study_path().read_text().replace("duration = 2.0", "duration = 1.0").replace("averages = 5", "averages = 3")
+def test_cli_experiment_is_the_identify_path_on_its_own_file(tmp_path, capsys):
+    """`jointid experiment` prints exactly what `jointid identify` prints on its frf.uff, and errors over the study's band."""
+    text = (benchmark_study_path().read_text().replace("duration = 2.0", "duration = 1.0").replace("averages = 5", "averages = 3")
+            .replace("start = 5.0", "start = 20.0").replace("stop = 1000.0", "stop = 400.0"))
     study = tmp_path / "s.toml"
     study.write_text(text)
     assert main(["experiment", str(study), "--out", str(tmp_path / "o"), "--seed", "1", "--no-plots"]) == 0
-    for name in ("frf.uff", "true_joint.csv", "joint_stiffness.csv", "summary.json", "experiment_errors.csv"):
+    printed = capsys.readouterr().out.splitlines()
+    for name in ("frf.uff", "true_joint.csv", "joint_stiffness.csv", "summary.json", "experiment_errors.csv", "report.html"):
         assert (tmp_path / "o" / name).exists(), name
     rows = list(csv.DictReader(open(tmp_path / "o" / "experiment_errors.csv")))
     assert list(rows[0]) == ["frequency_hz", "translational_magnitude_error", "translational_relative_error",
-                             "translational_loss_factor_error", "coherence_min", "reliable"]
+                             "translational_loss_factor_error", "K_w_w_relative_error", "K_theta_theta_relative_error",
+                             "coherence_min", "reliable"]
     f = np.array([float(r["frequency_hz"]) for r in rows])
     err = np.array([float(r["translational_relative_error"]) for r in rows])
-    assert f[0] >= 5.0 and f[-1] <= 1000.0 and np.allclose(np.diff(f), 1.0)  # the 1 s record's 1 Hz grid
-    assert np.median(err[(f >= 100)]) < 0.1
-    # the UFF file reads back through the identify command
+    assert f[0] == 20.0 and f[-1] == 400.0 and np.allclose(np.diff(f), 1.0)  # the study's band on the 1 s record's 1 Hz grid
+    assert {r["reliable"] for r in rows} <= {"0", "1"}
+    assert np.median(err) < 0.01
+    # the errors are over the study's band (issue 28: a 20-400 Hz study said "over 100-1000 Hz")
+    head = next(x for x in printed if x.startswith("error against the true joint"))
+    assert head.startswith("error against the true joint over the study's band 20-400 Hz (381 lines)")
+    ww = next(x for x in printed if x.startswith("K_w_w: median ") and "90th percentile" in x)
+    assert ww == f"K_w_w: median {100 * np.median(err):.3g} %, 90th percentile {100 * np.percentile(err, 90):.3g} %"
+    # `jointid identify` on the file experiment wrote prints the same per-term medians, findings and estimator
     assert main(["identify", str(study), "--frf", str(tmp_path / "o" / "frf.uff"), "--out", str(tmp_path / "i"), "--no-plots"]) == 0
+    identified = capsys.readouterr().out.splitlines()
+
+    def shared(lines):  # everything after the "wrote ..." summary line, up to experiment's own error lines
+        body = [x for x in lines if not x.startswith(("identified ", "rejected: ", "error against"))]
+        return [x for x in body if "90th percentile" not in x]
+
+    terms = [x for x in shared(identified) if x.startswith("K_") and "median |K|" in x]
+    assert [x.split(":")[0] for x in terms] == ["K_w_w", "K_w_theta", "K_theta_theta"]
+    assert shared(printed) == shared(identified)
+    assert [x.split("; wrote")[0] for x in printed if x.startswith("identified ")] == \
+           [x.split("; wrote")[0] for x in identified if x.startswith("identified ")]
+    a = (tmp_path / "o" / "joint_stiffness.csv").read_text()
+    assert a == (tmp_path / "i" / "joint_stiffness.csv").read_text()  # the same numbers, bit for bit
 
 
 def test_noise_free_periodic_experiment_matches_exact_frfs():

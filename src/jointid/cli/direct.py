@@ -43,7 +43,7 @@ def add_parser(sub) -> None:
         "force; CSV long format with columns frequency_hz, time_s, displacement_m, force_n, one block per test "
         "frequency) into the complex blocked transfer stiffness per joint, fit the elastomer's E, loss factor "
         "and density with the FE joint model, and write DIR/direct_stiffness.csv (N/m per joint), "
-        "DIR/direct_fit.json and DIR/direct_stiffness.png. Every fitted parameter comes with a standard error and "
+        "DIR/direct_fit.json, DIR/direct_stiffness.png and DIR/report.html (self-contained). Every fitted parameter comes with a standard error and "
         "a status; one the data cannot determine (e.g. the density on a band far below the joint's internal mode) "
         "is held at a default or reported as not identified, with a warning. "
         "`jointid direct --example OUT.csv` writes built-in example data to try the command on.",
@@ -192,26 +192,43 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
         out.write_bytes("direct_stiffness.png", png)
     n_flag = int((~ok).sum())
     E, eta, rho = fit.parameters
-    print(
-        f"direct: {ok.size} lines ({n_flag} flagged), {E.describe(1e6, 'MPa')}, {eta.describe()}, "
-        f"{rho.describe()}, residual {fit.residual_rms:.2%}; wrote {out.directory}"
-    )
+    line = (f"direct: {ok.size} lines ({n_flag} flagged), {E.describe(1e6, 'MPa')}, {eta.describe()}, "
+            f"{rho.describe()}, residual {fit.residual_rms:.2%}")
+    from ..report.command_reports import direct_report
+
+    figures = [] if png is None else [("direct_stiffness.png", png, "|K21| per joint, loss factor or phase: measured and fitted")]
+    out.write_text("report.html", direct_report(json.loads(text), [line], figures))
+    print(f"{line}; wrote {out.directory}")
     for w in fit.warnings + (zener.warnings if zener is not None else ()):
         print(f"jointid direct: warning: {w}", file=sys.stderr)
     return 0
 
 
 def _write_example(args) -> int:
-    """``--example OUT.csv``: write the built-in example step-sine data."""
+    """``--example OUT.csv``: write the built-in example step-sine data.
+
+    Written through :class:`~jointid.io.output_dir.OutputSet` in OUT.csv's
+    directory, like every output: a second run replaces the file jointid wrote
+    (listed in that directory's manifest, unchanged since), and a file jointid
+    did not write (or that was edited) is refused. Each example file name is
+    its own set, so writing ``a.csv`` then ``b.csv`` keeps both.
+    """
+    from ..io.output_dir import OutputError
     from ..measurement.stepsine import write_stepsine_csv
     from ..measurement.stepsine_synth import EXAMPLE, example_stepsine
 
     if args.data is not None or args.out is not None:
         raise DataError("--example OUT.csv writes example data only; run `jointid direct OUT.csv --out DIR` on it afterwards")
-    if args.example.exists():
-        raise DataError(f"--example {args.example} exists; jointid does not overwrite a file it did not write: give a new file name")
+    target = Path(args.example)
+    if not target.name or target.name in (".", "..") or target.is_dir():
+        raise DataError(f"--example {args.example}: give a file name, e.g. --example example.csv")
     blocks = example_stepsine()
-    path = write_stepsine_csv(args.example, blocks)
+    try:
+        with OutputSet(target.parent, command=f"direct --example {target.name}") as out:
+            path = out.write_file(target.name, lambda p: write_stepsine_csv(p, blocks))
+    except OutputError as exc:  # OutputSet speaks of --out DIR; here the user gave --example FILE
+        msg = str(exc).replace("choose another --out", "give --example another file name").replace(f"--out {target.parent}", f"--example {args.example}: {target.parent}")
+        raise OutputError(msg) from None
     e = EXAMPLE
     print(
         f"direct: wrote example step-sine data to {path} (Material {e['material']}: E 8.8 MPa, eta 0.15, rho 1100 kg/m^3; "

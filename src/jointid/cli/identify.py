@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from ..io.output_dir import OutputSet
-from ..methods.inverse import dof_term_labels, term_unit
-from ..pipeline import identify, read_measured
 from .common import add_out_argument, add_study_argument, study_from_args
 
-__all__ = ["add_parser", "run", "summary", "write_identification", "stiffness_file", "MAX_PRINTED_FINDINGS"]
+__all__ = [
+    "add_parser", "run", "summary", "write_identification", "stiffness_file", "MAX_PRINTED_FINDINGS",
+    "identify_file", "identification_lines", "term_lines", "output_files",
+]
 
 #: Findings printed on the console (all of them are in summary.json): a 12 x 12 joint may have dozens.
 MAX_PRINTED_FINDINGS = 8
@@ -26,7 +27,7 @@ def add_parser(sub) -> None:
         description="Identify the joint's complex dynamic stiffness matrix (default: weighted receptance coupling with per-term uncertainty; [identification] method = \"hong-lee\" for the paper's method) from FRFs of the "
         "constrained beam (UFF58 .uff/.unv or the documented CSV layout) and the study's free-beam FE model. "
         "Uses the file's lines inside the study's [frequency] start..stop. Writes DIR/joint_stiffness.csv, "
-        "DIR/summary.json and DIR/joint_stiffness.png. Units: K_w_w N/m, K_w_theta N/rad, K_theta_w N*m/m, "
+        "DIR/summary.json, DIR/joint_stiffness.png and DIR/report.html (self-contained: findings, figures, what to trust, inputs). Units: K_w_w N/m, K_w_theta N/rad, K_theta_w N*m/m, "
         "K_theta_theta N*m/rad; theta = dw/dx (rad). A [structure] study identifies all its [[joint]]s at once "
         "(one DIR/joint_stiffness_<name>.csv each when there are several; K_x_ry for a joint on one node, K_101x_201x on two).",
     )
@@ -39,6 +40,8 @@ def add_parser(sub) -> None:
 
 def _terms(result) -> dict:
     """Per term: median magnitude and loss factor (and, for the receptance method, reliability and smoothing)."""
+    from ..methods.inverse import dof_term_labels
+
     terms = {}
     labels = dof_term_labels(result.joint_dofs)
     for a, la in enumerate(labels):
@@ -79,6 +82,7 @@ def summary(result, study, source: Path) -> dict:
         "reliable_fraction": float(np.mean(result.reliable)),
     }
     if study.is_structure:
+        from ..methods.inverse import dof_term_labels, term_unit
         from ..pipeline_structure import cross_joint_ratio, split_joints
 
         out["joints"] = {}
@@ -133,8 +137,8 @@ def summary(result, study, source: Path) -> dict:
     return out
 
 
-def write_identification(out: OutputSet, result, study, source: Path, plots: bool = True, truth=None) -> None:
-    """Stage the joint stiffness CSV(s), ``summary.json`` and (``plots``) the figures in ``out``.
+def write_identification(out: OutputSet, result, study, source: Path, plots: bool = True, truth=None, notes=()) -> None:
+    """Stage the joint stiffness CSV(s), ``summary.json``, ``report.html`` and (``plots``) the figures in ``out``.
 
     A beam study, or a structure study with one joint: ``joint_stiffness.csv``
     and ``joint_stiffness.png``; a structure study with several joints: per
@@ -142,52 +146,150 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
     Structure studies also get ``joint_matrix[_<name>].png`` (|K_ij| of every
     term at a few frequencies). ``source`` is the FRF file named in
     ``summary.json``; ``truth`` (F, n, n) on ``result.joint_dofs``, optional,
-    is drawn dashed. The files appear when ``out`` commits.
+    is drawn dashed. ``report.html`` (:func:`jointid.report.identification_report`)
+    holds the findings, the figures (embedded), what to trust and the inputs
+    (``notes``: the FRF file's unit conversions and skipped records). The files
+    appear when ``out`` commits.
     """
+    from ..report.identification import identification_report
+
+    figures = []  # (file name, PNG bytes, caption) for the report
+
+    def figure(name: str, fig, caption: str) -> None:
+        from ..plots.style import figure_png
+
+        png = figure_png(fig)
+        out.write_bytes(name, png)
+        figures.append((name, png, caption))
+
+    caption = "|K| with its 90 % band (log axis), loss factor or phase of the diagonal terms; shaded: term unreliable"
     if not study.is_structure:
         out.write_csv("joint_stiffness.csv", result.columns())
-        out.write_text("summary.json", json.dumps(summary(result, study, source), indent=2) + "\n")
         if plots:
-            out.write_figure("joint_stiffness.png", result.plot(truth=truth))
-        return
-    from ..pipeline_structure import split_joints
+            figure("joint_stiffness.png", result.plot(truth=truth), caption)
+    else:
+        from ..pipeline_structure import split_joints
 
-    i = 0
-    for name, part in split_joints(study, result).items():
-        k = len(part.joint_dofs)
-        csv = stiffness_file(study, name)
-        out.write_csv(csv, part.columns())
-        if plots:
-            from ..plots.joint_matrix import plot_joint_matrix
+        i = 0
+        for name, part in split_joints(study, result).items():
+            k = len(part.joint_dofs)
+            csv = stiffness_file(study, name)
+            out.write_csv(csv, part.columns())
+            if plots:
+                from ..plots.joint_matrix import plot_joint_matrix
 
-            t = None if truth is None else truth[:, i:i + k, i:i + k]
-            out.write_figure(csv.replace(".csv", ".png"), part.plot(truth=t))
-            out.write_figure(csv.replace("joint_stiffness", "joint_matrix").replace(".csv", ".png"), plot_joint_matrix(part, title=name))
-        i += k
-    out.write_text("summary.json", json.dumps(summary(result, study, source), indent=2) + "\n")
+                t = None if truth is None else truth[:, i:i + k, i:i + k]
+                figure(csv.replace(".csv", ".png"), part.plot(truth=t), f"joint {name}: {caption}")
+                figure(csv.replace("joint_stiffness", "joint_matrix").replace(".csv", ".png"), plot_joint_matrix(part, title=name),
+                       f"joint {name}: |K_ij| of every term at a few frequencies")
+            i += k
+    info = summary(result, study, source)
+    out.write_text("summary.json", json.dumps(info, indent=2) + "\n")
+    lines = identification_lines(result, study, max_findings=None)
+    out.write_text("report.html", identification_report(info, lines, notes, figures))
+
+
+def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, truth=None, shown: Path | None = None):
+    """The ``jointid identify`` path: read ``path`` as the study describes it, identify, stage the outputs in ``out``.
+
+    One function for ``identify`` and ``experiment`` (which runs it on the
+    ``frf.uff`` it staged), so both identify from the same data (FRFs *and*
+    coherence, :func:`jointid.pipeline.read_measured`) in the same way.
+    Prints the file's notes (units converted, records skipped) as
+    ``<shown>: <note>``; stages the CSV(s), ``summary.json``, the figures
+    (``plots``) and ``report.html`` (:func:`write_identification`).
+
+    Parameters
+    ----------
+    path : Path
+        The FRF file to read (for ``experiment``: the staged file).
+    shown : Path, optional
+        The name of the file in messages, ``summary.json`` and the report (default ``path``).
+    truth : ndarray, shape (F, n, n), optional
+        True joint stiffness, drawn dashed in the figures.
+
+    Returns
+    -------
+    result : CouplingResult or InverseResult
+    measured : FRF
+        The file as read (its ``notes`` say what was converted or skipped).
+    """
+    from ..pipeline import identify, read_measured
+
+    shown = path if shown is None else shown
+    measured = read_measured(study, path)
+    for note in measured.notes:  # unit conversion, skipped records
+        print(f"{shown}: {note}")
+    result = identify(study, measured)
+    write_identification(out, result, study, shown, plots=plots, truth=truth, notes=measured.notes)
+    return result, measured
+
+
+def term_lines(result, study) -> list[str]:
+    """One console line per term (each independent term of a joint of up to 3 DOFs, else the diagonal ones).
+
+    The figures are those of ``summary.json`` (``terms``): median ``|K|`` with
+    its unit, median loss factor (where ``Re K > 0``), and, for the receptance
+    method, the median predicted relative error and the fraction of reliable lines.
+    """
+    s = summary(result, study, Path("-"))
+    if study.is_structure:
+        blocks = [(f"{name}: " if len(s["joints"]) > 1 else "", j["terms"], j["units"]) for name, j in s["joints"].items()]
+    else:
+        blocks = [("", s["terms"], s["units"])]
+    lines = []
+    for prefix, terms, units in blocks:
+        names = list(terms)  # K_{a}_{b}, row-major over the joint's DOFs
+        n = int(round(len(names) ** 0.5))
+        for idx, name in enumerate(names):
+            i, j = divmod(idx, n)
+            if j < i or (n > 3 and i != j):
+                continue
+            t = terms[name]
+            text = f"{prefix}{name}: median |K| {t['median_magnitude']:.4g} {units.get(name, '')}"
+            eta = t.get("median_loss_factor")
+            if i == j:  # a loss factor of a coupling term means nothing
+                text += f", loss factor {eta:.3g}" if eta is not None else ", no loss factor (Re K <= 0 on every line)"
+            if "reliable_fraction" in t:
+                err = t.get("median_predicted_relative_std")
+                text += f", predicted error {100 * err:.2g} %" if err is not None else ", no predicted error"
+                text += f", reliable on {100 * t['reliable_fraction']:.0f} % of lines"
+            lines.append(text)
+    return lines
+
+
+def identification_lines(result, study, wrote=(), max_findings: int | None = MAX_PRINTED_FINDINGS) -> list[str]:
+    """What ``jointid identify`` prints after an identification: a summary line, the estimator, a line per term, the findings.
+
+    ``wrote``: paths named at the end of the first line; ``max_findings``: the
+    findings shown (None: all; the rest are counted, they are all in ``summary.json``).
+    """
+    f = result.frequency.hz
+    what = f"{len(study.joints)} joints, " if study.is_structure and len(study.joints) > 1 else ""
+    first = (f"identified {what}{len(result.joint_dofs)}x{len(result.joint_dofs)} joint stiffness on {f.size} lines "
+             f"({f[0]:g}-{f[-1]:g} Hz); {100 * np.mean(result.reliable):.0f}% of lines reliable")
+    lines = [first + (f"; wrote {', '.join(str(p) for p in wrote)}" if wrote else "")]
+    if hasattr(result, "describe_estimator"):
+        lines.append(f"estimator: {result.describe_estimator()}")
+    lines.extend(term_lines(result, study))
+    findings = getattr(result, "findings", lambda: [])()
+    shown = findings if max_findings is None else findings[:max_findings]
+    lines.extend(shown)
+    if len(findings) > len(shown):
+        lines.append(f"... and {len(findings) - len(shown)} more findings in summary.json")
+    return lines
+
+
+def output_files(study) -> list[str]:
+    """The joint stiffness CSV(s) and ``report.html``: the files ``identify`` names on its summary line."""
+    files = [stiffness_file(study, j.name) for j in study.joints] if study.is_structure else ["joint_stiffness.csv"]
+    return files + ["report.html"]
 
 
 def run(args: argparse.Namespace) -> int:
     study = study_from_args(args)
-    measured = read_measured(study, args.frf)
-    for note in measured.notes:  # unit conversion, skipped records
-        print(f"{args.frf}: {note}")
     with OutputSet(args.out, command="identify") as out:
-        result = identify(study, measured)
-        write_identification(out, result, study, args.frf, plots=not args.no_plots)
-    f = result.frequency.hz
-    files = [stiffness_file(study, j.name) for j in study.joints] if study.is_structure else ["joint_stiffness.csv"]
-    what = f"{len(study.joints)} joints, " if study.is_structure and len(study.joints) > 1 else ""
-    print(
-        f"identified {what}{len(result.joint_dofs)}x{len(result.joint_dofs)} joint stiffness on {f.size} lines "
-        f"({f[0]:g}-{f[-1]:g} Hz); {100 * np.mean(result.reliable):.0f}% of lines reliable; "
-        f"wrote {', '.join(str(out.path(x)) for x in files)}"
-    )
-    if hasattr(result, "describe_estimator"):
-        print(f"estimator: {result.describe_estimator()}")
-    findings = getattr(result, "findings", lambda: [])()
-    for finding in findings[:MAX_PRINTED_FINDINGS]:
-        print(finding)
-    if len(findings) > MAX_PRINTED_FINDINGS:
-        print(f"... and {len(findings) - MAX_PRINTED_FINDINGS} more findings in {out.path('summary.json')}")
+        result, _ = identify_file(study, args.frf, out, plots=not args.no_plots)
+    for line in identification_lines(result, study, wrote=[out.path(x) for x in output_files(study)]):
+        print(line)
     return 0

@@ -30,7 +30,8 @@ def add_parser(sub) -> None:
         "them ([measurement] axis and points), over the study's [frequency] band. The fit is on the FRFs themselves "
         "(log-magnitude and phase, weighted by coherence where the file has it), so E and density separate through "
         "the FRF level. Writes DIR/update.json (values with standard errors, correlation, residual before/after), "
-        "DIR/updated_study.toml (the study with the determined values written in) and DIR/update.png (FRF overlay). "
+        "DIR/updated_study.toml (the study with the determined values written in), DIR/update.png (FRF overlay) and "
+        "DIR/report.html (self-contained: findings, figure, what to trust, inputs). "
         "A parameter the FRFs cannot determine is reported as such and keeps the study's value. "
         "A [structure] study fits stiffness_scale, mass_scale and loss_factor of its free model "
         "stiffness_scale K (1 + j loss_factor) - w^2 mass_scale M on the observed x excited FRFs; updated_study.toml "
@@ -120,12 +121,18 @@ def run(args: argparse.Namespace) -> int:
         report.update({"study": study.source, "frf_file": str(args.frf), "fitted": list(names)})
         out.write_text("update.json", json.dumps(report, indent=2) + "\n")
         out.write_text("updated_study.toml", new_text)
+        figures = []
         if not args.no_plots:
-            out.write_figure("update.png", result.plot())
+            from ..plots.style import figure_png
+
+            png = figure_png(result.plot())
+            out.write_bytes("update.png", png)
+            figures.append(("update.png", png, "measured FRFs, the initial and the updated model"))
+        residual = f"residual (rms |ln(H_model / H_measured)|) {result.residual_before:.3g} -> {result.residual_after:.3g}"
+        from ..report.command_reports import update_report
+
+        out.write_text("report.html", update_report(report, [*result.describe(), residual], figures))
     for line in result.describe():
         print(line)
-    print(
-        f"residual (rms |ln(H_model / H_measured)|) {result.residual_before:.3g} -> {result.residual_after:.3g}; "
-        f"wrote {out.path('updated_study.toml')} and {out.path('update.json')}"
-    )
+    print(f"{residual}; wrote {out.path('updated_study.toml')}, {out.path('update.json')} and {out.path('report.html')}")
     return 0

@@ -17,7 +17,7 @@ __all__ = ["write_csv", "format_csv"]
 
 def _fmt(v) -> str:
     if isinstance(v, (bool, np.bool_)):
-        return "true" if v else "false"
+        return "1" if v else "0"  # numpy's loadtxt/genfromtxt read true/false as NaN (truthy)
     if isinstance(v, (int, np.integer)):
         return str(int(v))
     if isinstance(v, (float, np.floating)):
@@ -28,7 +28,8 @@ def _fmt(v) -> str:
 def format_csv(columns: Mapping[str, Sequence]) -> str:
     """The CSV text of equal-length ``columns`` (name -> values), header row first.
 
-    Floats are written with full precision (``repr``), booleans as ``true``/``false``.
+    Floats are written with full precision (``repr``), booleans as ``1``/``0`` (numbers every
+    CSV reader parses: ``numpy.genfromtxt`` reads ``true``/``false`` as NaN, which is truthy).
     """
     names = list(columns)
     cols = [np.asarray(columns[k]) for k in names]

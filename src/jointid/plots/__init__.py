@@ -10,7 +10,9 @@ The main API, re-exported here (matplotlib is imported on first use, not by ``im
 * :mod:`.studies` -- ``plot_terms``, ``plot_conditions``;
 * :mod:`.design` -- ``plot_layout_design`` (also ``LayoutDesign.plot()``);
 * :mod:`.noise_robustness` -- ``plot_band_examples``, ``plot_error_vs_noise``;
-* :mod:`.style` -- ``new_figure``, ``save_figure``.
+* :mod:`.joint_stiffness` -- ``plot_joint_stiffness`` (also ``CouplingResult.plot()``);
+* :mod:`.nvh_axes` -- log frequency axes, ``|K|`` bands, loss factor or phase, robust limits;
+* :mod:`.style` -- ``new_figure``, ``save_figure``, ``figure_png``.
 """
 
 from .._lazy import attach
@@ -26,7 +28,8 @@ __getattr__, __dir__, __all__ = attach(
         ".studies": ("plot_terms", "plot_conditions"),
         ".design": ("plot_layout_design",),
         ".noise_robustness": ("plot_band_examples", "plot_error_vs_noise"),
-        ".style": ("new_figure", "save_figure"),
+        ".nvh_axes": ("set_frequency_axis", "loss_or_phase", "magnitude_band"),
+        ".style": ("new_figure", "save_figure", "figure_png"),
     },
-    submodules=("frf", "impact", "inverse", "joint_stiffness", "direct", "studies", "design", "noise_robustness", "style"),
+    submodules=("frf", "impact", "inverse", "joint_stiffness", "nvh_axes", "direct", "studies", "design", "noise_robustness", "style"),
 )

@@ -1,4 +1,4 @@
-"""Figures of a robust identification: each term with its 90 % band, loss factor or phase, flags."""
+"""Figures of a robust identification: each term's |K| with its 90 % band, loss factor or phase, flags."""
 
 from __future__ import annotations
 
@@ -6,23 +6,91 @@ import numpy as np
 
 from ..methods.coupling import Z90 as _Z90
 from ..methods.inverse import dof_term_labels, term_unit
+from .nvh_axes import loss_or_phase, loss_or_phase_std, magnitude_band, robust_limits, robust_log_limits, set_frequency_axis
 from .style import new_figure
 
-__all__ = ["plot_joint_stiffness"]
+__all__ = ["plot_joint_stiffness", "draw_term_magnitude", "draw_loss_or_phase"]
+
+_UNRELIABLE = dict(color="0.88", lw=0, step="mid", zorder=0)
+
+
+def _shade(ax, f, bad, label: bool) -> None:
+    """Grey background on the lines where the term is unreliable (one legend entry)."""
+    if bad.any():
+        ax.fill_between(f, 0, 1, where=bad, transform=ax.get_xaxis_transform(), label="term unreliable" if label else None, **_UNRELIABLE)
+
+
+def draw_term_magnitude(ax, f, k, std_real, std_imag, per_line=None, truth=None, bad=None, unit: str = "", name: str = "K"):
+    """``|K|`` on a log axis with its 90 % band, the per-line estimates as faint dots, the truth dashed.
+
+    The y limits cover the estimate, its band (up to a decade around the
+    estimate) and the truth, not the scatter of the per-line estimates.
+    Every artist has a legend entry.
+    """
+    mag = np.abs(k)
+    lo, hi = magnitude_band(k, std_real, std_imag, _Z90)
+    floor = mag / 1e3
+    if per_line is not None:
+        ax.plot(f, np.abs(per_line), ".", ms=1.5, color="0.45", alpha=0.35, zorder=1, label="per-line estimate (not smoothed)")
+    ax.fill_between(f, np.maximum(lo, floor), hi, color="C0", alpha=0.3, lw=0, zorder=2, label="90 % band")
+    ax.plot(f, mag, color="C0", lw=1.4, zorder=3, label="estimate")
+    if truth is not None:
+        ax.plot(f, np.abs(truth), "k--", lw=1.0, zorder=5, label="true")
+    if bad is not None:
+        _shade(ax, f, bad, label=True)
+    ax.set_yscale("log")
+    lim = robust_log_limits(mag, np.clip(hi, mag / 10, mag * 10), np.clip(lo, mag / 10, None), None if truth is None else np.abs(truth))
+    if lim is not None:
+        ax.set_ylim(*lim)
+    ax.set_ylabel(f"|{name}| [{unit}]")
+    ax.grid(True, which="both", alpha=0.3)
+
+
+def draw_loss_or_phase(ax, f, k, std_real=None, std_imag=None, truth=None, bad=None) -> str:
+    """The loss factor of a diagonal term (or its phase where ``Re K`` crosses zero) with its 90 % band.
+
+    Returns ``"loss factor"`` or ``"phase"`` (:func:`jointid.plots.nvh_axes.loss_or_phase`).
+    """
+    force = bool(np.any(k.real <= 0) or (truth is not None and np.any(truth.real <= 0)))
+    val, kind = loss_or_phase(f, k, force_phase=force)
+    parts = [val]
+    if std_real is not None:
+        s = _Z90 * loss_or_phase_std(k, std_real, std_imag, kind)
+        width = np.nanmedian(np.abs(val)) + 1e-12 if np.isfinite(val).any() else 1.0
+        s = np.minimum(s, 3 * width)  # a band wider than the curve's scale says nothing more: clip for the axis
+        ax.fill_between(f, val - s, val + s, color="C2", alpha=0.3, lw=0, zorder=2, label="90 % band")
+        parts += [val - s, val + s]
+    ax.plot(f, val, color="C2", lw=1.3, zorder=3, label="estimate")
+    if truth is not None:
+        t, _ = loss_or_phase(f, truth, force_phase=kind == "phase")
+        ax.plot(f, t, "k--", lw=1.0, zorder=5, label="true")
+        parts.append(t)
+    if bad is not None:
+        _shade(ax, f, bad, label=True)
+    lim = robust_limits(*parts, include=(0.0,))
+    if lim is not None:
+        ax.set_ylim(*lim)
+    ax.set_ylabel("phase [deg]" if kind == "phase" else "loss factor [-]")
+    ax.grid(True, which="both", alpha=0.3)
+    return kind
 
 
 def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
-    """Plot a :class:`~jointid.methods.coupling.CouplingResult`.
+    """Plot a :class:`~jointid.methods.coupling.CouplingResult` as an NVH engineer reads it.
 
     A joint of more than 3 DOFs (a 3-D mount) gets the compact figure of
-    :func:`jointid.plots.joint_matrix.plot_joint_terms` instead (diagonal terms
-    and the largest couplings); below, up to 3 DOFs (the beam's joint):
-    one column per independent term (upper triangle). Top: the real and
-    imaginary parts with their 90 % bands (+-1.645 sigma) and the per-line
-    estimates as faint dots; lines where the term is unreliable are shaded.
-    Bottom: the loss factor ``Im/Re`` on the lines where the storage part is
-    positive (elsewhere it is not a loss factor and is not drawn; the title says
-    how many lines). The truth (if given) is drawn black, dashed, on top.
+    :func:`jointid.plots.joint_matrix.plot_joint_terms` instead. Up to 3 DOFs
+    (the beam's joint): one column per independent term (upper triangle).
+    Top: ``|K|`` on a log axis with its 90 % band (+-1.645 sigma, first order),
+    the per-line estimates as faint dots; lines where the term is unreliable are
+    shaded. Bottom, diagonal terms only: the loss factor ``Im/Re`` with its band,
+    or the phase of K in degrees when ``Re K`` crosses zero in the band (a loss
+    factor would run to +-infinity there); under the first coupling term, the
+    predicted relative error (1 sigma) of every term against the reliability
+    threshold. Axes are scaled to the estimate and its band, not to the per-line
+    scatter; the frequency axis is logarithmic when the band spans a decade.
+    The truth (if given) is drawn black, dashed, on top. Every artist has a
+    legend entry.
 
     Parameters
     ----------
@@ -43,43 +111,51 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
     labels = dof_term_labels(dofs)
     terms = [(i, j) for i in range(len(dofs)) for j in range(i, len(dofs))]
     if axes is None:
-        fig, axes = new_figure(2, len(terms), figsize=(4.4 * len(terms) + 1, 6.5), height_ratios=[2, 1.2])
+        fig, axes = new_figure(2, len(terms), figsize=(4.6 * len(terms) + 0.6, 7.0), height_ratios=[1.6, 1])
     else:
         fig = np.asarray(axes).flat[0].figure
     axes = np.asarray(axes).reshape(2, len(terms))
+    error_panel_drawn = False
     for c, (i, j) in enumerate(terms):
-        di, dj = labels[i], labels[j]
+        name = f"K_{labels[i]}_{labels[j]}"
         k, sr, si = result.stiffness[:, i, j], result.std_real[:, i, j], result.std_imag[:, i, j]
-        ax, ax_l = axes[:, c]
-        for part, val, sd, color in (("Re", k.real, sr, "C0"), ("Im", k.imag, si, "C1")):
-            ax.plot(f, getattr(result.per_line[:, i, j], "real" if part == "Re" else "imag"), ".", ms=1.5, color=color, alpha=0.25, zorder=1)
-            ax.fill_between(f, val - _Z90 * sd, val + _Z90 * sd, color=color, alpha=0.25, lw=0, zorder=2, label=f"{part}: 90 % band")
-            ax.plot(f, val, color=color, lw=1.2, zorder=3, label=f"{part} K_{di}_{dj}")
-        storage = k.real > 0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            eta = np.where(storage, k.imag / k.real, np.nan)
-        ax_l.plot(f, eta, color="C2", lw=1.2, zorder=3, label="identified")
-        if truth is not None:
-            t = truth[:, i, j]
-            ax.plot(f, t.real, "k--", lw=1.0, zorder=5, label="true")
-            ax.plot(f, t.imag, "k--", lw=1.0, zorder=5)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ax_l.plot(f, np.where(t.real > 0, t.imag / t.real, np.nan), "k--", lw=1.0, zorder=5, label="true")
+        t = None if truth is None else truth[:, i, j]
         bad = ~result.reliable_terms[:, i, j]
+        ax, ax_l = axes[:, c]
+        draw_term_magnitude(ax, f, k, sr, si, per_line=result.per_line[:, i, j], truth=t, bad=bad,
+                            unit=term_unit(dofs[i], dofs[j]), name=name)
+        ax.set_title(f"{name} ({100 * (~bad).mean():.0f} % of lines reliable)")
+        ax.legend(fontsize="x-small", loc="best")
+        if i == j:
+            kind = draw_loss_or_phase(ax_l, f, k, sr, si, truth=t, bad=bad)
+            ax_l.set_title(f"{name}: " + ("loss factor Im K / Re K" if kind == "loss factor" else
+                           "phase (Re K crosses 0: no loss factor there)"), fontsize="small")
+            ax_l.legend(fontsize="x-small", loc="best")
+        elif not error_panel_drawn:
+            _draw_predicted_errors(ax_l, result, labels)
+            error_panel_drawn = True
+        else:
+            ax_l.axis("off")
         for a in (ax, ax_l):
-            a.grid(True, alpha=0.3)
-            if bad.any():
-                a.fill_between(f, 0, 1, where=bad, transform=a.get_xaxis_transform(), color="0.88", lw=0, step="mid", zorder=0)
-        ax.set_title(f"K_{di}_{dj} ({100 * (~bad).mean():.0f} % of lines reliable)")
-        ax.set_ylabel(f"K_{di}_{dj} [{term_unit(dofs[i], dofs[j])}]")
-        ax_l.set_ylabel("loss factor [-]")
-        ax_l.set_title(f"loss factor where Re K > 0 ({int(storage.sum())} of {f.size} lines)", fontsize="small")
-        ax_l.set_xlabel("frequency [Hz]")
-        finite = eta[np.isfinite(eta)]
-        if finite.size:
-            lo, hi = np.percentile(finite, [2, 98])
-            ax_l.set_ylim(min(lo, 0.0) - 0.05, max(hi, 0.2) + 0.05)
-        if c == 0:
-            ax.legend(fontsize="x-small", ncol=2)
-    fig.suptitle(f"joint stiffness ({result.method}, weighting: {result.weighting}); shaded: term unreliable")
+            set_frequency_axis(a, f, label=a is ax_l)
+    fig.suptitle(f"joint stiffness ({result.method}, estimator: {result.estimator}, weighting: {result.weighting}); "
+                 "shaded: term unreliable")
     return fig
+
+
+def _draw_predicted_errors(ax, result, labels) -> None:
+    """Predicted relative error (1 sigma) of each independent term, log axis, with the reliability threshold."""
+    f = result.frequency.hz
+    rel = result.relative_std
+    n = len(labels)
+    for c, (i, j) in enumerate((i, j) for i in range(n) for j in range(i, n)):
+        ax.plot(f, rel[:, i, j], lw=1.0, color=f"C{c}", label=f"K_{labels[i]}_{labels[j]}")
+    ax.axhline(result.options.max_relative_std, color="C3", ls=":", lw=1.2, label=f"threshold {result.options.max_relative_std:g}")
+    ax.set_yscale("log")
+    finite = rel[np.isfinite(rel) & (rel > 0)]
+    if finite.size:
+        ax.set_ylim(max(np.percentile(finite, 1) / 2, 1e-6), max(np.percentile(finite, 99) * 2, 2 * result.options.max_relative_std))
+    ax.set_ylabel("predicted relative error (1 sigma)")
+    ax.set_title("predicted error of each term; above the threshold: unreliable", fontsize="small")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize="x-small", loc="best", ncol=2)

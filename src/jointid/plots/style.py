@@ -9,7 +9,7 @@ from matplotlib.figure import Figure
 
 from ..io.atomic import atomic_path
 
-__all__ = ["new_figure", "save_figure"]
+__all__ = ["new_figure", "save_figure", "figure_png"]
 
 
 def new_figure(rows: int = 1, cols: int = 1, height_ratios=None, figsize=(8.0, 6.0), sharex: bool = True):
@@ -33,3 +33,12 @@ def save_figure(fig: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
     with atomic_path(path, suffix=".png") as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     return Path(path)
+
+
+def figure_png(fig: Figure, dpi: int = 120) -> bytes:
+    """``fig`` as PNG bytes (to write with ``OutputSet.write_bytes`` and embed in a report)."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()

@@ -25,13 +25,19 @@ class Table:
 
 @dataclass(frozen=True)
 class Section:
-    """A report section: title, paragraphs, tables and figures (name, PNG bytes, caption)."""
+    """A report section: title, paragraphs, a bulleted list, tables and figures (name, PNG bytes, caption).
+
+    ``items`` (short statements, e.g. what to trust and what not) are drawn as a
+    list after the paragraphs. A figure's ``name`` is its file: ``"x.png"`` (a
+    path relative to the report) as given, a bare name ``"x"`` as ``figures/x.png``.
+    """
 
     title: str
     anchor: str
     paragraphs: Sequence[str] = ()
     tables: Sequence[Table] = ()
     figures: Sequence[tuple[str, bytes, str]] = field(default_factory=tuple)
+    items: Sequence[str] = ()
 
 
 _CSS = """
@@ -46,6 +52,7 @@ th { background: #f0f0f0; } td:first-child, th:first-child { text-align: left; }
 figure { margin: 1em 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
 figcaption { font-size: .9em; color: #555; }
 .meta { color: #666; font-size: .9em; }
+li { margin: .2em 0; }
 nav ul { columns: 2; }
 """
 
@@ -57,7 +64,11 @@ def _table_html(t: Table) -> str:
 
 
 def render_report(title: str, meta: str, sections: Sequence[Section]) -> str:
-    """The HTML page (a string) for ``sections``; figures are embedded as base64 PNG."""
+    """The HTML page (a string) for ``sections``; figures are embedded as base64 PNG, the CSS inline.
+
+    The page references nothing outside itself (no scripts, style sheets,
+    fonts or image files), so it opens offline and can be mailed as one file.
+    """
     nav = "".join(f'<li><a href="#{s.anchor}">{html.escape(s.title)}</a></li>' for s in sections)
     parts = [
         "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
@@ -67,12 +78,15 @@ def render_report(title: str, meta: str, sections: Sequence[Section]) -> str:
     for s in sections:
         parts.append(f"<section id='{s.anchor}'><h2>{html.escape(s.title)}</h2>")
         parts.extend(f"<p>{html.escape(p)}</p>" for p in s.paragraphs)
+        if s.items:
+            parts.append("<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in s.items) + "</ul>")
         parts.extend(_table_html(t) for t in s.tables)
         for name, png, caption in s.figures:
             data = base64.b64encode(png).decode("ascii")
+            file = name if name.endswith(".png") else f"figures/{name}.png"
             parts.append(
                 f"<figure><img alt='{html.escape(name)}' src='data:image/png;base64,{data}'>"
-                f"<figcaption>{html.escape(caption)} (figures/{html.escape(name)}.png)</figcaption></figure>"
+                f"<figcaption>{html.escape(caption)} ({html.escape(file)})</figcaption></figure>"
             )
         parts.append("</section>")
     parts.append("</body></html>")

@@ -1,0 +1,152 @@
+"""Axes as an NVH engineer reads them: log frequency, |K| on a log axis with its band, loss factor or phase.
+
+Small helpers shared by the stiffness figures (:mod:`.joint_stiffness`,
+:mod:`.studies`, :mod:`.direct`):
+
+* :func:`set_frequency_axis` -- a log frequency axis when the band spans a decade or more;
+* :func:`magnitude_band` -- the 90 % band of ``|K|`` from the standard deviations of Re and Im;
+* :func:`loss_or_phase` -- the loss factor ``Im K / Re K`` while ``Re K > 0`` on every line,
+  else the phase of ``K`` in degrees (a loss factor runs to +-infinity where ``Re K`` crosses zero);
+* :func:`robust_log_limits`, :func:`robust_limits` -- axis limits from the estimate and its band,
+  never from outlying per-line scatter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "LOG_FREQUENCY_MIN_RATIO", "use_log_frequency", "set_frequency_axis", "magnitude_band", "loss_or_phase",
+    "loss_or_phase_std", "robust_log_limits", "robust_limits",
+]
+
+#: A frequency axis is logarithmic when the band's highest/lowest frequency is at least this.
+LOG_FREQUENCY_MIN_RATIO = 10.0
+
+
+def use_log_frequency(f_hz: np.ndarray) -> bool:
+    """True when ``f_hz`` (Hz) is positive and spans at least :data:`LOG_FREQUENCY_MIN_RATIO`."""
+    f = np.asarray(f_hz, dtype=float)
+    f = f[np.isfinite(f)]
+    return bool(f.size > 1 and f.min() > 0 and f.max() / f.min() >= LOG_FREQUENCY_MIN_RATIO)
+
+
+def set_frequency_axis(ax, f_hz: np.ndarray, label: bool = True) -> bool:
+    """Frequency on ``ax``'s x axis: log scale (plain-number ticks) when :func:`use_log_frequency`, limits at the band.
+
+    Returns True when the axis is logarithmic.
+    """
+    from matplotlib.ticker import FuncFormatter
+
+    f = np.asarray(f_hz, dtype=float)
+    log = use_log_frequency(f)
+    if log:
+        ax.set_xscale("log")
+        plain = FuncFormatter(lambda v, _: f"{v:g}")
+        ax.xaxis.set_major_formatter(plain)
+    if f.size > 1:
+        ax.set_xlim(float(np.nanmin(f)), float(np.nanmax(f)))
+    if label:
+        ax.set_xlabel("frequency [Hz]")
+    return log
+
+
+def magnitude_band(k: np.ndarray, std_real: np.ndarray, std_imag: np.ndarray, z: float) -> tuple[np.ndarray, np.ndarray]:
+    """``|K| -+ z sigma_|K|``, first order: ``sigma_|K| = sqrt((Re K s_re)^2 + (Im K s_im)^2) / |K|``.
+
+    Parameters
+    ----------
+    k : ndarray, complex, shape (F,)
+    std_real, std_imag : ndarray, shape (F,)
+        1-sigma standard deviations of Re K and Im K (independent).
+    z : float
+        Normal quantile (1.645 for a two-sided 90 % band).
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (F,)
+        The band; ``lo`` may be <= 0 (the magnitude is not determined there).
+    """
+    mag = np.abs(k)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.hypot(k.real * std_real, k.imag * std_imag) / mag
+    s = np.where(mag > 0, s, np.hypot(std_real, std_imag))
+    return mag - z * s, mag + z * s
+
+
+def loss_or_phase(f_hz: np.ndarray, k: np.ndarray, force_phase: bool | None = None) -> tuple[np.ndarray, str]:
+    """The loss factor ``Im K / Re K`` while ``Re K > 0`` on every line, else the phase of ``K`` (deg, unwrapped).
+
+    Where the storage stiffness ``Re K`` crosses zero (past an internal mode, or
+    a mass-like term) ``Im/Re`` runs to +-infinity and is no loss factor; the
+    phase ``atan2(Im K, Re K)`` is continuous there and equals ``atan(eta)``
+    below it.
+
+    Parameters
+    ----------
+    f_hz : ndarray, shape (F,)
+    k : ndarray, complex, shape (F,)
+    force_phase : bool, optional
+        True/False to force the phase / the loss factor (e.g. so that several
+        curves on one axis agree); default: the phase when ``Re K <= 0`` somewhere.
+
+    Returns
+    -------
+    values : ndarray, shape (F,)
+    kind : {"loss factor", "phase"}
+    """
+    k = np.asarray(k, dtype=complex)
+    phase = bool(np.any(k.real <= 0)) if force_phase is None else bool(force_phase)
+    if not phase:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return k.imag / k.real, "loss factor"
+    order = np.argsort(f_hz)
+    out = np.empty(k.shape)
+    out[order] = np.degrees(np.unwrap(np.angle(k[order])))
+    if out.size and np.nanmedian(out) > 180:  # unwrapping may start a turn away: keep the phase near (-180, 180]
+        out -= 360 * np.round(np.nanmedian(out) / 360)
+    return out, "phase"
+
+
+def loss_or_phase_std(k: np.ndarray, std_real: np.ndarray, std_imag: np.ndarray, kind: str) -> np.ndarray:
+    """First-order 1-sigma of :func:`loss_or_phase`'s values (independent Re and Im errors).
+
+    Loss factor ``eta = Im/Re``: ``sqrt(s_im^2 + eta^2 s_re^2) / |Re K|``;
+    phase (deg): ``(180/pi) sqrt((Re K s_im)^2 + (Im K s_re)^2) / |K|^2``.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if kind == "loss factor":
+            eta = k.imag / k.real
+            return np.hypot(std_imag, eta * std_real) / np.abs(k.real)
+        return np.degrees(np.hypot(k.real * std_imag, k.imag * std_real) / np.abs(k) ** 2)
+
+
+def robust_log_limits(*arrays, pad: float = 1.25, span: float = 1e4) -> tuple[float, float] | None:
+    """Log-axis limits covering the positive values of ``arrays`` (estimate, band, truth), not outliers.
+
+    The upper limit is the largest value (times ``pad``); the lower limit the
+    smallest, but no lower than ``max / span`` (a band reaching zero must not
+    stretch the axis over decades). None when nothing is positive and finite.
+    """
+    vals = np.concatenate([np.ravel(np.asarray(a, dtype=float)) for a in arrays if a is not None])
+    vals = vals[np.isfinite(vals) & (vals > 0)]
+    if not vals.size:
+        return None
+    hi = float(vals.max()) * pad
+    lo = max(float(vals.min()) / pad, hi / span)
+    return lo, hi
+
+
+def robust_limits(*arrays, percentile: float = 1.0, pad: float = 0.08, include: tuple = ()) -> tuple[float, float] | None:
+    """Linear-axis limits covering the ``percentile``..``100 - percentile`` range of ``arrays``, padded.
+
+    ``include`` values (e.g. 0) are always inside. None when nothing is finite.
+    """
+    vals = np.concatenate([np.ravel(np.asarray(a, dtype=float)) for a in arrays if a is not None] + [np.asarray(include, float)])
+    vals = vals[np.isfinite(vals)]
+    if not vals.size:
+        return None
+    lo, hi = np.percentile(vals, [percentile, 100 - percentile])
+    lo, hi = min(lo, *include) if include else lo, max(hi, *include) if include else hi
+    width = hi - lo if hi > lo else max(abs(hi), 1.0)
+    return float(lo - pad * width), float(hi + pad * width)
