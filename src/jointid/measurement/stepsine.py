@@ -56,6 +56,13 @@ Processing (:func:`process_stepsine`), per block
    ``tolerance`` flagged ``amplitude_ok = False``; the force's total harmonic
    distortion ``sqrt(sum_{h>=2} |F_h|^2) / |F_1|``; the rms residual of each
    channel's fit relative to the rms of its fundamental.
+5. **Clipping and distortion**: a block whose force or displacement has flat
+   tops (runs of 3 or more equal samples at the channel's maximum or minimum
+   on more than ``MAX_FLAT_SHARE`` of its samples: a saturated load cell,
+   amplifier or actuator) or a harmonic distortion above ``MAX_THD`` is
+   flagged ``distorted`` (reason in ``distortion``; :mod:`.stepsine_checks`) and is
+   not usable: ``amplitude_ok`` is False, so the material fit never uses it; if
+   fewer than 2 usable lines remain, :func:`process_stepsine` refuses the data.
 """
 
 from __future__ import annotations
@@ -72,6 +79,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..frequency import Frequency
+from .stepsine_checks import distortion_problems
 
 __all__ = [
     "StepSineBlock",
@@ -201,7 +209,7 @@ class StepSineResult:
     amplitude_ratio : ndarray, shape (F,)
         Achieved / commanded displacement amplitude.
     amplitude_ok : ndarray of bool, shape (F,)
-        ``|amplitude_ratio - 1| <= tolerance``.
+        The line is usable: ``|amplitude_ratio - 1| <= tolerance`` and not ``distorted``.
     force_thd : ndarray, shape (F,)
         Total harmonic distortion of the force (harmonics 2..H over the fundamental).
     force_residual, displacement_residual : ndarray, shape (F,)
@@ -214,6 +222,10 @@ class StepSineResult:
         Number of joints loaded in parallel (the force was divided by it).
     tolerance : float
         Amplitude tolerance used for ``amplitude_ok``.
+    distorted : ndarray of bool, shape (F,), optional
+        Force or displacement clipped (flat tops) or harmonically distorted (:mod:`.stepsine_checks`).
+    distortion : tuple of str
+        One line per distorted block: its frequency and what is wrong.
     """
 
     frequency_hz: np.ndarray
@@ -230,6 +242,8 @@ class StepSineResult:
     cycles_used: np.ndarray
     parallel_joints: int = 2
     tolerance: float = 0.05
+    distorted: np.ndarray | None = None
+    distortion: tuple[str, ...] = ()
 
     @property
     def frequency(self) -> Frequency:
@@ -348,7 +362,8 @@ def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: fl
     -------
     dict
         ``X`` (complex, m), ``F`` (complex, N), ``thd``, ``force_residual``,
-        ``displacement_residual``, ``settled_time_s``, ``cycles_used``.
+        ``displacement_residual``, ``settled_time_s``, ``cycles_used``, ``displacement_thd`` and
+        ``distortion`` (``""``, or ``"block at 10 Hz: force clipped (flat tops on 33 % of the samples)"``).
     """
     f = block.frequency_hz
     t = block.time_s - block.time_s[0]
@@ -379,7 +394,11 @@ def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: fl
     rms1 = np.abs(ph_all[0]) / math.sqrt(2.0)
     rres = np.sqrt(np.mean(resid**2, axis=0)) / np.where(rms1 > 0, rms1, np.inf)
     thd = float(np.sqrt(np.sum(np.abs(ph_all[1:, 1]) ** 2)) / abs(F)) if F != 0 else float("nan")
+    thd_x = float(np.sqrt(np.sum(np.abs(ph_all[1:, 0]) ** 2)) / abs(X))
+    problems = distortion_problems(yy[1], thd, yy[0], thd_x)
     return {
+        "distortion": f"block at {_fhz(f)}: " + ", ".join(problems) if problems else "",
+        "displacement_thd": thd_x,
         "X": complex(X),
         "F": complex(F),
         "thd": thd,
@@ -442,6 +461,15 @@ def process_stepsine(
             raise DataError(f"commanded amplitude must be positive (m, peak), got {commanded_amplitude_m!r}")
     order = np.argsort(freq)
     ratio = amp / cmd
+    distorted = np.array([bool(r["distortion"]) for r in rows])
+    usable = (np.abs(ratio - 1.0) <= tolerance) & ~distorted
+    notes = tuple(rows[i]["distortion"] for i in order if rows[i]["distortion"])
+    if distorted.any() and usable.sum() < 2:
+        raise DataError(
+            f"{int(distorted.sum())} of {distorted.size} blocks are clipped or distorted ({notes[0]}); jointid does not "
+            "identify a stiffness from them: lower the excitation or raise the load cell's (amplifier's, actuator's) "
+            "range and measure again"
+        )
 
     def col(key, dtype=float):
         return np.array([r[key] for r in rows], dtype=dtype)[order]
@@ -453,7 +481,7 @@ def process_stepsine(
         force_amplitude_n=np.abs(F)[order],
         commanded_amplitude_m=cmd[order],
         amplitude_ratio=ratio[order],
-        amplitude_ok=(np.abs(ratio - 1.0) <= tolerance)[order],
+        amplitude_ok=usable[order],
         force_thd=col("thd"),
         force_residual=col("force_residual"),
         displacement_residual=col("displacement_residual"),
@@ -461,6 +489,8 @@ def process_stepsine(
         cycles_used=col("cycles_used", int),
         parallel_joints=int(parallel_joints),
         tolerance=float(tolerance),
+        distorted=distorted[order],
+        distortion=notes,
     )
 
 

@@ -60,6 +60,11 @@ Two stages
    from a banded solve per line (:mod:`jointid.physics.banded_receptance`,
    ~0.1 s per evaluation on the benchmark's 290-DOF beam at 996 lines).
 
+Judging the fit (:mod:`.update_check`): when the updated model leaves a misfit
+far above the data's noise, or the resonances misaligned, the FRFs are not a
+free-free test of this structure (e.g. the jointed structure's): one finding,
+and no parameter is reported as determined.
+
 Statistics (:mod:`.fit_statistics`): ``cov_x = s^2 (J^T J)^-1``,
 ``s^2 = RSS / (n - m)``; ``std(p) = p std(x)``. A parameter is determined when
 it stays inside its bounds with a relative standard error <= 50 %; otherwise
@@ -85,10 +90,12 @@ from ..physics.banded_receptance import receptance_banded
 from ..physics.free_model import StructureModel
 from ..physics.modes import natural_modes
 from ..physics.structure import Structure
+from .update_check import judge_update_fit
 from .fit_statistics import (
     AT_BOUND,
     HELD_AT_DEFAULT,
     IDENTIFIED,
+    NOT_IDENTIFIED,
     ParameterEstimate,
     classify,
     correlation_matrix,
@@ -198,7 +205,13 @@ class UpdateResult:
     evaluations : int
         Model evaluations of the final fit.
     measured, initial_model, updated_model : FRF
-        The data and both models' FRFs on the same lines, DOFs and kind.
+        The data and both models' FRFs on the same lines, DOFs and kind (``updated_model``:
+        the fit's, also when ``finding`` rejected it).
+    finding : str or None
+        Set when the updated model does not fit the FRFs (a misfit far above their noise,
+        or resonances left misaligned; :func:`~jointid.methods.update_check.judge_update_fit`):
+        these are not a free-free test of this structure, every parameter is then reported
+        as not determined and ``values`` are the initial ones.
     """
 
     parameters: tuple[ParameterEstimate, ...]
@@ -214,6 +227,7 @@ class UpdateResult:
     initial_model: FRF
     updated_model: FRF
     notes: tuple[str, ...] = field(default=())
+    finding: str | None = None
 
     def parameter(self, name: str) -> ParameterEstimate:
         """The estimate of ``name``."""
@@ -227,8 +241,8 @@ class UpdateResult:
         return {p.name: p.value for p in self.parameters if p.identified}
 
     def describe(self) -> list[str]:
-        """One line per parameter, e.g. ``"E = 7.038e+10 +- 1.2e+06 Pa (initial 6.9e+10, +2.0 %)"``."""
-        out = []
+        """One line per parameter, e.g. ``"E = 7.038e+10 +- 1.2e+06 Pa (initial 6.9e+10, +2.0 %)"``; the finding first."""
+        out = [self.finding] if self.finding else []
         for p in self.parameters:
             p0 = self.initial[p.name]
             if p.identified:
@@ -272,6 +286,7 @@ class UpdateResult:
                 "coherence_weighted": self.measured.coherence is not None,
             },
             "notes": list(self.notes),
+            "finding": self.finding,
         }
 
     def plot(self, pairs: Sequence[tuple] | None = None):
@@ -531,10 +546,22 @@ def update_free_model(
         corr = correlation_matrix(cov_x)
     final = tuple(held[n] if n in held else estimates[n] for n in names)
     updated_model = _model_frf(family, values, measured)
-    after = float(np.sqrt(np.mean(np.abs(log_ratio_of(updated_model)) ** 2)))
+    residual = log_ratio_of(updated_model)
+    after = float(np.sqrt(np.mean(np.abs(residual) ** 2)))
+    finding = None
+    if fitted:  # does the model explain the data at all? (jointed FRFs, another structure, wrong units)
+        model_hz = family.natural_frequencies_hz(values, float(measured.frequency.hz[-1]))
+        finding = judge_update_fit(residual, measured, model_hz, family.described)
+    if finding is not None:
+        final = tuple(
+            ParameterEstimate(p.name, p.unit, init[p.name], math.nan, NOT_IDENTIFIED, "the updated model does not fit these FRFs", p.label)
+            for p in final
+        )
+        values = dict(init)
+        notes.append(finding)
     return UpdateResult(
         final, init, values, corr, tuple(fitted), before, after, scale, int(fit.nfev),
-        measured, initial_model, updated_model, tuple(notes),
+        measured, initial_model, updated_model, tuple(notes), finding,
     )
 
 
