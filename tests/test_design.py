@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from jointid.benchmark import benchmark_study, benchmark_study_path
+from jointid.cli.design import verdict
 from jointid.cli.main import main
 from jointid.design import design_study, study_sensors, with_layout
 from jointid.frf import FRF
@@ -175,7 +176,15 @@ def test_cli_writes_design_json_and_plot(tmp_path, capsys):
     assert js["noise"] == 0.01 and js["band_hz"] == [100.0, 1000.0] and js["lines"] == 46
     assert (out / "design.png").stat().st_size > 0
     printed = capsys.readouterr().out
-    assert "chosen : observed" in printed and "current: observed 1,3,6,9,12,15,19; excited 3,9,15" in printed
+    assert "chosen layout : observed" in printed and "current layout: observed 1,3,6,9,12,15,19; excited 3,9,15" in printed
+    assert "  greedy observed: " in printed and "  re-rank: " in printed  # a progress line per step
+    med, cur = js["chosen"]["median_relative_std"], js["current"]["median_relative_std"]
+    for t in ("K_w_w", "K_w_theta", "K_theta_theta"):  # per term: both figures and the verdict
+        row = next(line for line in printed.splitlines() if line.strip().startswith(t + " "))
+        assert f"{100 * med[t]:.3g} %" in row and f"{100 * cur[t]:.3g} %" in row
+        assert verdict(med[t], cur[t]) in row
+    assert verdict(0.01, 0.02) == "better (2x lower)" and verdict(0.03, 0.02) == "worse (1.5x higher)"
+    assert verdict(0.02, 0.0201) == "same"
 
 
 @pytest.mark.parametrize("extra, message", [

@@ -160,7 +160,10 @@ def test_cond_A_is_certified_and_ill_conditioned_lines_use_the_svd_solver():
     hard = fast.cond_A * (1 + fast.cond_A_bound) > 1e6
     assert 0 < hard.sum() < 20  # measured: 2 lines
     assert np.all(fast.cond_A_bound[hard] == 0)
-    assert np.allclose(fast.stiffness[hard], svd.stiffness[hard], rtol=1e-12, atol=0)
+    # the same SVD solve on the same line: a perturbation of A by eps |A| (BLAS kernel, threads) moves the
+    # solution by at most p eps cond_A relative (p = 3 unknowns of the symmetric 2-DOF joint); measured 0 - 6e-14
+    tol = 3 * np.finfo(float).eps * fast.cond_A[hard][:, None, None]
+    assert np.all(np.abs(fast.stiffness[hard] - svd.stiffness[hard]) <= tol * np.abs(svd.stiffness[hard]).max(axis=(1, 2), keepdims=True))
     exact = identify_joint(BEAM, frf, ["10w", "10theta"], InverseOptions(cond_rtol=0))
     assert np.all(exact.cond_A_bound == 0) and np.allclose(exact.cond_A, svd.cond_A, rtol=1e-10)
 

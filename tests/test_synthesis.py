@@ -185,4 +185,9 @@ def test_refined_modal_receptance_equals_an_extended_precision_direct_solve(monk
     assert err(plain) > 1e-9
     assert err(residual) < 5e-9
     assert err(fast) < 1e-10
-    assert np.max(np.abs(fast - every_mode) / np.abs(every_mode).max(axis=(1, 2), keepdims=True)) < 1e-12  # measured 3e-13
+    # fast and every-mode refinement differ by the omitted modes' share (< 1e-12, see REFINE_FACTOR) and by the
+    # round-off of the refinement: dA, dB are N-term dot products (N eps relative to lam_r) that g = 1 / (lam* - w^2)
+    # amplifies by up to 1 / eta at a resonance (measured 3e-13 - 1.9e-12 over OpenBLAS kernels, bound 1.2e-11)
+    eta = modes.loss_factor if modes.loss_factor is not None else s.proportional_loss_factor
+    bound = 1e-12 + len(s.dofs) * np.finfo(float).eps / np.min(eta)
+    assert np.max(np.abs(fast - every_mode) / np.abs(every_mode).max(axis=(1, 2), keepdims=True)) < bound

@@ -90,7 +90,7 @@ def design_band(study: Study, band_hz: tuple[float, float] | None = None) -> Fre
 def design_study(
     study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence | None = None,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
-    search_lines: int = 300, monte_carlo: int = 0,
+    search_lines: int = 300, monte_carlo: int = 0, progress=None,
 ) -> LayoutDesign:
     """Choose ``observed`` and ``excited`` nodes of the study's beam for the best-determined joint.
 
@@ -114,6 +114,8 @@ def design_study(
     monte_carlo : int
         Seeds of the final Monte Carlo check of the best layouts with the study's identification
         options (0: none; see :mod:`jointid.methods.design_check`).
+    progress : callable, optional
+        Called with one line after each step of the search (see :func:`~jointid.methods.design.design_layout`).
 
     Returns
     -------
@@ -130,7 +132,7 @@ def design_study(
     if study.is_structure:
         return design_structure_study(
             study, observed, excited, candidates=candidates, noise=noise, weights=weights, band_hz=band_hz,
-            search_lines=search_lines, monte_carlo=monte_carlo,
+            search_lines=search_lines, monte_carlo=monte_carlo, progress=progress,
         )
     if study.joint.model is None:
         raise StudyError(f"{study.source}: [joint.model] is missing; a design needs the expected joint stiffness")
@@ -157,7 +159,7 @@ def design_study(
         noise=noise, weights=weights, sensors=study_sensors(study),
         symmetric=True if spec.symmetric is None else bool(spec.symmetric),
         current=(m.observed, m.excited), search_lines=search_lines,
-        monte_carlo=monte_carlo, coupling_options=coupling_options(study), scenarios=scenarios,
+        monte_carlo=monte_carlo, coupling_options=coupling_options(study), scenarios=scenarios, progress=progress,
     )
 
 
@@ -223,7 +225,7 @@ def structure_candidates(study: Study, candidates: Sequence | None = None) -> tu
 def design_structure_study(
     study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence | None = None,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
-    search_lines: int = 300, monte_carlo: int = 0,
+    search_lines: int = 300, monte_carlo: int = 0, progress=None,
 ) -> LayoutDesign:
     """Choose observed and excited DOFs of a ``[structure]`` study for the best-determined joints.
 
@@ -275,6 +277,6 @@ def design_structure_study(
         noise=noise, weights=weights, sensors=None,
         symmetric=True if spec.symmetric is None else bool(spec.symmetric),
         current=(m.observed_dofs, m.excited_dofs), search_lines=search_lines,
-        monte_carlo=monte_carlo, coupling_options=coupling_options(study), scenarios=scenarios,
+        monte_carlo=monte_carlo, coupling_options=coupling_options(study), scenarios=scenarios, progress=progress,
         blocks=[(j.name, len(j.joint_dofs)) for j in study.joints],
     )

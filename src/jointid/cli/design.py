@@ -11,7 +11,7 @@ from ..errors import DofError, StudyError
 from ..io.output_dir import OutputSet
 from .common import add_out_argument, add_study_argument, study_from_args
 
-__all__ = ["add_parser", "run", "parse_nodes", "parse_dof_labels", "parse_weights"]
+__all__ = ["add_parser", "run", "parse_nodes", "parse_dof_labels", "parse_weights", "summary_lines", "verdict"]
 
 
 def add_parser(sub) -> None:
@@ -97,29 +97,60 @@ def run(args: argparse.Namespace) -> int:
     weights = parse_weights(args.weights) if args.weights is not None else None
     if not (math.isfinite(args.noise) and args.noise > 0):
         raise StudyError(f"--noise: expected a relative FRF noise level > 0 (0.01 = 1 %), got {args.noise:g}")
+    def progress(text: str) -> None:  # one line per step, flushed: visible in a log as well as on a terminal
+        print(f"  {text}", flush=True)
+
+    print(f"design: searching {args.observed or len(study.measurement.observed)} observed x "
+          f"{args.excited or len(study.measurement.excited)} excited ...", flush=True)
     with OutputSet(args.out, command="design") as out:
         d = design_study(
             study, args.observed, args.excited, candidates=candidates, noise=args.noise, weights=weights,
-            band_hz=tuple(args.band_hz) if args.band_hz else None, search_lines=args.search_lines,
+            band_hz=tuple(args.band_hz) if args.band_hz else None, search_lines=args.search_lines, progress=progress,
         )
         summary = d.to_dict()
         summary["study"] = str(study.source)
         path = out.write_text("design.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
         if not args.no_plots:
             out.write_figure("design.png", d.plot())
-
-    def line(name, obs, exc, med):
-        terms = ", ".join(f"{t} {100 * v:.3g} %" for t, v in med.items())
-        return f"{name}: observed {','.join(map(str, obs))}; excited {','.join(map(str, exc))}: {terms}"
-
-    print(f"predicted median relative error of the identification, {100 * d.noise:g} % FRF noise, "
-          f"{d.frequency.hz[0]:g}-{d.frequency.hz[-1]:g} Hz:")
-    print("  " + line("chosen ", d.observed, d.excited, d.median()))
-    print("  " + line("current", d.current_observed, d.current_excited, d.median(True)))
-    cur = d.scenario_medians(True)
-    for name, med in d.scenario_medians().items():
-        terms = ", ".join(f"{t} {100 * v:.3g} % ({100 * cur[name][t]:.3g} %)" if name in cur else f"{t} {100 * v:.3g} %"
-                          for t, v in med.items() if d.weights.get(t, 1) > 0)
-        print(f"  {name}: {terms}")
+    for text in summary_lines(d):
+        print(text)
     print(f"searched {d.evaluations} layouts on {d.search_lines} lines in {d.seconds:.1f} s; wrote {path}")
     return 0
+
+
+def verdict(chosen: float, current: float) -> str:
+    """``"better"``, ``"worse"`` or ``"same"`` (within 1 %) for a predicted error, chosen vs current layout."""
+    if not (math.isfinite(chosen) and math.isfinite(current)) or current <= 0:
+        return "not comparable"
+    r = chosen / current
+    if abs(r - 1) <= 0.01:
+        return "same"
+    return f"better ({1 / r:.2g}x lower)" if r < 1 else f"worse ({r:.2g}x higher)"
+
+
+def summary_lines(d) -> list[str]:
+    """The printout: both layouts, then per term the chosen and current layout's figures and which is better."""
+    def nodes(x):
+        return ",".join(map(str, x))
+
+    out = [f"predicted median relative error of the identification, {100 * d.noise:g} % FRF noise, "
+           f"{d.frequency.hz[0]:g}-{d.frequency.hz[-1]:g} Hz (geometric mean over the scenarios):",
+           f"  chosen layout : observed {nodes(d.observed)}; excited {nodes(d.excited)}"]
+    if d.current_observed is None:
+        out += [f"  {t:16s} chosen {100 * v:.3g} %" for t, v in d.median().items()]
+        return out
+    same = (tuple(sorted(map(str, d.observed))), tuple(sorted(map(str, d.excited)))) == (
+        tuple(sorted(map(str, d.current_observed))), tuple(sorted(map(str, d.current_excited))))
+    out.append(f"  current layout: observed {nodes(d.current_observed)}; excited {nodes(d.current_excited)}"
+               + ("  (the study's; the search found none predicted better)" if same else "  (the study's)"))
+    cur, cur_sc = d.median(True), d.scenario_medians(True)
+    out.append(f"  {'term':16s} {'chosen':>9s} {'current':>9s}  chosen layout is")
+    for t, v in d.median().items():
+        note = "" if d.weights.get(t, 1) > 0 else "  (weight 0: not a design target)"
+        out.append(f"  {t:16s} {100 * v:8.3g} % {100 * cur[t]:8.3g} %  {verdict(v, cur[t])}{note}")
+    out.append("  per scenario, chosen (current):")
+    for name, med in d.scenario_medians().items():
+        terms = ", ".join(f"{t} {100 * v:.3g} % ({100 * cur_sc[name][t]:.3g} %)" for t, v in med.items()
+                          if d.weights.get(t, 1) > 0)
+        out.append(f"    {name}: {terms}")
+    return out

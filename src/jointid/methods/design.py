@@ -99,19 +99,22 @@ the identification, and the bias is not in the criterion).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import itertools
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
 from ..dofs import parse_dofs
 from ..errors import IdentificationError
 from ..frequency import Frequency
+from ..parallel import single_threaded_blas
 from ..physics.free_model import as_free_model
+from .design_pool import LayoutPool, pool_workers
 from .design_predictor import (
     DEFAULT_SCENARIOS, ESTIMATORS, NOISE_MODELS, LayoutPredictor, Scenario, Sensors, _Combined, geometric_mean,
     joint_blocks, layout_dofs, term_names,
@@ -361,13 +364,14 @@ def _search_grid(frequency: Frequency, lines: int) -> Frequency:
     return Frequency(frequency.hz[idx])
 
 
+@single_threaded_blas()  # small batched matrices: BLAS threads only contend (the pool uses the cores)
 def design_layout(
     free, joint, joint_dofs, frequency: Frequency, candidates: Sequence, n_observed: int, n_excited: int, *,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, sensors: Sensors | None = None,
     symmetric: bool = True, current: tuple[Sequence, Sequence] | None = None, search_lines: int = 300,
     scenarios: Sequence[Scenario] | None = None, dominate: bool = True, rerank: int = 30,
     monte_carlo: int = 0, monte_carlo_layouts: int = 6, coupling_options=None,
-    blocks: Sequence[tuple[str, int]] | None = None,
+    blocks: Sequence[tuple[str, int]] | None = None, progress: Callable[[str], None] | None = None,
 ) -> LayoutDesign:
     """Choose observed and excited nodes that minimize the predicted uncertainty of the joint terms.
 
@@ -408,6 +412,8 @@ def design_layout(
         (not the terms between joints); term names ``"name:K_x_x"`` (see
         :func:`~jointid.methods.design_predictor.term_names`). A weight named without the
         prefix (``"K_z_z"``) applies to that term of every joint.
+    progress : callable, optional
+        Called with one line after each step of the search (layouts evaluated, criterion, seconds).
 
     Returns
     -------
@@ -444,56 +450,73 @@ def design_layout(
     if current is not None and dominate:
         cur_grid = [_criterion(r, w)[0] for r in pred.each(sorted(current[0]), sorted(current[1]))]
 
-    def cost(obs, exc) -> float:
-        key = (frozenset(obs), frozenset(exc))
-        if key not in cache:
-            if len(exc) == len(cands) and len(cands) > n_excited:
-                # every candidate excited (the first greedy step): the calibration scenarios are left out,
-                # costly with many columns, and no real layout excites them all
-                cache[key] = _criterion(seeding.relative_std(sorted(obs), sorted(exc)), w)[0]
-            else:
-                each = [_criterion(r, w)[0] for r in pred.each(sorted(obs), sorted(exc))]
-                c = _combine(each)
-                if cur_grid is not None and len(obs) == n_observed and len(exc) == n_excited and c < math.inf:
-                    # not predicted worse than the current layout in any scenario, else penalized
-                    c *= math.prod(max(1.0, x / y) ** DOMINANCE_PENALTY for x, y in zip(each, cur_grid))
-                cache[key] = c
-        return cache[key]
+    def layout_cost(obs, exc) -> float:
+        if len(exc) == len(cands) and len(cands) > n_excited:
+            # every candidate excited (the first greedy step): the calibration scenarios are left out,
+            # costly with many columns, and no real layout excites them all
+            return _criterion(seeding.relative_std(sorted(obs), sorted(exc)), w)[0]
+        each = [_criterion(r, w)[0] for r in pred.each(sorted(obs), sorted(exc))]
+        c = _combine(each)
+        if cur_grid is not None and len(obs) == n_observed and len(exc) == n_excited and c < math.inf:
+            # not predicted worse than the current layout in any scenario, else penalized
+            c *= math.prod(max(1.0, x / y) ** DOMINANCE_PENALTY for x, y in zip(each, cur_grid))
+        return c
+
+    def costs(layouts) -> list[float]:
+        """Each layout's cost, the ones not in the cache evaluated as one batch on the pool."""
+        keys = [(frozenset(o), frozenset(e)) for o, e in layouts]
+        todo = list({k: (tuple(sorted(k[0])), tuple(sorted(k[1]))) for k in keys if k not in cache}.items())
+        for (k, _), c in zip(todo, pool.map([v for _, v in todo])):
+            cache[k] = c
+        return [cache[k] for k in keys]
+
+    def best_of(layouts):
+        """The first layout of the lowest cost (as ``min`` over them in order)."""
+        c = costs(layouts)
+        i = min(range(len(layouts)), key=c.__getitem__)
+        return layouts[i], c[i]
 
     n = len(joint_dofs)
     history: list = []
 
-    def seed_and_grow(size: int, other: tuple[int, ...], observed_side: bool) -> tuple[int, ...]:
-        def c(s):
-            return cost(s, other) if observed_side else cost(other, s)
+    def say(step: str, value: float) -> None:
+        history.append((step, value))
+        if progress is not None:
+            progress(f"{step}: {len(cache)} layouts evaluated, criterion {value:.4g}, {time.perf_counter() - t0:.1f} s")
 
-        chosen = min(_seed_sets(cands, n), key=c)
+    def seed_and_grow(size: int, other: tuple, observed_side: bool) -> tuple:
+        def pair(s):
+            return (s, other) if observed_side else (other, s)
+
+        layout, _ = best_of([pair(s) for s in _seed_sets(cands, n)])
+        chosen = tuple(layout[0] if observed_side else layout[1])
         while len(chosen) < size:
-            chosen = min((chosen + (k,) for k in cands if k not in chosen), key=c)
+            layout, _ = best_of([pair(chosen + (k,)) for k in cands if k not in chosen])
+            chosen = tuple(layout[0] if observed_side else layout[1])
         return tuple(sorted(chosen))
 
-    obs = seed_and_grow(n_observed, cands, True)
-    history.append(("greedy observed", cost(obs, cands)))
-    exc = seed_and_grow(n_excited, obs, False)
-    best = cost(obs, exc)
-    history.append(("greedy excited", best))
-    for _ in range(MAX_EXCHANGE_PASSES):
-        moves = []
-        for side, group in (("observed", obs), ("excited", exc)):
-            for out_ in group:
-                for in_ in cands:
-                    if in_ in group:
-                        continue
-                    new = tuple(sorted(set(group) - {out_} | {in_}))
-                    o, e = (new, exc) if side == "observed" else (obs, new)
-                    moves.append((cost(o, e), o, e))
-        if not moves:
-            break
-        c_new, o_new, e_new = min(moves, key=lambda t: t[0])
-        if not c_new < best * (1 - 1e-9):
-            break
-        obs, exc, best = o_new, e_new, c_new
-        history.append(("exchange", best))
+    with LayoutPool(layout_cost, pool_workers(len(cands) ** 2)) as pool:
+        obs = seed_and_grow(n_observed, cands, True)
+        say("greedy observed", costs([(obs, cands)])[0])
+        exc = seed_and_grow(n_excited, obs, False)
+        best = costs([(obs, exc)])[0]
+        say("greedy excited", best)
+        for _ in range(MAX_EXCHANGE_PASSES):
+            moves = []
+            for side, group in (("observed", obs), ("excited", exc)):
+                for out_ in group:
+                    for in_ in cands:
+                        if in_ in group:
+                            continue
+                        new = tuple(sorted(set(group) - {out_} | {in_}))
+                        moves.append((new, exc) if side == "observed" else (obs, new))
+            if not moves:
+                break
+            (o_new, e_new), c_new = best_of(moves)
+            if not c_new < best * (1 - 1e-9):
+                break
+            obs, exc, best = o_new, e_new, c_new
+            say("exchange", best)
     evaluations = len(cache)
 
     # re-rank the best layouts of the search on every line, with the estimator's own smoother: the
@@ -506,11 +529,19 @@ def design_layout(
     ranker = _Combined(free, joint, joint_dofs, frequency, sorted(rank_on | cur_nodes), noise, sensors, symmetric,
                        scenarios, terms=active, blocks=blocks)
     full_cur = None
+
+    def rank_each(o, e) -> list[float]:
+        return [_criterion(r, w)[0] for r in ranker.each(o, e)]
+
+    items = [(o, e) for _, o, e in pool]
     if current is not None and dominate:
-        full_cur = [_criterion(r, w)[0] for r in ranker.each(sorted(current[0]), sorted(current[1]))]
+        items.append((tuple(sorted(current[0])), tuple(sorted(current[1]))))
+    with LayoutPool(rank_each, pool_workers(len(items))) as workers:
+        ranked_each = workers.map(items)
+    if current is not None and dominate:
+        full_cur = ranked_each.pop()
     reranked = []
-    for _, o, e in pool:
-        each = [_criterion(r, w)[0] for r in ranker.each(o, e)]
+    for (_, o, e), each in zip(pool, ranked_each):
         c = _combine(each)
         if full_cur is not None and c < math.inf:
             c *= math.prod(max(1.0, x / y) ** DOMINANCE_PENALTY for x, y in zip(each, full_cur))
@@ -525,7 +556,7 @@ def design_layout(
                 reranked.append((c_cur, *cur))
     if reranked:
         best_full, obs, exc = min(reranked)
-        history.append(("re-rank", best_full))
+        say("re-rank", best_full)
     checked: tuple = ()
     if monte_carlo and reranked:
         # the estimator itself on synthetic noisy FRFs of the best few (relative noise): a sixth "scenario"
@@ -548,14 +579,16 @@ def design_layout(
                 c *= math.prod(max(1.0, x / y) ** DOMINANCE_PENALTY for x, y in zip(both, full_cur + cur_mc[0]))
             rows.append((c, o, e, med))
         best_mc, obs, exc, _ = min(rows)
-        history.append(("monte carlo", best_mc))
+        say("monte carlo", best_mc)
         checked = tuple(rows) + ((None, tuple(sorted(current[0])), tuple(sorted(current[1])), cur_mc[1]),) \
             if cur_mc is not None else tuple(rows)
 
-    final = _Combined(
-        free, joint, joint_dofs, frequency, sorted(set(obs) | set(exc) | cur_nodes), noise, sensors, symmetric, scenarios,
-        blocks=blocks,
-    )
+    if set(obs) | set(exc) <= rank_on | cur_nodes:
+        final = copy.copy(ranker)  # the re-ranking's receptances hold every chosen and current DOF; every term
+        final.terms = None
+    else:  # nothing re-ranked (no layout of finite criterion): the search's best
+        final = _Combined(free, joint, joint_dofs, frequency, sorted(set(obs) | set(exc) | cur_nodes), noise, sensors,
+                          symmetric, scenarios, blocks=blocks)
     each = final.each(obs, exc)
     rel = geometric_mean(each)
     crit = _combine([_criterion(r, w)[0] for r in each])

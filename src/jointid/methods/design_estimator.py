@@ -100,7 +100,6 @@ class SmootherPrediction:
         BT = B @ T  # (F, K)
         lams = np.trace(BWB) / max(np.trace(self.P), 1e-300) * 10.0**_LOG_LAMBDA
         phi = 1.0 / (1.0 + lams[None, :] * s[:, None])  # (K, G)
-        var = (BT**2) @ (phi**2)  # (F, G), each part
         n = int(ok.sum())
         trS, trS2 = phi.sum(axis=0), (phi**2).sum(axis=0)
         out = np.zeros(self.hz.size)
@@ -109,7 +108,7 @@ class SmootherPrediction:
             bias = BT @ (c[:, None] * phi) - part[:, None]  # (F, G)
             egcv = n * (np.sum(w[:, None] * bias**2, axis=0) + n - 2 * trS + trS2) / np.maximum(n - trS, 1e-9) ** 2
             g = int(np.argmin(egcv))
-            out += bias[:, g] ** 2 + var[:, g]
+            out += bias[:, g] ** 2 + (BT**2) @ (phi[:, g] ** 2)  # bias^2 + variance of the part
         return out
 
 
