@@ -61,6 +61,37 @@ def _f(x) -> float | None:
     return float(x) if x is not None and math.isfinite(x) else None
 
 
+def _zener_jacobian(f_hz: np.ndarray, z: ZenerFit):
+    """``K`` (F,), ``dK/d(K0, Kinf, tau, alpha)`` (F, 4) and ``dK/d log10 f`` (F,) of a fractional Zener fit."""
+    jwt = 1j * 2.0 * np.pi * f_hz * z.tau_s
+    s = jwt**z.alpha
+    K = (z.E0 + z.Einf * s) / (1.0 + s)
+    dKds = (z.Einf - z.E0) / (1.0 + s) ** 2
+    J = np.column_stack([1.0 / (1.0 + s), s / (1.0 + s), dKds * z.alpha * s / z.tau_s, dKds * s * np.log(jwt)])
+    return K, J, dKds * z.alpha * s * math.log(10.0)
+
+
+def _zener_covariance(z: ZenerFit, fr: np.ndarray, K: np.ndarray, node_of_point: np.ndarray, shift_cov: np.ndarray):
+    """Covariance of (K0, Kinf, tau, alpha): the fit's own plus the shift factors' error carried through the refit.
+
+    The fit minimizes ``|r|^2`` with ``r = (K_model(f aT) - K) / |K|``; a change of the
+    shifts moves the optimum by ``dp/ds = -pinv(J_p) J_s`` (``J_s``: ``dr/d log10 aT``),
+    so ``cov_p = cov_fit + (dp/ds) cov_s (dp/ds)^T``.
+    """
+    sd = np.array([p.std_error for p in z.parameters], dtype=float)
+    corr = np.asarray(z.correlation, dtype=float) if z.correlation is not None else np.full((4, 4), np.nan)
+    cov_fit = corr * np.outer(sd, sd)
+    if not np.all(np.isfinite(cov_fit)):
+        return cov_fit
+    _, Jp, dKdx = _zener_jacobian(fr, z)
+    w = 1.0 / np.abs(K)
+    Jp = Jp * w[:, None]
+    Js = np.zeros((fr.size, shift_cov.shape[0]), dtype=complex)
+    Js[np.arange(fr.size), node_of_point] = dKdx * w
+    G = -np.linalg.pinv(np.concatenate([Jp.real, Jp.imag])) @ np.concatenate([Js.real, Js.imag])
+    return cov_fit + G @ shift_cov @ G.T
+
+
 @dataclass(frozen=True, eq=False)
 class TemperatureCurve:
     """Stiffness of one test (or specimen) at one temperature.
@@ -113,6 +144,9 @@ class MasterCurve:
         ``(T_i, T_j, shift of j onto i)`` of every pair tried.
     curves : tuple of TemperatureCurve
         The merged curves (one per temperature), as measured.
+    modulus_covariance : ndarray, shape (4, 4), optional
+        Covariance of (K0, Kinf, tau, alpha): the Zener fit's plus the shift
+        factors' error propagated through the fit (N/m, N/m, s, -).
     """
 
     reference_temperature_c: float
@@ -128,6 +162,7 @@ class MasterCurve:
     findings: tuple
     pairs: tuple = ()
     curves: tuple = ()
+    modulus_covariance: np.ndarray | None = None
     _anchor_offset: float = field(default=0.0, repr=False)
 
     @property
@@ -186,6 +221,47 @@ class MasterCurve:
         fr = self.reduced_frequency(frequency_hz, temperature_c)
         return zener_modulus(fr, z.E0, z.Einf, z.tau_s, z.alpha) * self.vertical_factor(temperature_c)
 
+    def stiffness_std(self, frequency_hz, temperature_c=None) -> tuple[np.ndarray, np.ndarray]:
+        """1-sigma of the fitted master curve's ``|K|`` (N/m) and loss factor, from :attr:`modulus_covariance`.
+
+        Delta method: with ``s = (j w tau)^alpha``, ``dK/dK0 = 1/(1+s)``,
+        ``dK/dKinf = s/(1+s)``, ``dK/ds = (Kinf - K0)/(1+s)^2``, ``ds/dtau = alpha s / tau``,
+        ``ds/dalpha = s ln(j w tau)``; ``d|K| = Re(conj(K) dK) / |K|``,
+        ``d eta = (Im dK Re K - Re dK Im K) / (Re K)^2``. The covariance includes
+        the shift factors' error carried through the fit; at a test temperature
+        the error of that temperature's shift law is not added. NaN where a
+        parameter is not determined.
+
+        Parameters
+        ----------
+        frequency_hz : array_like, shape (F,)
+            Frequency, Hz (reduced frequency when ``temperature_c`` is None).
+        temperature_c : float, optional
+            Test temperature, deg C.
+
+        Returns
+        -------
+        magnitude_std : ndarray, shape (F,)
+            N/m (scaled by ``bT`` at a temperature).
+        loss_factor_std : ndarray, shape (F,)
+        """
+        if self.zener is None:
+            raise DataError("the master curve has no fitted Zener stiffness (see its findings)")
+        z = self.zener
+        f = np.asarray(frequency_hz, dtype=float).reshape(-1)
+        b = 1.0
+        if temperature_c is not None:
+            f = self.reduced_frequency(f, temperature_c)
+            b = self.vertical_factor(temperature_c)
+        cov = self.modulus_covariance if self.modulus_covariance is not None else np.full((4, 4), np.nan)
+        K, J, _ = _zener_jacobian(f, z)
+        dmag = (np.conj(K)[:, None] * J).real / np.abs(K)[:, None]
+        deta = (J.imag * K.real[:, None] - J.real * K.imag[:, None]) / (K.real**2)[:, None]
+        with np.errstate(invalid="ignore"):
+            vm = np.einsum("fi,ij,fj->f", dmag, cov, dmag)
+            ve = np.einsum("fi,ij,fj->f", deta, cov, deta)
+        return b * np.sqrt(np.maximum(vm, 0.0)), np.sqrt(np.maximum(ve, 0.0))
+
     def shifted(self) -> list:
         """``[(temperature_c, reduced frequency (F,) Hz, stiffness at Tref (F,) complex N/m)]`` from the measured shifts."""
         table = self.measured_shift
@@ -201,8 +277,10 @@ class MasterCurve:
             return None
         names = {"E0_pa": "K0_n_m", "Einf_pa": "Kinf_n_m", "tau_s": "tau_s", "alpha": "alpha"}
         d = {"model": "fractional_zener"}
-        for p in self.zener.parameters:
-            d[names[p.name]] = {"value": _f(p.value), "std": _f(p.std_error), "status": p.status}
+        cov = self.modulus_covariance
+        for k, p in enumerate(self.zener.parameters):
+            sd = math.sqrt(cov[k, k]) if cov is not None and cov[k, k] >= 0 else p.std_error
+            d[names[p.name]] = {"value": _f(p.value), "std": _f(sd), "status": p.status}
         d["identified"] = bool(self.zener.identified)
         d["residual_rms"] = _f(self.zener.residual_rms)
         d["reduced_frequency_min_hz"] = _f(self.reduced_range_hz[0])
@@ -402,24 +480,27 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
     sd = np.sqrt(np.maximum(np.diag(cov) + offset_var, 0.0))
     shift_factors = tuple((float(t), float(v), float(e)) for t, v, e in zip(T, sf, sd))
     # shifted data and the Zener fit
-    fr_all, K_all, coverage = [], [], []
-    for k, v in zip(nodes, sf):
+    fr_all, K_all, node_all, coverage = [], [], [], []
+    for pos, (k, v) in enumerate(zip(nodes, sf)):
         t, f, y, _ = data[k]
         fr = f * 10.0**v
         fr_all.append(fr)
         K_all.append(np.exp(y))
+        node_all.append(np.full(f.size, pos))
         coverage.append((t, float(fr.min()), float(fr.max())))
     fr_all = np.concatenate(fr_all)
     K_all = np.concatenate(K_all)
+    node_all = np.concatenate(node_all)
     order = np.argsort(fr_all)
-    zener = None
+    zener = zcov = None
     try:
         zener = fit_zener(fr_all[order], K_all[order], modulus_bounds_pa=(0.0, math.inf))
         findings.extend(w.replace("Pa", "N/m") for w in zener.warnings)
+        zcov = _zener_covariance(zener, fr_all, K_all, node_all, cov)
     except DataError as exc:
         findings.append(f"fractional Zener fit failed: {exc}")
     curves_out = tuple(TemperatureCurve(t, f, np.exp(y) * ((t + KELVIN) / (tref + KELVIN) if vertical_shift else 1.0))
                        for t, f, y, _ in data)
     return MasterCurve(tref, bool(vertical_shift), shift_factors, wlf, arr, pref, zener,
                        (float(fr_all.min()), float(fr_all.max())), tuple(coverage), tuple(not_overlapping),
-                       tuple(findings), tuple(pairs), curves_out, float(offset))
+                       tuple(findings), tuple(pairs), curves_out, zcov, float(offset))
