@@ -476,6 +476,9 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
         x = T - tref
         if np.any(wlf.c2 + x <= 0) or wlf.c2 <= 0:
             findings.append(f"WLF c2 = {wlf.c2:.3g} K puts the law's pole inside or below the measured temperatures: not physical")
+        if not (wlf.c1_std <= 0.5 * abs(wlf.c1) and wlf.c2_std <= 0.5 * abs(wlf.c2)):
+            findings.append(f"WLF c1 = {wlf.c1:.3g} +- {wlf.c1_std:.2g}, c2 = {wlf.c2:.3g} +- {wlf.c2_std:.2g} K: not determined "
+                            "by these temperatures (relative std > 50 %); use the shift factors or the Arrhenius law")
     sf = s - offset
     sd = np.sqrt(np.maximum(np.diag(cov) + offset_var, 0.0))
     shift_factors = tuple((float(t), float(v), float(e)) for t, v, e in zip(T, sf, sd))
