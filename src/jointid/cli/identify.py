@@ -205,8 +205,9 @@ def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, trut
         The FRF file to read (for ``experiment``: the staged file).
     shown : Path, optional
         The name of the file in messages, ``summary.json`` and the report (default ``path``).
-    truth : ndarray, shape (F, n, n), optional
-        True joint stiffness, drawn dashed in the figures.
+    truth : ndarray, shape (F_file, n, n), optional
+        True joint stiffness on the file's lines, drawn dashed in the figures
+        (cut here to the lines identified).
 
     Returns
     -------
@@ -221,6 +222,8 @@ def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, trut
     for note in measured.notes:  # unit conversion, skipped records
         print(f"{shown}: {note}")
     result = identify(study, measured)
+    if truth is not None:
+        truth = np.asarray(truth)[np.isin(measured.frequency.hz, result.frequency.hz)]
     write_identification(out, result, study, shown, plots=plots, truth=truth, notes=measured.notes)
     return result, measured
 

@@ -7,6 +7,7 @@ from typing import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
+from .nvh_axes import loss_or_phase, set_frequency_axis
 from .style import new_figure
 
 __all__ = ["plot_direct_stiffness", "plot_deformed_shapes"]
@@ -29,6 +30,9 @@ def _fit_label(fit) -> str:
 
 def plot_direct_stiffness(result, fit=None, title: str | None = None, points: int = 300) -> Figure:
     """|K21| (log axis) and loss factor (or phase) vs frequency: measured (markers) and fitted (line).
+
+    The frequency axis is logarithmic when the band spans a decade or more
+    (:func:`jointid.plots.nvh_axes.set_frequency_axis`).
 
     The lower panel shows the loss factor ``Im K21 / Re K21`` while the
     storage stiffness ``Re K21`` stays positive over the band. Past the
@@ -65,14 +69,8 @@ def plot_direct_stiffness(result, fit=None, title: str | None = None, points: in
     use_phase = bool(np.any(k.real <= 0) or (kf is not None and np.any(kf.real <= 0)))
 
     def lower(freq, z):
-        """Loss factor, or the phase in degrees unwrapped along frequency."""
-        if not use_phase:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                return z.imag / z.real
-        order = np.argsort(freq)
-        out = np.empty(z.shape)
-        out[order] = np.degrees(np.unwrap(np.angle(z[order])))
-        return out
+        """Loss factor, or the phase in degrees unwrapped along frequency (:func:`.nvh_axes.loss_or_phase`)."""
+        return loss_or_phase(freq, z, force_phase=use_phase)[0]
 
     low = lower(f, k)
     ax_m.plot(f[ok], np.abs(k[ok]), "o", ms=5, color="C0", label="measured", zorder=2)
@@ -91,10 +89,11 @@ def plot_direct_stiffness(result, fit=None, title: str | None = None, points: in
         ax_e.set_title("phase shown: Re K21 changes sign in the band (internal mode), the loss factor would run to +-infinity", fontsize=8)
     else:
         ax_e.set_ylabel("loss factor (-)")
-    ax_e.set_xlabel("frequency (Hz)")
     for ax in (ax_m, ax_e):
+        set_frequency_axis(ax, f, label=False, pad=0.03)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8, loc="best")
+    ax_e.set_xlabel("frequency (Hz)")
     ax_m.set_title(title or f"Direct method: blocked transfer stiffness ({result.parallel_joints} joints in parallel, per joint)")
     return fig
 

@@ -18,8 +18,10 @@ def plot_identification(result, truth: np.ndarray | None = None):
     A joint of more than 3 DOFs (a 3-D mount) gets the compact figure of
     :func:`jointid.plots.joint_matrix.plot_joint_terms`. Up to 3 DOFs: one
     column per independent joint term (upper triangle): magnitude on a log
-    axis, loss factor ``Im/Re`` on a linear axis; beneath, the condition numbers
-    (log axis). Unreliable lines are shaded.
+    axis; for diagonal terms the loss factor ``Im/Re``, or the phase where
+    ``Re K`` crosses zero (:func:`jointid.plots.nvh_axes.loss_or_phase`);
+    beneath, the condition numbers (log axis). Unreliable lines are shaded;
+    the frequency axis is logarithmic when the band spans a decade.
 
     Parameters
     ----------
@@ -32,6 +34,8 @@ def plot_identification(result, truth: np.ndarray | None = None):
     Figure
     """
     from ..methods.inverse import dof_term_labels, term_unit
+    from .joint_stiffness import draw_loss_or_phase
+    from .nvh_axes import robust_log_limits, set_frequency_axis
 
     f = result.frequency.hz
     dofs = result.joint_dofs
@@ -48,30 +52,31 @@ def plot_identification(result, truth: np.ndarray | None = None):
         di, dj = labels[i], labels[j]
         k = result.stiffness[:, i, j]
         ax_m, ax_l, ax_c = axes[:, c]
-        storage = k.real > 0  # Im/Re is a loss factor only where the storage part is positive
-        with np.errstate(divide="ignore", invalid="ignore"):
-            eta = np.where(storage, k.imag / k.real, np.nan)
         ax_m.semilogy(f, np.abs(k), lw=1.0, label="identified", zorder=2)
-        ax_l.plot(f, eta, lw=1.0, label=f"identified (Re K > 0: {int(storage.sum())}/{f.size} lines)", zorder=2)
         if truth is not None:  # the reference on top of the noisy estimate
-            t = truth[:, i, j]
-            ax_m.semilogy(f, np.abs(t), "k--", lw=1.0, label="true", zorder=5)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ax_l.plot(f, np.where(t.real > 0, t.imag / t.real, np.nan), "k--", lw=1.0, label="true", zorder=5)
+            ax_m.semilogy(f, np.abs(truth[:, i, j]), "k--", lw=1.0, label="true", zorder=5)
         ax_m.set_title(f"K_{di}_{dj}")
         ax_m.set_ylabel(f"|K_{di}_{dj}| [{term_unit(dofs[i], dofs[j])}]")
-        ax_l.set_ylabel("loss factor [-] (where Re K > 0)")
-        ax_l.legend(fontsize="x-small")
-        lo, hi = np.nanpercentile(eta, [5, 95]) if np.isfinite(eta).any() else (0, 1)
-        ax_l.set_ylim(min(lo, 0) - 0.05, max(hi, 0.2) + 0.05)
+        mag = np.abs(k)
+        if np.isfinite(mag).any():  # limits from the bulk of the estimate and the truth, not from outlying lines
+            core = np.clip(mag, *np.nanpercentile(mag, [2, 98]))
+            lim = robust_log_limits(core, None if truth is None else np.abs(truth[:, i, j]))
+            if lim is not None:
+                ax_m.set_ylim(*lim)
+        if i == j:  # a loss factor (or phase) of a diagonal term only; a coupling term's Im/Re means nothing
+            draw_loss_or_phase(ax_l, f, k, truth=None if truth is None else truth[:, i, j])
+            ax_l.legend(fontsize="x-small")
+        else:
+            ax_l.axis("off")
         for name in ("cond_A", "cond_B", "cond_H"):
             ax_c.semilogy(f, getattr(result, name), lw=0.9, label=name)
         ax_c.set_ylabel("condition number [-]")
-        ax_c.set_xlabel("frequency [Hz]")
         for ax in (ax_m, ax_l, ax_c):
+            set_frequency_axis(ax, f, label=ax is ax_c)
             ax.grid(True, which="both", alpha=0.3)
-            if bad.any():
-                ax.fill_between(f, 0, 1, where=bad, transform=ax.get_xaxis_transform(), color="0.85", lw=0, step="mid")
+            if bad.any() and ax.axison:
+                ax.fill_between(f, 0, 1, where=bad, transform=ax.get_xaxis_transform(), color="0.85", lw=0, step="mid",
+                                label="line unreliable" if ax is ax_m else None)
         if c == 0:
             ax_m.legend(fontsize="small")
             ax_c.legend(fontsize="small", ncol=3)

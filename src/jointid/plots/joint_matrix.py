@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..methods.inverse import dof_term_labels, term_unit
+from .nvh_axes import loss_or_phase, magnitude_band, robust_log_limits, set_frequency_axis
 from .style import new_figure
 
 __all__ = ["plot_joint_matrix", "plot_joint_terms", "largest_couplings"]
@@ -68,10 +69,11 @@ def largest_couplings(stiffness: np.ndarray, count: int = 4) -> list[tuple[int, 
 
 
 def plot_joint_terms(result, truth: np.ndarray | None = None, couplings: int = 4):
-    """A joint of many DOFs in three panels: diagonal storage stiffness, diagonal loss factor, largest couplings.
+    """A joint of many DOFs in three panels: diagonal |K|, diagonal loss factor (or phase), largest couplings.
 
-    Each diagonal term ``Re K_ii`` (log scale; unit by DOF: N/m or N*m/rad) with
-    its 90 % band; the loss factor ``Im/Re`` of each; and the
+    Each diagonal term ``|K_ii|`` (log scale; unit by DOF: N/m or N*m/rad) with
+    its 90 % band; the loss factor ``Im/Re`` of each, or (when some ``Re K_ii``
+    crosses zero) the phase of every one; and the
     :func:`largest_couplings` as ``|K_ij| / sqrt(|K_ii| |K_jj|)`` (dimensionless,
     so translations and rotations share an axis). The truth (if given) is dashed
     black. Few axes on purpose: a panel per term of a 12 x 12 joint takes
@@ -97,20 +99,21 @@ def plot_joint_terms(result, truth: np.ndarray | None = None, couplings: int = 4
     fig, axes = new_figure(3, 1, figsize=(9.0, 10.0), height_ratios=[2, 1.2, 1.5])
     ax, ax_l, ax_c = axes
     std = getattr(result, "std_real", None)
+    std_im = getattr(result, "std_imag", None)
+    diag = K[:, range(n), range(n)]
+    phase = bool(np.any(diag.real <= 0) or (truth is not None and np.any(truth[:, range(n), range(n)].real <= 0)))
     for i in range(n):
         color = f"C{i % 10}"
         k = K[:, i, i]
-        ax.plot(f, k.real, color=color, lw=1.2, label=f"K_{labels[i]}_{labels[i]} [{term_unit(result.joint_dofs[i], result.joint_dofs[i])}]")
+        ax.plot(f, np.abs(k), color=color, lw=1.2, label=f"K_{labels[i]}_{labels[i]} [{term_unit(result.joint_dofs[i], result.joint_dofs[i])}]")
         if std is not None:
-            sr = std[:, i, i]
-            ax.fill_between(f, np.clip(k.real - Z90 * sr, k.real * 1e-3, None), k.real + Z90 * sr, color=color, alpha=0.2, lw=0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ax_l.plot(f, np.where(k.real > 0, k.imag / k.real, np.nan), color=color, lw=1.0)
+            lo, hi = magnitude_band(k, std[:, i, i], std_im[:, i, i], Z90)
+            ax.fill_between(f, np.clip(lo, np.abs(k) * 1e-3, None), hi, color=color, alpha=0.2, lw=0)
+        ax_l.plot(f, loss_or_phase(f, k, force_phase=phase)[0], color=color, lw=1.0)
         if truth is not None:
             t = truth[:, i, i]
-            ax.plot(f, t.real, "k--", lw=0.8)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ax_l.plot(f, np.where(t.real > 0, t.imag / t.real, np.nan), "k--", lw=0.8)
+            ax.plot(f, np.abs(t), "k--", lw=0.8, label="true" if i == 0 else None)
+            ax_l.plot(f, loss_or_phase(f, t, force_phase=phase)[0], "k--", lw=0.8)
     d = np.sqrt(np.abs(K[:, range(n), range(n)]))
     for c, (i, j) in enumerate(largest_couplings(K, couplings)):
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -119,14 +122,17 @@ def plot_joint_terms(result, truth: np.ndarray | None = None, couplings: int = 4
                 dt = np.sqrt(np.abs(truth[:, range(n), range(n)]))
                 ax_c.plot(f, np.abs(truth[:, i, j]) / (dt[:, i] * dt[:, j]), "k--", lw=0.8)
     ax.set_yscale("log")
-    ax.set_ylabel("Re K_ii (storage)")
+    lim = robust_log_limits(np.abs(diag), None if truth is None else np.abs(truth[:, range(n), range(n)]))
+    if lim is not None:
+        ax.set_ylim(*lim)
+    ax.set_ylabel("|K_ii| (shaded: 90 % band)")
     ax.legend(fontsize="x-small", ncol=3)
-    ax_l.set_ylabel("loss factor Im/Re [-]")
+    ax_l.set_ylabel("phase [deg] (Re K crosses 0)" if phase else "loss factor Im/Re [-]")
     ax_c.set_ylabel("|K_ij| / sqrt(|K_ii K_jj|) [-]")
-    ax_c.set_xlabel("frequency [Hz]")
     if ax_c.lines:
         ax_c.legend(fontsize="x-small", ncol=2)
     for a in axes:
-        a.grid(True, alpha=0.3)
+        a.grid(True, which="both", alpha=0.3)
+        set_frequency_axis(a, f, label=a is ax_c)
     fig.suptitle(f"joint stiffness, {n} DOFs: diagonal terms (90 % bands) and the largest couplings" + ("; dashed: true" if truth is not None else ""))
     return fig

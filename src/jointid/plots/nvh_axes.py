@@ -31,10 +31,12 @@ def use_log_frequency(f_hz: np.ndarray) -> bool:
     return bool(f.size > 1 and f.min() > 0 and f.max() / f.min() >= LOG_FREQUENCY_MIN_RATIO)
 
 
-def set_frequency_axis(ax, f_hz: np.ndarray, label: bool = True) -> bool:
+def set_frequency_axis(ax, f_hz: np.ndarray, label: bool = True, pad: float = 0.0) -> bool:
     """Frequency on ``ax``'s x axis: log scale (plain-number ticks) when :func:`use_log_frequency`, limits at the band.
 
-    Returns True when the axis is logarithmic.
+    ``pad``: margin beyond the band as a fraction of it (of its decades on a
+    log axis), so that markers at the ends are drawn whole. Returns True when
+    the axis is logarithmic.
     """
     from matplotlib.ticker import FuncFormatter
 
@@ -45,7 +47,12 @@ def set_frequency_axis(ax, f_hz: np.ndarray, label: bool = True) -> bool:
         plain = FuncFormatter(lambda v, _: f"{v:g}")
         ax.xaxis.set_major_formatter(plain)
     if f.size > 1:
-        ax.set_xlim(float(np.nanmin(f)), float(np.nanmax(f)))
+        lo, hi = float(np.nanmin(f)), float(np.nanmax(f))
+        if log:
+            r = (hi / lo) ** pad
+            ax.set_xlim(lo / r, hi * r)
+        else:
+            ax.set_xlim(lo - pad * (hi - lo), hi + pad * (hi - lo))
     if label:
         ax.set_xlabel("frequency [Hz]")
     return log
@@ -80,7 +87,9 @@ def loss_or_phase(f_hz: np.ndarray, k: np.ndarray, force_phase: bool | None = No
     Where the storage stiffness ``Re K`` crosses zero (past an internal mode, or
     a mass-like term) ``Im/Re`` runs to +-infinity and is no loss factor; the
     phase ``atan2(Im K, Re K)`` is continuous there and equals ``atan(eta)``
-    below it.
+    below it. It is unwrapped along frequency (a joint's phase passes -180 deg
+    past its internal mode), unless that spans more than a turn (noise): then
+    it is given in (-180, 180].
 
     Parameters
     ----------
@@ -105,6 +114,8 @@ def loss_or_phase(f_hz: np.ndarray, k: np.ndarray, force_phase: bool | None = No
     out[order] = np.degrees(np.unwrap(np.angle(k[order])))
     if out.size and np.nanmedian(out) > 180:  # unwrapping may start a turn away: keep the phase near (-180, 180]
         out -= 360 * np.round(np.nanmedian(out) / 360)
+    if out.size and np.nanmax(out) - np.nanmin(out) > 360:  # noisy data: unwrapping drifts by turns, show (-180, 180]
+        out = np.degrees(np.angle(k))
     return out, "phase"
 
 
