@@ -188,8 +188,9 @@ class StructureSpec:
             spec = getattr(self, key)
             try:
                 A = read_matrix(spec, key, Path(self.base))
-                check_symmetric(A, spec)
-                check_semidefinite(A, spec, key)
+                label = spec if Path(spec).is_absolute() else str(Path(self.base) / spec)
+                check_symmetric(A, label)
+                check_semidefinite(A, label, key)
             except DataError as exc:
                 raise StudyError(f"[structure].{key}: {exc}") from None
             if A.shape[0] != len(self.dof_array):

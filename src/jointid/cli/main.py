@@ -73,16 +73,17 @@ def _signal_handlers():
 
 def _warning_line(command: str, caught: list) -> str | None:
     """One line for the warnings a run raised (numerical ones: overflow, invalid value), or None."""
-    shown = [w for w in caught if not issubclass(w.category, (DeprecationWarning, PendingDeprecationWarning))]
-    if not shown:
+    if not caught:
         return None
-    w = shown[0]
+    w = caught[0]
     where = f"{Path(w.filename).name}:{w.lineno}"
-    more = f" (and {len(shown) - 1} more)" if len(shown) > 1 else ""
+    more = f" (and {len(caught) - 1} more)" if len(caught) > 1 else ""
+    numerical = issubclass(w.category, RuntimeWarning)
     return (
-        f"jointid {command}: finding: a numerical problem occurred: {w.category.__name__}: "
-        f"{' '.join(str(w.message).split())} in {where}{more}; the inputs are probably out of range "
-        "(check their units and values; rerun with --debug to see the warnings)"
+        f"jointid {command}: finding: " + ("a numerical problem occurred: " if numerical else "")
+        + f"{w.category.__name__}: {' '.join(str(w.message).split())} in {where}{more}"
+        + ("; the inputs are probably out of range: check their units and values" if numerical else "")
+        + " (rerun with --debug to see the warnings)"
     )
 
 
@@ -103,8 +104,8 @@ def main(argv: list[str] | None = None) -> int:
         if not debug:
             caught = stack.enter_context(warnings.catch_warnings(record=True))
             warnings.simplefilter("always")
-            warnings.simplefilter("ignore", DeprecationWarning)
-            warnings.simplefilter("ignore", PendingDeprecationWarning)
+            for hidden in (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning):
+                warnings.simplefilter("ignore", hidden)  # hidden by Python's defaults too
         try:
             with _signal_handlers():
                 code = int(args.func(args) or 0)

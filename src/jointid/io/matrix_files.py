@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import csv
 import io
+import warnings
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
@@ -159,7 +160,7 @@ def _read_mtx(path: Path):
 
 def _read_npz(path: Path, name: str, spec_given: bool):
     try:
-        with np.load(path, allow_pickle=False) as z:
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:  # our handle: closed even if np.load fails
             keys = list(z.files)
             sparse_file = "format" in keys and "shape" in keys
             if not sparse_file:
@@ -188,7 +189,9 @@ def _read_op4(path: Path, name: str):
     except ImportError as exc:  # pragma: no cover - a declared dependency
         raise DataError(f"{path}: reading Nastran .op4 needs the 'pyyeti' package (pip install pyyeti)") from exc
     try:
-        names, mats, _, _ = op4.load(str(path), into="list", sparse=(None, sp.coo_matrix.tocsr))
+        with warnings.catch_warnings():  # pyyeti warns about odd matrix names in a corrupt file before failing on it
+            warnings.simplefilter("ignore")
+            names, mats, _, _ = op4.load(str(path), into="list", sparse=(None, sp.coo_matrix.tocsr))
     except Exception as exc:  # noqa: BLE001
         raise DataError(f"{path}: cannot read as a Nastran OP4 file: {_one_line(exc)}") from exc
     found = [i for i, n in enumerate(names) if n.lower() == name.lower()]
