@@ -226,6 +226,10 @@ def test_flat_curves_do_not_determine_a_shift():
     assert [t for t, _ in mc.not_overlapping] == [30.0]
     assert "flat" in mc.not_overlapping[0][1]
     assert mc.shift_factors == ((20.0, 0.0, 0.0),)
+    assert mc.zener is None and any("no relaxation seen" in f for f in mc.findings)
+    assert mc.to_dict()["modulus"] is None
+    with pytest.raises(DataError, match="no fitted Zener stiffness"):
+        mc.stiffness(F)
 
 
 def test_master_curve_band_matches_the_scatter_of_repeated_campaigns():

@@ -524,9 +524,14 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
     try:
         weighted = any(c.stiffness_std is not None for c in curves)
         noise = math.nan if weighted else max(curve_noise(np.log10(data[k][1]), data[k][2], data[k][3]) for k in nodes)
-        zener = _fit_zener_fast(fr_all[order], K_all[order], noise)
-        findings.extend(w.replace("Pa", "N/m") for w in zener.warnings)
-        zcov = _zener_covariance(zener, fr_all, K_all, node_all, cov)
+        lnK = np.log(K_all)
+        if max(np.ptp(lnK.real), np.ptp(lnK.imag)) <= max(6.0 * noise, 1e-3):  # NaN noise (weighted): always fit
+            findings.append("the stiffness does not change over the reduced band (no relaxation seen): "
+                            "fractional Zener not fitted")
+        else:
+            zener = _fit_zener_fast(fr_all[order], K_all[order], noise)
+            findings.extend(w.replace("Pa", "N/m") for w in zener.warnings)
+            zcov = _zener_covariance(zener, fr_all, K_all, node_all, cov)
     except DataError as exc:
         findings.append(f"fractional Zener fit failed: {exc}")
     curves_out = tuple(TemperatureCurve(t, f, np.exp(y) * ((t + KELVIN) / (tref + KELVIN) if vertical_shift else 1.0))
