@@ -91,6 +91,9 @@ SMOOTHINGS = ("auto", "structured", "gcv", "none")
 AUTO_STRUCTURED_MAX_DOFS = 3
 #: Fewest lines for the structured estimate.
 STRUCTURED_MIN_LINES = 20
+#: Residual degrees of freedom per line (``m e`` minus the joint's parameters) from which an unknown noise
+#: level (coherence identically 1) is measured value by value from the residuals; below, only its scale per line.
+RESIDUAL_MIN_REDUNDANCY = 10
 #: Values of ``CouplingOptions.calibration``.
 CALIBRATIONS = ("auto", "columns", "none")
 #: Two-sided 90 % normal quantile: the bands drawn and the passivity test are +-Z90 sigma.
@@ -407,15 +410,17 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     variance = floor_exact_zeros(variance, H, RELATIVE_FLOOR)
     notes = list(screen.findings)
     if source == "coherence" and noise_level_unknown(coherence):
-        measured_var = residual_variance(Ymn, Yne, Yme - H, variance, options.symmetric)
-        if measured_var is None:
-            notes.append("the coherence is identically 1 (one average per excitation, or noise-free data): the FRF noise level "
-                         "is unknown and the layout has too little redundancy to measure it from the residuals; the bands "
-                         "come from the per-line residual scale only")
-        else:
+        # no noise information in the coherence: the variance is measured from the residuals when each line has
+        # the redundancy to do so (else the relative shape of frf_variance, scaled by the per-line residuals)
+        params = nn * (nn + 1) // 2 if options.symmetric else nn * nn
+        measured_var = None
+        if nm * len(e_dofs) - params >= RESIDUAL_MIN_REDUNDANCY:
+            measured_var = residual_variance(Ymn, Yne, Yme - H, variance, options.symmetric)
+        if measured_var is not None:
             variance = floor_exact_zeros(measured_var, H, RELATIVE_FLOOR)
-            notes.append("the coherence is identically 1 (one average per excitation, or noise-free data): the FRF noise level "
-                         "is unknown, so it was measured from the residuals of the per-line fit")
+        notes.append("the coherence is identically 1 (one average per excitation, or noise-free data): the FRF noise level "
+                     "is unknown, so it was measured from the residuals of the per-line fit"
+                     + ("" if measured_var is not None else " (its scale per line; the layout is too small for more)"))
     cal, applied = None, False
     if uses_kronecker(freq.size, nm, len(e_dofs), nn, options.symmetric):  # many joint DOFs: no full design, no calibration
         if options.calibration == "columns":
