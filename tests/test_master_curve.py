@@ -248,3 +248,7 @@ def test_master_curve_band_matches_the_scatter_of_repeated_campaigns():
     # 20 campaigns x 12 values: the std of z is 1 within ~12 % (1 sigma); without the shifts' error it is ~2
     assert 0.7 < np.std(z) < 1.4
     assert mc.to_dict()["modulus"]["K0_n_m"]["std"] == pytest.approx(math.sqrt(mc.modulus_covariance[0, 0]))
+    lo, hi = mc.stiffness_band(fr, sigmas=2.0)
+    assert np.all(lo.real < K.real) and np.all(K.real < hi.real) and np.allclose((lo + hi) / 2, K, rtol=1e-12)
+    # at low loss |K| ~ K': the two deltas agree there to the loss factor squared
+    assert (hi.real - lo.real)[0] / 4 == pytest.approx(mag_sd[0], rel=0.1)

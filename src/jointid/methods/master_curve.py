@@ -287,6 +287,41 @@ class MasterCurve:
             ve = np.einsum("fi,ij,fj->f", deta, cov, deta)
         return b * np.sqrt(np.maximum(vm, 0.0)), np.sqrt(np.maximum(ve, 0.0))
 
+    def stiffness_band(self, frequency_hz, temperature_c=None, sigmas: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+        """Band of the fitted master curve: ``K' -+ sigmas sd(K')`` and ``K'' -+ sigmas sd(K'')`` as complex arrays.
+
+        Same covariance and delta method as :meth:`stiffness_std` (storage and
+        loss parts separately).
+
+        Parameters
+        ----------
+        frequency_hz : array_like, shape (F,)
+            Frequency, Hz (reduced frequency when ``temperature_c`` is None).
+        temperature_c : float, optional
+            Test temperature, deg C.
+        sigmas : float
+            Half-width in standard deviations (2: about 95 %).
+
+        Returns
+        -------
+        lower, upper : ndarray, shape (F,), complex
+            ``(K' - w') + j (K'' - w'')`` and ``(K' + w') + j (K'' + w'')``, N/m.
+        """
+        if self.zener is None:
+            raise DataError("the master curve has no fitted Zener stiffness (see its findings)")
+        f = np.asarray(frequency_hz, dtype=float).reshape(-1)
+        b = 1.0
+        if temperature_c is not None:
+            f = self.reduced_frequency(f, temperature_c)
+            b = self.vertical_factor(temperature_c)
+        cov = self.modulus_covariance if self.modulus_covariance is not None else np.full((4, 4), np.nan)
+        K, J, _ = _zener_jacobian(f, self.zener)
+        with np.errstate(invalid="ignore"):
+            sr = np.sqrt(np.maximum(np.einsum("fi,ij,fj->f", J.real, cov, J.real), 0.0))
+            si = np.sqrt(np.maximum(np.einsum("fi,ij,fj->f", J.imag, cov, J.imag), 0.0))
+        w = sigmas * (sr + 1j * si)
+        return b * (K - w), b * (K + w)
+
     def shifted(self) -> list:
         """``[(temperature_c, reduced frequency (F,) Hz, stiffness at Tref (F,) complex N/m)]`` from the measured shifts."""
         table = self.measured_shift
