@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
         identified, _ = identify_file(study, out.staged("frf.uff"), out, plots=not args.no_plots, truth=result.truth, shown=uff)
         f = identified.frequency.hz
         truth = result.truth[np.isin(result.frf.frequency.hz, f)]
-        errors = _errors_vs_truth(identified, truth)
+        errors = _errors_vs_truth(study, identified, truth)
         columns = {"frequency_hz": f}
         if not study.is_structure:
             k, t = identified.stiffness[:, 0, 0], truth[:, 0, 0]
@@ -75,12 +75,23 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _errors_vs_truth(identified, truth) -> dict:
-    """Relative error ``|K - K_true| / |K_true|`` per line of each diagonal term (``[joint_]K_i_i``), shape (F,) each."""
+def _errors_vs_truth(study, identified, truth) -> dict:
+    """Relative error ``|K - K_true| / |K_true|`` per line of each diagonal term, shape (F,) each.
+
+    Keys: ``K_i_i``; a structure study of several joints, ``<joint>_K_i_i`` with
+    each joint's own labels (as in its ``joint_stiffness_<joint>.csv``).
+    """
     from ..methods.inverse import dof_term_labels
 
     n = len(identified.joint_dofs)
     diag = np.arange(n)
     err = np.abs(identified.stiffness[:, diag, diag] - truth[:, diag, diag]) / np.abs(truth[:, diag, diag])  # (F, n)
-    labels = dof_term_labels(identified.joint_dofs)
-    return {f"K_{lab}_{lab}": err[:, a] for a, lab in enumerate(labels)}
+    if not study.is_structure:
+        return {f"K_{lab}_{lab}": err[:, a] for a, lab in enumerate(dof_term_labels(identified.joint_dofs))}
+    out, i = {}, 0
+    for joint in study.joints:
+        prefix = "" if len(study.joints) == 1 else f"{joint.name}_"
+        for a, lab in enumerate(dof_term_labels(joint.joint_dofs)):
+            out[f"{prefix}K_{lab}_{lab}"] = err[:, i + a]
+        i += len(joint.joint_dofs)
+    return out
