@@ -77,6 +77,7 @@ __getattr__, __dir__, __all__ = attach(
         "updating",
         "updating_structure",
         "master_curve",
+        "master_zener",
         "shift_laws",
         "shift_estimation",
         "amplitude_dependence",

@@ -50,71 +50,16 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import DataError
+from .master_zener import fit_zener_fast, zener_covariance, zener_jacobian
 from .shift_estimation import PairShift, curve_noise, estimate_pair_shift
 from .shift_laws import KELVIN, ArrheniusFit, WLFFit, fit_arrhenius, fit_wlf, preferred_law
-from .zener_fit import ZenerFit, fit_zener, zener_modulus
+from .zener_fit import ZenerFit, zener_modulus
 
 __all__ = ["TemperatureCurve", "MasterCurve", "build_master_curve"]
 
 
 def _f(x) -> float | None:
     return float(x) if x is not None and math.isfinite(x) else None
-
-
-def _zener_jacobian(f_hz: np.ndarray, z: ZenerFit):
-    """``K`` (F,), ``dK/d(K0, Kinf, tau, alpha)`` (F, 4) and ``dK/d log10 f`` (F,) of a fractional Zener fit."""
-    jwt = 1j * 2.0 * np.pi * f_hz * z.tau_s
-    s = jwt**z.alpha
-    K = (z.E0 + z.Einf * s) / (1.0 + s)
-    dKds = (z.Einf - z.E0) / (1.0 + s) ** 2
-    J = np.column_stack([1.0 / (1.0 + s), s / (1.0 + s), dKds * z.alpha * s / z.tau_s, dKds * s * np.log(jwt)])
-    return K, J, dKds * z.alpha * s * math.log(10.0)
-
-
-def _fit_zener_fast(fr: np.ndarray, K: np.ndarray, noise: float) -> ZenerFit:
-    """:func:`fit_zener` from one data-based start, or from its own multi-start when that fit is not clean.
-
-    The start: ``K0``, ``Kinf`` just outside the lowest and highest ``|K|``, ``tau`` where ``|K|`` crosses
-    ``sqrt(K0 Kinf)``, ``alpha = 0.5``. The single-start fit is kept when every parameter is identified
-    and its rms relative residual is within ``3 sqrt(2) noise + 1e-3`` (``noise``: the curves' own noise
-    per real component of ``ln K``; NaN forces the multi-start); else the multi-start runs.
-    """
-    bounds = (0.0, math.inf)
-    mag = np.abs(K)
-    lo, hi = float(mag[0]), float(mag[-1])
-    if math.isfinite(noise) and hi > 1.05 * lo:
-        k0, kinf = 0.95 * lo, 1.05 * hi
-        mid = math.sqrt(k0 * kinf)
-        env = np.maximum.accumulate(mag)
-        f_mid = float(10 ** np.interp(mid, env, np.log10(fr)))
-        try:
-            z = fit_zener(fr, K, initial=(k0, kinf, 1.0 / (2.0 * math.pi * f_mid), 0.5), modulus_bounds_pa=bounds)
-            if z.identified and z.residual_rms <= 3.0 * math.sqrt(2.0) * noise + 1e-3:
-                return z
-        except DataError:
-            pass
-    return fit_zener(fr, K, modulus_bounds_pa=bounds)
-
-
-def _zener_covariance(z: ZenerFit, fr: np.ndarray, K: np.ndarray, node_of_point: np.ndarray, shift_cov: np.ndarray):
-    """Covariance of (K0, Kinf, tau, alpha): the fit's own plus the shift factors' error carried through the refit.
-
-    The fit minimizes ``|r|^2`` with ``r = (K_model(f aT) - K) / |K|``; a change of the
-    shifts moves the optimum by ``dp/ds = -pinv(J_p) J_s`` (``J_s``: ``dr/d log10 aT``),
-    so ``cov_p = cov_fit + (dp/ds) cov_s (dp/ds)^T``.
-    """
-    sd = np.array([p.std_error for p in z.parameters], dtype=float)
-    corr = np.asarray(z.correlation, dtype=float) if z.correlation is not None else np.full((4, 4), np.nan)
-    cov_fit = corr * np.outer(sd, sd)
-    if not np.all(np.isfinite(cov_fit)):
-        return cov_fit
-    _, Jp, dKdx = _zener_jacobian(fr, z)
-    w = 1.0 / np.abs(K)
-    Jp = Jp * w[:, None]
-    Js = np.zeros((fr.size, shift_cov.shape[0]), dtype=complex)
-    Js[np.arange(fr.size), node_of_point] = dKdx * w
-    G = -np.linalg.pinv(np.concatenate([Jp.real, Jp.imag])) @ np.concatenate([Js.real, Js.imag])
-    return cov_fit + G @ shift_cov @ G.T
 
 
 @dataclass(frozen=True, eq=False)
@@ -279,7 +224,7 @@ class MasterCurve:
             f = self.reduced_frequency(f, temperature_c)
             b = self.vertical_factor(temperature_c)
         cov = self.modulus_covariance if self.modulus_covariance is not None else np.full((4, 4), np.nan)
-        K, J, _ = _zener_jacobian(f, z)
+        K, J, _ = zener_jacobian(f, z)
         dmag = (np.conj(K)[:, None] * J).real / np.abs(K)[:, None]
         deta = (J.imag * K.real[:, None] - J.real * K.imag[:, None]) / (K.real**2)[:, None]
         with np.errstate(invalid="ignore"):
@@ -315,7 +260,7 @@ class MasterCurve:
             f = self.reduced_frequency(f, temperature_c)
             b = self.vertical_factor(temperature_c)
         cov = self.modulus_covariance if self.modulus_covariance is not None else np.full((4, 4), np.nan)
-        K, J, _ = _zener_jacobian(f, self.zener)
+        K, J, _ = zener_jacobian(f, self.zener)
         with np.errstate(invalid="ignore"):
             sr = np.sqrt(np.maximum(np.einsum("fi,ij,fj->f", J.real, cov, J.real), 0.0))
             si = np.sqrt(np.maximum(np.einsum("fi,ij,fj->f", J.imag, cov, J.imag), 0.0))
@@ -564,9 +509,9 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
             findings.append("the stiffness does not change over the reduced band (no relaxation seen): "
                             "fractional Zener not fitted")
         else:
-            zener = _fit_zener_fast(fr_all[order], K_all[order], noise)
+            zener = fit_zener_fast(fr_all[order], K_all[order], noise)
             findings.extend(w.replace("Pa", "N/m") for w in zener.warnings)
-            zcov = _zener_covariance(zener, fr_all, K_all, node_all, cov)
+            zcov = zener_covariance(zener, fr_all, K_all, node_all, cov)
     except DataError as exc:
         findings.append(f"fractional Zener fit failed: {exc}")
     curves_out = tuple(TemperatureCurve(t, f, np.exp(y) * ((t + KELVIN) / (tref + KELVIN) if vertical_shift else 1.0))
