@@ -30,7 +30,12 @@ from ..errors import DataError
 from .store import ResultStore
 from .tasks import TestOutcome, TestTask, run_tasks
 
-__all__ = ["execute_tasks", "ExecutionCounts", "ProgressPrinter", "default_workers"]
+__all__ = ["execute_tasks", "ExecutionCounts", "ProgressPrinter", "default_workers", "START_METHOD"]
+
+#: Start method of the pool's processes: ``forkserver`` (a clean server process forks each worker, with
+#: jointid's step-sine modules preloaded; safe where the caller runs threads). ``benchmarks/campaign.py``
+#: uses ``fork`` so that the workers' CPU time shows in the parent's ``RUSAGE_CHILDREN``.
+START_METHOD = "forkserver"
 
 
 def default_workers() -> int:
@@ -133,8 +138,9 @@ def _run_pool(todo, store, workers, emit):
     from concurrent.futures import ProcessPoolExecutor, as_completed
     from concurrent.futures.process import BrokenProcessPool
 
-    ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["jointid.campaign.tasks", "jointid.measurement.stepsine"])
+    ctx = multiprocessing.get_context(START_METHOD)
+    if START_METHOD == "forkserver":
+        ctx.set_forkserver_preload(["jointid.campaign.tasks", "jointid.measurement.stepsine"])
     chunks = _chunks(todo, workers, 16)
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
         futures = {pool.submit(_pool_chunk, c, str(store.root)): c for c in chunks}
@@ -157,7 +163,7 @@ def _run_dask(todo, store, scheduler, emit):
     except ImportError:
         raise DataError("--scheduler needs dask.distributed, which is not installed: pip install 'jointid[dask]'") from None
     try:
-        client = Client(scheduler, timeout="20s", set_as_default=False)
+        client = Client(scheduler, timeout="20s")
     except (OSError, TimeoutError, ValueError) as exc:
         raise DataError(f"--scheduler {scheduler}: cannot connect to the Dask scheduler ({' '.join(str(exc).split())}); "
                         "check the address, or leave --scheduler out to use this machine's cores") from None
@@ -212,6 +218,7 @@ def execute_tasks(
         The keys computed now and reused.
     """
     unique = list({t.key: t for t in tasks}.values())
+    store.remove_temporary()
     outcomes: dict[str, TestOutcome] = {}
     for t in unique:
         o = store.load(t.key)

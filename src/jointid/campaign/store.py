@@ -2,7 +2,7 @@
 
 Where and why
 -------------
-``DIR/.jointid-cache/campaign/<k[:2]>/<k>.json``, ``k`` the test's key
+``DIR/.jointid-cache/campaign/<k>.json``, ``k`` the test's key
 (:func:`task_key`): the SHA-256 of the test file's content, of the study file's
 content (``identify``), of the processing options and of the jointid version.
 A re-run of the campaign computes only tests whose key has no valid entry: a test
@@ -13,8 +13,9 @@ How this fits the output-directory rules (:mod:`jointid.io.output_dir`)
 The campaign's outputs (tables, JSON, report) are one :class:`~jointid.io.output_dir.OutputSet`,
 staged and committed together when the campaign ends. The per-test entries cannot
 wait for that (a killed run must keep every finished test), so they are written
-one by one, each with :func:`jointid.io.atomic.atomic_write_text` (a temporary file
-renamed into place: an entry is whole or absent), while the run holds the output
+one by one, each atomically (a new temporary file in the same directory, renamed into
+place: an entry is whole or absent; the protocol of :mod:`jointid.io.atomic` with the
+fewest system calls, since a store write per test must cost little next to the test), while the run holds the output
 directory's lock (``DIR/.jointid.lock``: two campaigns never write the same cache).
 They live under ``DIR/.jointid-cache/``: names starting with ``.jointid`` are
 reserved for jointid in an output directory (:class:`OutputSet` never writes a user
@@ -30,12 +31,12 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import secrets
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
-from ..io.atomic import atomic_write_text
 from .tasks import ProcessingOptions, TestOutcome
 
 __all__ = ["ResultStore", "task_key", "CACHE_DIR", "STORE_FORMAT"]
@@ -84,10 +85,10 @@ def _encode_array(a: np.ndarray) -> dict:
     if a.dtype == object or a.dtype.kind in "US":
         return {"dtype": "str", "values": [str(x) for x in a]}
     if a.dtype == bool:
-        return {"dtype": "bool", "values": [bool(x) for x in a]}
+        return {"dtype": "bool", "values": a.tolist()}
     if a.dtype.kind in "iu":
-        return {"dtype": "int64", "values": [int(x) for x in a]}
-    return {"dtype": "float64", "values": [float(x) for x in a]}  # repr round-trips exactly
+        return {"dtype": "int64", "values": a.astype(np.int64).tolist()}
+    return {"dtype": "float64", "values": a.astype(float).tolist()}  # Python floats: repr round-trips exactly
 
 
 def _decode_array(d: dict) -> np.ndarray:
@@ -120,7 +121,7 @@ class ResultStore:
 
     def path(self, key: str) -> Path:
         """The entry file of ``key``."""
-        return self.root / key[:2] / f"{key}.json"
+        return self.root / f"{key}.json"
 
     def load(self, key: str) -> TestOutcome | None:
         """The stored outcome of ``key``, or None if there is none or it does not verify."""
@@ -149,12 +150,45 @@ class ResultStore:
             "parameters": {k: (v.item() if isinstance(v, np.generic) else v) for k, v in outcome.parameters.items()},
         }
         text = _payload_text(payload)
-        entry = {"format": STORE_FORMAT, "key": outcome.key, "sha256": hashlib.sha256(text.encode()).hexdigest(), "payload": payload}
-        atomic_write_text(self.path(outcome.key), json.dumps(entry, sort_keys=True, separators=(",", ":")) + "\n")
+        head = json.dumps({"format": STORE_FORMAT, "key": outcome.key, "sha256": hashlib.sha256(text.encode()).hexdigest()})
+        _write_atomically(self.path(outcome.key), f'{head[:-1]}, "payload": {text}}}\n'.encode())
         return True
+
+    def remove_temporary(self) -> None:
+        """Remove temporary files a killed run left (call while holding the output directory's lock)."""
+        if self.root.is_dir():
+            for tmp in self.root.glob(".*.json.*.tmp"):
+                try:
+                    tmp.unlink()
+                except OSError:
+                    pass
 
     def keys(self) -> set[str]:
         """Keys with an entry file (not verified)."""
         if not self.root.is_dir():
             return set()
-        return {p.stem for p in self.root.glob("??/*.json")}
+        return {p.stem for p in self.root.glob("*.json")}
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
+    """Write ``data`` to a new temporary file next to ``path`` (umask permissions), then rename it onto ``path``."""
+    tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.tmp"
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    except FileNotFoundError:  # first entry (or the cache was removed meanwhile)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
