@@ -252,3 +252,21 @@ def test_master_curve_band_matches_the_scatter_of_repeated_campaigns():
     assert np.all(lo.real < K.real) and np.all(K.real < hi.real) and np.allclose((lo + hi) / 2, K, rtol=1e-12)
     # at low loss |K| ~ K': the two deltas agree there to the loss factor squared
     assert (hi.real - lo.real)[0] / 4 == pytest.approx(mag_sd[0], rel=0.1)
+
+
+def test_weighted_curves_and_a_wrong_temperature_label():
+    rng = np.random.default_rng(7)
+    sd_rel = 1e-3
+    curves = []
+    for t in TEMPS:
+        k = TRUTH.stiffness(F, t, 0.0) * (1 + sd_rel * (rng.standard_normal(F.size) + 1j * rng.standard_normal(F.size)))
+        curves.append(TemperatureCurve(t, F, k, stiffness_std=sd_rel * np.abs(k)))
+    mc = build_master_curve(curves, 20.0)
+    assert not mc.not_overlapping
+    for t, s, sd in mc.shift_factors:
+        assert abs(s - TRUTH.log10_shift(t)) <= max(4 * sd, 1e-12)
+    # 10 C and 30 C swapped by mistake: the shifts come out non-monotonic and a finding says so
+    swapped = [TemperatureCurve({10.0: 30.0, 30.0: 10.0}.get(c.temperature_c, c.temperature_c), c.frequency_hz, c.stiffness)
+               for c in curves]
+    bad = build_master_curve(swapped, 20.0)
+    assert any("ABOVE" in f and "check the temperatures" in f for f in bad.findings)
