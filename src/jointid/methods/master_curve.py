@@ -44,7 +44,7 @@ at any shift) is refused pairwise, not averaged.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -130,10 +130,9 @@ class MasterCurve:
     coverage: tuple
     not_overlapping: tuple
     findings: tuple
-    pairs: tuple = ()
+    pairs: tuple[tuple[float, float, PairShift], ...] = ()
     curves: tuple = ()
     modulus_covariance: np.ndarray | None = None
-    _anchor_offset: float = field(default=0.0, repr=False)
 
     @property
     def measured_shift(self) -> dict:
@@ -484,6 +483,8 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
         if not (wlf.c1_std <= 0.5 * abs(wlf.c1) and wlf.c2_std <= 0.5 * abs(wlf.c2)):
             findings.append(f"WLF c1 = {wlf.c1:.3g} +- {wlf.c1_std:.2g}, c2 = {wlf.c2:.3g} +- {wlf.c2_std:.2g} K: not determined "
                             "by these temperatures (relative std > 50 %); use the shift factors or the Arrhenius law")
+    if pref is None and not measured_ref:
+        findings.append(f"no shift law fitted: the shift factors stay relative to {temps[anchor]:g} deg C, not {tref:g} deg C")
     sf = s - offset
     sd = np.sqrt(np.maximum(np.diag(cov) + offset_var, 0.0))
     shift_factors = tuple((float(t), float(v), float(e)) for t, v, e in zip(T, sf, sd))
@@ -518,4 +519,4 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
                        for t, f, y, _ in data)
     return MasterCurve(tref, bool(vertical_shift), shift_factors, wlf, arr, pref, zener,
                        (float(fr_all.min()), float(fr_all.max())), tuple(coverage), tuple(not_overlapping),
-                       tuple(findings), tuple(pairs), curves_out, zcov, float(offset))
+                       tuple(findings), tuple(pairs), curves_out, zcov)
