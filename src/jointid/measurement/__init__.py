@@ -13,7 +13,10 @@ The main API, re-exported here (imported on first use)::
   ``ImpactHits`` (hammer hits on an FE structure, sampled exactly);
 * step-sine (direct) test -- :mod:`.stepsine`: ``process_stepsine``, ``read_stepsine_csv``,
   ``write_stepsine_csv``, ``StepSineBlock``, ``StepSineResult`` (time histories to K21(f));
-  :mod:`.stepsine_synth`: ``synthesize_stepsine``, ``example_stepsine`` (virtual test).
+  :mod:`.stepsine_synth`: ``synthesize_stepsine``, ``example_stepsine`` (virtual test);
+* synthetic campaign -- :mod:`.campaign_synth`: ``synthesize_campaign``, ``CampaignTruth``
+  (step-sine tests over temperature, amplitude and specimen with a known Zener/WLF/Kraus
+  truth, and their manifest).
 
 This layer imports the labels and axes (:mod:`jointid.dofs`, :mod:`jointid.frequency`,
 :mod:`jointid.frf`, :mod:`jointid.errors`), the file helpers of :mod:`jointid.io` and
@@ -34,6 +37,7 @@ __getattr__, __dir__, __all__ = attach(
         ".virtual_hammer": ("simulate_hits", "HammerSettings", "ImpactHits"),
         ".stepsine": ("process_stepsine", "read_stepsine_csv", "write_stepsine_csv", "StepSineBlock", "StepSineResult"),
         ".stepsine_synth": ("synthesize_stepsine", "example_stepsine"),
+        ".campaign_synth": ("synthesize_campaign", "CampaignTruth"),
     },
     submodules=(
         "impact",
@@ -44,5 +48,6 @@ __getattr__, __dir__, __all__ = attach(
         "virtual_hammer",
         "stepsine",
         "stepsine_synth",
+        "campaign_synth",
     ),
 )
