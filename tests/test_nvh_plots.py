@@ -44,8 +44,10 @@ def test_loss_factor_until_re_k_crosses_zero_then_phase():
 def test_log_frequency_only_over_a_decade_and_limits_ignore_a_collapsed_band():
     assert use_log_frequency(np.array([5.0, 1000.0])) and not use_log_frequency(np.array([100.0, 400.0]))
     assert not use_log_frequency(np.array([0.0, 1000.0]))
-    lo, hi = robust_log_limits(np.array([10.0, 20.0]), np.array([1e-9, 30.0]))
-    assert hi == pytest.approx(30.0 * 1.25) and lo == pytest.approx(hi / 1e4)  # a band reaching ~0 does not stretch the axis
+    lo, hi = robust_log_limits(np.array([10.0, 20.0]), band=(np.array([1e-9, 15.0]), np.array([30.0, 1e9])))
+    assert lo == pytest.approx(1.0 / 1.25) and hi == pytest.approx(200.0 * 1.25)  # a band reaching ~0 or ~inf: a decade at most
+    lo, hi = robust_log_limits(np.array([1e5, 1e6]), np.array([10.0, 0.0]))  # terms of different units on one axis: all shown
+    assert lo == pytest.approx(10.0 / 1.25) and hi == pytest.approx(1e6 * 1.25)
 
 
 def _result(f, K, rel=0.01, outlier=1e3):

@@ -23,7 +23,7 @@ def _shade(ax, f, bad, label: bool) -> None:
 def draw_term_magnitude(ax, f, k, std_real, std_imag, per_line=None, truth=None, bad=None, unit: str = "", name: str = "K"):
     """``|K|`` on a log axis with its 90 % band, the per-line estimates as faint dots, the truth dashed.
 
-    The y limits cover the estimate, its band (up to a decade around the
+    The y limits cover the estimate, its band (at most a decade beyond the
     estimate) and the truth, not the scatter of the per-line estimates.
     Every artist has a legend entry.
     """
@@ -39,7 +39,7 @@ def draw_term_magnitude(ax, f, k, std_real, std_imag, per_line=None, truth=None,
     if bad is not None:
         _shade(ax, f, bad, label=True)
     ax.set_yscale("log")
-    lim = robust_log_limits(mag, np.clip(hi, mag / 10, mag * 10), np.clip(lo, mag / 10, None), None if truth is None else np.abs(truth))
+    lim = robust_log_limits(mag, None if truth is None else np.abs(truth), band=(lo, hi))
     if lim is not None:
         ax.set_ylim(*lim)
     ax.set_ylabel(f"|{name}| [{unit}]")

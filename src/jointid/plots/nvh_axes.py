@@ -132,20 +132,30 @@ def loss_or_phase_std(k: np.ndarray, std_real: np.ndarray, std_imag: np.ndarray,
         return np.degrees(np.hypot(k.real * std_imag, k.imag * std_real) / np.abs(k) ** 2)
 
 
-def robust_log_limits(*arrays, pad: float = 1.25, span: float = 1e4) -> tuple[float, float] | None:
-    """Log-axis limits covering the positive values of ``arrays`` (estimate, band, truth), not outliers.
+def robust_log_limits(*arrays, band: tuple | None = None, pad: float = 1.25, decades: float = 1.0) -> tuple[float, float] | None:
+    """Log-axis limits covering the positive values of ``arrays`` (estimate, truth) and their band, not outliers.
 
-    The upper limit is the largest value (times ``pad``); the lower limit the
-    smallest, but no lower than ``max / span`` (a band reaching zero must not
-    stretch the axis over decades). None when nothing is positive and finite.
+    The limits span the smallest to the largest value of ``arrays`` (times
+    ``1/pad``, ``pad``), widened to the ``band`` (lo, hi) but by at most
+    ``decades`` beyond them: a band reaching zero, or a few lines of huge
+    uncertainty, must not stretch the axis over decades and flatten the
+    estimate. None when nothing is positive and finite.
     """
-    vals = np.concatenate([np.ravel(np.asarray(a, dtype=float)) for a in arrays if a is not None])
-    vals = vals[np.isfinite(vals) & (vals > 0)]
+    def positive(a):
+        v = np.ravel(np.asarray(a, dtype=float))
+        return v[np.isfinite(v) & (v > 0)]
+
+    vals = np.concatenate([positive(a) for a in arrays if a is not None] or [np.empty(0)])
     if not vals.size:
         return None
-    hi = float(vals.max()) * pad
-    lo = max(float(vals.min()) / pad, hi / span)
-    return lo, hi
+    lo, hi = float(vals.min()), float(vals.max())
+    if band is not None:
+        blo, bhi = positive(band[0]), positive(band[1])
+        if blo.size:
+            lo = min(lo, max(float(blo.min()), lo / 10 ** decades))
+        if bhi.size:
+            hi = max(hi, min(float(bhi.max()), hi * 10 ** decades))
+    return lo / pad, hi * pad
 
 
 def robust_limits(*arrays, percentile: float = 1.0, pad: float = 0.08, include: tuple = ()) -> tuple[float, float] | None:
