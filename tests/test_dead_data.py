@@ -192,3 +192,15 @@ def test_coherence_identically_one_says_the_noise_level_is_unknown(hammer):
 
     off = np.abs(result.stiffness - ex.truth) / term_scale(ex.truth)
     assert np.mean(off[result.reliable_terms] > 0.3) < 0.1
+
+
+def test_hong_lee_refuses_the_same_invisible_dofs_before_solving(tmp_path, capsys):
+    obs = [f"{n}{c}" for n in (2, 3, 4, 6, 8, 10) for c in IN_PLANE]
+    exc = [f"{n}{c}" for n in (3, 6, 8, 10) for c in IN_PLANE]
+    study = planar_study(tmp_path, obs, exc, [f"1{c}" for c in ("x", "y", "z", "rx", "ry", "rz")],
+                         extra='\n[identification]\nmethod = "hong-lee"\n')
+    assert main(["simulate", str(study), "--out", str(tmp_path / "sim")]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(study), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id")]) == 2
+    assert _one_line(capsys).startswith("jointid identify: error: joint DOF(s) 1z, 1rx, 1ry: the free model's receptance "
+                                        "to every observed DOF is zero")

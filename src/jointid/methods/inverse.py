@@ -350,7 +350,8 @@ def identify_joint(
     Raises
     ------
     IdentificationError
-        If ``|m| < |n|`` or ``|e| < |n|``, or a DOF is not in the free model.
+        If ``|m| < |n|`` or ``|e| < |n|``, a DOF is not in the free model, a dead acquisition or
+        channel, or joint DOFs the FRFs cannot see (:mod:`jointid.methods.frf_screening`).
     """
     options = options or InverseOptions()
     n_dofs = parse_dofs(joint_dofs)
@@ -371,6 +372,7 @@ def identify_joint(
             "drop the 0 Hz line"
         )
     H_meas = measured.to("receptance").data
+    _screen(free, measured, H_meas, n_dofs)
 
     N = len(dofs)
     n_idx = np.array([pos[d] for d in n_dofs])
@@ -448,6 +450,27 @@ def identify_joint(
     )
     estimated = FRF(freq, H_all, dofs, e_dofs, "receptance")
     return InverseResult(freq, n_dofs, Du, estimated, condA, condB, condH, ratio, reliable, lam_out, options, condA_bound)
+
+
+def _screen(free, measured: FRF, H: np.ndarray, n_dofs) -> None:
+    """Refuse dead data and joint DOFs the FRFs cannot see before solving (:mod:`jointid.methods.frf_screening`).
+
+    Hong & Lee uses every measured FRF, so a dead channel is an error here (the receptance
+    method leaves it out with a finding).
+    """
+    from ..physics.free_model import as_free_model
+    from .frf_screening import check_visibility, screen_measured
+
+    m, e = tuple(measured.responses), tuple(measured.references)
+    Y = as_free_model(free).receptance(measured.frequency, m + tuple(n_dofs), tuple(n_dofs) + e)
+    nm, nn = len(m), len(n_dofs)
+    screen = screen_measured(H, getattr(measured, "coherence", None), Y[:, :nm, nn:], m, e)
+    if screen.findings:
+        raise IdentificationError(
+            screen.findings[0].replace(": left out", "") + "; the Hong & Lee method uses every FRF: remove that DOF from "
+            "[measurement] or use method = \"receptance\" (which leaves dead channels out)"
+        )
+    check_visibility(Y[:, :nm, :nn], Y[:, nm:, :nn], Y[:, nm:, nn:], n_dofs)
 
 
 def rotation_scale(free: Structure) -> float:
