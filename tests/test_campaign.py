@@ -82,6 +82,13 @@ def test_end_to_end_tables_counts_and_master_curve(campaign):
     # tables hold the shift of the master curve
     shifts = {x["temperature_c"]: x["log10_shift"] for x in s1["shift_factors"]}
     assert shifts[20.0] == 0.0
+    from jointid.measurement.campaign_synth import CampaignTruth
+
+    truth = CampaignTruth()  # the synthetic campaign's WLF shift (reference 20 C)
+    for temp, x in shifts.items():
+        assert abs(x - truth.log10_shift(temp)) < 0.1, (temp, x)
+    by_t = df.groupby("temperature_c")["log10_shift"].first()  # the results table carries each test's shift
+    assert {t: by_t[t] for t in shifts} == pytest.approx({t: x for t, x in shifts.items()}, abs=0.02)
     assert "<img" not in (out / "report.html").read_text()  # --no-plots
     assert _cache_entries(out) == n
 

@@ -8,7 +8,9 @@ test: the blocked transfer stiffness per joint), ``frequency_hz``, ``stiffness_r
 ``stiffness_imag`` (N/m), ``magnitude``, ``loss_factor``, ``stiffness_real_std``,
 ``stiffness_imag_std`` (1-sigma, where the method gives them: ``identify``; else null),
 ``amplitude_ok``, ``amplitude_ratio`` (``direct``), ``reliable`` (``identify``),
-``log10_shift`` and ``reduced_frequency_hz`` (``f aT``; specimens with a master curve).
+``log10_shift`` and ``reduced_frequency_hz`` (``f aT``): the shift of the specimen's master
+curve at the test's temperature from its preferred law (WLF or Arrhenius; the measured
+shift when no law was fitted), null without a master curve.
 
 ``tests``: one row per test: ``manifest_row``, the manifest's columns, ``status``
 (``ok``/``failed``), ``reason``, ``file_sha256``, the per-test parameters of the
@@ -68,11 +70,18 @@ def _array(values, typename: str):
     return pa.array(values, type=getattr(pa, typename)())
 
 
-def _shift(analysis, test):
+def _log10_shift(analysis, test) -> float | None:
+    """The test's log10 aT from its specimen's master curve (preferred law), None without one."""
+    from ..errors import JointIdError
+
     a = analysis.get(test.specimen)
     if a is None or a.master_curve is None or test.kind != "direct":
         return None
-    return a.master_curve
+    try:
+        x = float(a.master_curve.log10_shift(test.temperature_c))
+    except JointIdError:  # no shift law fitted and the temperature is not on the master curve
+        return None
+    return x if math.isfinite(x) else None
 
 
 def results_table(manifest, outcomes, analysis=None):
@@ -109,12 +118,11 @@ def results_table(manifest, outcomes, analysis=None):
             else:
                 lines[name].append(np.zeros(n, dtype=bool if name in _BOOL else float))
                 masks[name].append(np.ones(n, dtype=bool))
-        mc = _shift(analysis, t)
-        if mc is None:
+        s = _log10_shift(analysis, t)
+        if s is None:
             shift.append(np.full(n, np.nan))
             reduced.append(np.full(n, np.nan))
         else:
-            s = float(mc.log10_shift(t.temperature_c))
             shift.append(np.full(n, s))
             reduced.append(np.asarray(o.lines["frequency_hz"], dtype=float) * 10.0**s)
     cols = {"manifest_row": pa.array(np.concatenate(rows) if rows else np.zeros(0, np.int64))}
@@ -170,8 +178,7 @@ def tests_table(manifest, outcomes, analysis=None, sha256=None):
         for p in names:
             v = o.parameters.get(p)
             cols[p].append(v)
-        mc = _shift(analysis, t) if o.ok else None
-        cols["log10_shift"].append(None if mc is None else float(mc.log10_shift(t.temperature_c)))
+        cols["log10_shift"].append(_log10_shift(analysis, t) if o.ok else None)
     types = dict(meta)
     out = {}
     for name, values in cols.items():

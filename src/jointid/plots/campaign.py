@@ -19,8 +19,8 @@ _R = 8.314462618
 def _colors(n: int):
     from matplotlib import colormaps
 
-    cmap = colormaps["coolwarm"]
-    return [cmap(x) for x in (np.linspace(0.0, 1.0, n) if n > 1 else [0.0])]
+    cmap = colormaps["plasma"]  # cold (dark blue) to warm (orange); stops before the pale yellow end
+    return [cmap(x) for x in (np.linspace(0.0, 0.85, n) if n > 1 else [0.0])]
 
 
 def plot_temperature_curves(curves, *, shifted: bool = False, axes=None):
