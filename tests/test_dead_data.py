@@ -204,3 +204,34 @@ def test_hong_lee_refuses_the_same_invisible_dofs_before_solving(tmp_path, capsy
     assert main(["identify", str(study), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id")]) == 2
     assert _one_line(capsys).startswith("jointid identify: error: joint DOF(s) 1z, 1rx, 1ry: the free model's receptance "
                                         "to every observed DOF is zero")
+
+
+def test_identify_cli_on_a_hammer_file_with_a_dead_accelerometer_names_it(hammer, tmp_path, capsys):
+    study, records, _ = hammer
+    dead = [ImpactRecord(r.force, r.responses * np.array([1.0, 1.0, 0.0])[None, :, None], r.sample_rate_hz,
+                         r.response_dofs, r.reference) for r in records]  # 15w dead
+    files = [str(write_impact_npz(tmp_path / f"n{r.reference}.npz", r)) for r in dead]
+    assert main(["frf", *files, "--out", str(tmp_path / "frf"), "--no-plots", *_window_flags(study)]) == 0
+    capsys.readouterr()
+    p = _beam_study_file(tmp_path)
+    assert main(["identify", str(p), "--frf", str(tmp_path / "frf" / "frf.uff"), "--out", str(tmp_path / "id"), "--no-plots"]) == 0
+    cap = capsys.readouterr()
+    assert "Warning" not in cap.err
+    assert ("response 15w: its FRFs are zero on every line (a dead channel, or a DOF the excitations do not move): "
+            "left out") in cap.out
+
+
+def test_frf_reports_a_channel_without_coherence(hammer, tmp_path, capsys):
+    """A disconnected accelerometer that records only noise: median coherence ~ln 2 / (n - 1) over n hits."""
+    study, records, _ = hammer
+    rng = np.random.default_rng(7)
+    r = records[0]
+    idx = np.arange(20) % r.n_hits  # 20 hits (the 3 repeated), channel 1w replaced by noise
+    resp = r.responses[idx].copy()
+    resp[:, 0] = rng.standard_normal(resp[:, 0].shape) * np.abs(resp[:, 1]).max()
+    rec = ImpactRecord(r.force[idx], resp, r.sample_rate_hz, r.response_dofs, r.reference)
+    f = write_impact_npz(tmp_path / "n3.npz", rec)
+    assert main(["frf", str(f), "--out", str(tmp_path / "frf"), "--no-plots", *_window_flags(study)]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if "median coherence" in ln]
+    assert len(lines) == 1 and lines[0].startswith("response 1w, excited node 3w: median coherence ")
+    assert lines[0].endswith("over the band (below 0.1): a dead or disconnected channel, or no signal")
