@@ -8,8 +8,9 @@ or anything left under ``--out`` after a refusal. SIGTERM/SIGINT: tests/test_sig
 
 Categories (counted by :func:`test_the_corpus_covers_every_category`): study values out of
 their physical bounds, study syntax and schema, FRF files (UFF and CSV), matrix and DOF-list
-files of a ``[structure]`` study, step-sine CSV files, command-line options, and degenerate
-data that must give a finding (``update`` on FRFs that are not a free-free test).
+files of a ``[structure]`` study, impact (hammer) files, step-sine CSV files, command-line
+options (and ``reproduce --config``), and degenerate data that must give a finding
+(``update`` on FRFs that are not a free-free test, mislabelled FRF units).
 """
 
 from __future__ import annotations
@@ -271,6 +272,18 @@ for cid, key, value, msg in [
 ]:
     _add("study bounds", cid, _study_case(lambda d, k=key, v=value: _elastomer(k, v)), 2, "jointid simulate: error: {tmp}/study.toml: " + msg)
 
+for cid, text, msg in [
+    ("sample_rate_huge", "sample_rate = 1e12", "[experiment].sample_rate: 1e12 Hz is outside 1-1e7 Hz"),
+    ("duration_huge", "duration = 1e9", "[experiment].duration: 1e9 s is outside 0.001-1e4 s"),
+    ("record_too_long", "sample_rate = 1e6\nduration = 100.0", "[experiment]: sample_rate x duration = 1e6 Hz x 100 s = 1e8 samples per record"),
+    ("averages_huge", "averages = 100000", "[experiment].averages: expected an integer in 1..1000, got 100000"),
+    ("pulse_too_long", "pulse_duration = 1.0", "[experiment].pulse_duration: a 1 s hammer pulse has its first spectral zero at 1.5 Hz"),
+    ("pulse_amplitude_huge", "pulse_amplitude = 1e300", "[experiment].pulse_amplitude: 1e300 N is outside 1e-6-1e7 N"),
+    ("force_noise_huge", "force_noise = 1e300", "[experiment].force_noise: 1e300 is outside 0-10"),
+    ("window_tiny", "exponential_window = 1e-300", "[experiment].exponential_window: tau = 1e-300 s is below duration / 100"),
+]:
+    _add("study bounds", cid, _study_case(lambda d, t=text: BEAM + "[experiment]\n" + t + "\n"), 2, "jointid simulate: error: {tmp}/study.toml: " + msg)
+
 # study syntax and schema
 for cid, fn, msg in [
     ("not_toml", lambda d: "[beam\nlength = 1\n", "not valid TOML"),
@@ -421,6 +434,48 @@ for cid, fn, msg in [
 ]:
     _add("options", cid, fn, 2, msg)
 
+# impact (hammer) files given to `jointid frf`
+for cid, name, content, msg in [
+    ("impact_latin1", "imp_latin.csv", b"excited_node,hit,time_s,force_n,3w\n9w,0,0,1,\xff\n",
+     "{d}/imp_latin.csv line 2: not UTF-8 text (byte 0xff); save the impact CSV file as UTF-8"),
+    ("impact_semicolon", "imp_semi.csv", b"excited_node;hit;time_s;force_n;3w\n", "{d}/imp_semi.csv line 1: the columns are separated by semicolons"),
+    ("impact_missing", "imp_nothere.csv", None, "hits file {d}/imp_nothere.csv does not exist"),
+    ("impact_npz_zero_bytes", "imp_zero.npz", b"", "{d}/imp_zero.npz: cannot read as .npz"),
+    ("impact_npz_half", "imp_half.npz", "half", "{d}/imp_half.npz: cannot read as .npz"),
+]:
+    def _impact(d, t, name=name, content=content):
+        if content == "half":
+            raw = (d / "model.npz").read_bytes()
+            (d / name).write_bytes(raw[: len(raw) // 2])
+        elif content is not None:
+            (d / name).write_bytes(content)
+        return ["frf", str(d / name), "--out", str(t / "out")]
+    _add("impact files", cid, _impact, 2, "jointid frf: error: " + msg)
+
+# design options and reproduce --config
+for cid, fn, msg in [
+    ("design_observed_zero", lambda d, t: ["design", str(d / "beam.toml"), "--observed", "0", "--out", str(t / "out")],
+     "jointid design: error: observed: 0 nodes cannot identify the 2 joint DOFs"),
+    ("design_candidates", lambda d, t: ["design", str(d / "beam.toml"), "--candidates", "1,99", "--out", str(t / "out")],
+     "jointid design: error: candidates: node 99 is not a node of the beam (nodes 1..19)"),
+    ("design_noise", lambda d, t: ["design", str(d / "beam.toml"), "--noise", "-1", "--out", str(t / "out")],
+     "jointid design: error: --noise: expected a relative FRF noise level > 0"),
+]:
+    _add("options", cid, fn, 2, msg)
+
+
+def _config(text):
+    def setup(d, t):
+        (t / "c.toml").write_text(text)
+        return ["reproduce", "--config", str(t / "c.toml"), "--out", str(t / "out")]
+    return setup
+
+
+_add("options", "config_levels_type", _config('[noise_robustness]\nlevels = [0.01, "x"]\n'), 2,
+     "jointid reproduce: error: {tmp}/c.toml: [noise_robustness].levels: expected a non-empty list of positive numbers")
+_add("options", "config_unknown_key", _config("[materials.A]\nshear_modulus = 1e6\n"), 2,
+     "jointid reproduce: error: {tmp}/c.toml: [materials.A]: unknown key 'shear_modulus'")
+
 # degenerate data: exit 0 with a finding that names the cause (no parameter determined, no warning)
 _add("findings", "update_on_jointed_frfs", lambda d, t: ["update", str(d / "beam.toml"), "--frf", str(d / "good.uff"), "--no-plots", "--out", str(t / "out")],
      0, "these FRFs do not look like a free-free test of the study's structure (this beam with these sensors)")
@@ -436,7 +491,11 @@ def _expand(text: str, d: Path, tmp: Path) -> str:
 
 
 #: Cases that wait for a change in a file this corpus's author does not own (/work/requests/H7.md).
-PENDING = {"truth_structure": "pipeline.true_beam_study must refuse a [structure] --truth (request H7 item 1)"}
+PENDING = {
+    "truth_structure": "pipeline.true_beam_study must refuse a [structure] --truth (request H7 item 1)",
+    "impact_npz_zero_bytes": "io/impact_files.read_impact_npz: every parse failure a DataError (request H7 item 2, H5's file)",
+    "impact_npz_half": "io/impact_files.read_impact_npz: every parse failure a DataError (request H7 item 2, H5's file)",
+}
 
 
 def _params():
@@ -472,5 +531,5 @@ def test_the_corpus_covers_every_category():
     for c in CASES:
         counts[c[0]] = counts.get(c[0], 0) + 1
     assert sum(counts.values()) >= 100, counts
-    assert set(counts) == {"study bounds", "study syntax", "FRF files", "matrix files", "step-sine files", "options", "findings"}
+    assert set(counts) == {"study bounds", "study syntax", "FRF files", "matrix files", "impact files", "step-sine files", "options", "findings"}
     assert len({c[1] for c in CASES}) == len(CASES)  # ids are unique

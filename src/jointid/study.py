@@ -105,7 +105,12 @@ Physical bounds (a value outside is refused in one line naming the key, e.g.
 :mod:`jointid.schema`): lengths 1e-6-1e4 m (``length``, ``width``, ``height``,
 ``diameter``, elastomer and cap sizes), moduli 1e3-1e13 Pa (``elastic_modulus``,
 ``shear_modulus``), densities 1-1e5 kg/m^3, ``shear_coefficient`` 0.1-1.5, loss
-factors 0-2, frequencies 0-1e6 Hz, ``[structure]`` scales 1e-6-1e6; each
+factors 0-2, frequencies 0-1e6 Hz, ``[structure]`` scales 1e-6-1e6; ``[experiment]``:
+``sample_rate`` 1-1e7 Hz, ``duration`` 1e-3-1e4 s, at most :data:`MAX_RECORD_SAMPLES`
+samples per record, ``averages`` 1-1000, noise ratios 0-10, ``pulse_duration``
+1e-7-10 s and short enough to excite the band (its first spectral zero 1.5 / T above
+``start`` and above ``stop`` / 10; keep it above ``stop`` for good data),
+``pulse_amplitude`` 1e-6-1e7 N, ``exponential_window`` 0 or at least duration / 100; each
 accelerometer lighter than the beam, its rotary inertia below the beam's about
 its middle (m L^2 / 12).
 
@@ -163,12 +168,18 @@ __all__ = [
     "parse_study",
     "MAX_NODES",
     "MAX_LINES",
+    "MAX_RECORD_SAMPLES",
+    "MAX_AVERAGES",
 ]
 
 #: Largest ``[beam].nodes`` accepted (the FE model is dense per frequency line).
 MAX_NODES = 10_000
 #: Largest number of ``[frequency]`` lines (``(stop - start) / step + 1``) accepted.
 MAX_LINES = 1_000_000
+#: Largest ``[experiment]`` record, samples (``sample_rate * duration``): 2^24, 128 MiB per channel.
+MAX_RECORD_SAMPLES = 2**24
+#: Largest ``[experiment].averages`` (hits per excited node).
+MAX_AVERAGES = 1000
 
 
 # --------------------------------------------------------------------------- validation helpers
@@ -238,13 +249,13 @@ _FREQUENCY = {
     "step": _Field("number", True, unit="Hz", check=_positive),
 }
 _EXPERIMENT = {
-    "sample_rate": _Field("number", False, 8192.0, unit="Hz", check=_positive),
-    "duration": _Field("number", False, 2.0, unit="s", check=_positive),
-    "averages": _Field("int", False, 5, check=lambda v: None if v >= 1 else "an integer >= 1"),
-    "force_noise": _Field("number", False, 0.01, check=_nonneg),
-    "response_noise": _Field("number", False, 0.01, check=_nonneg),
-    "pulse_duration": _Field("number", False, 0.0005, unit="s", check=_positive),
-    "pulse_amplitude": _Field("number", False, 100.0, unit="N", check=_positive),
+    "sample_rate": _Field("number", False, 8192.0, unit="Hz", check=_positive, bounds=(1.0, 1e7)),
+    "duration": _Field("number", False, 2.0, unit="s", check=_positive, bounds=(1e-3, 1e4)),
+    "averages": _Field("int", False, 5, check=lambda v: None if 1 <= v <= MAX_AVERAGES else f"an integer in 1..{MAX_AVERAGES}"),
+    "force_noise": _Field("number", False, 0.01, check=_nonneg, bounds=(0.0, 10.0)),
+    "response_noise": _Field("number", False, 0.01, check=_nonneg, bounds=(0.0, 10.0)),
+    "pulse_duration": _Field("number", False, 0.0005, unit="s", check=_positive, bounds=(1e-7, 10.0)),
+    "pulse_amplitude": _Field("number", False, 100.0, unit="N", check=_positive, bounds=(1e-6, 1e7)),
     "exponential_window": _Field("number", False, 0.0, unit="s", check=_nonneg),
     "seed": _Field("int", False, 0, check=lambda v: None if v >= 0 else "an integer >= 0"),
 }
@@ -338,7 +349,7 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
     ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
     if ident.model_accelerometers and acc is None:
         raise StudyError("[identification].model_accelerometers = true needs an [accelerometers] section")
-    exp = ExperimentSpec(**_section(data.get("experiment", {}), "experiment", _EXPERIMENT))
+    exp = _experiment(data, frequency)
     truth = None
     if "truth" in data:
         truth = TruthSpec(**{k: v for k, v in _section(data["truth"], "truth", _TRUTH).items()})
@@ -360,6 +371,31 @@ def _sensors_below_beam(acc: AccelerometerSpec, beam: BeamSpec) -> None:
             f"[accelerometers].rotary_inertia: {_num(acc.rotary_inertia)} kg*m^2 per sensor is not below the beam's "
             f"rotary inertia about its middle ({_num(inertia)} kg*m^2); give one sensor's in kg*m^2"
         )
+
+
+def _experiment(data: Mapping, frequency: FrequencySpec) -> ExperimentSpec:
+    """``[experiment]``: each key in its bounds, a record of at most :data:`MAX_RECORD_SAMPLES`, a pulse that excites
+    the band (a half-sine of duration T has its first spectral zero at 1.5 / T: refused below ``start`` or ``stop / 10``)
+    and a window that keeps the record."""
+    x = ExperimentSpec(**_section(data.get("experiment", {}), "experiment", _EXPERIMENT))
+    samples = x.sample_rate * x.duration
+    if samples > MAX_RECORD_SAMPLES:
+        raise StudyError(
+            f"[experiment]: sample_rate x duration = {_num(x.sample_rate)} Hz x {_num(x.duration)} s = {_num(samples)} samples per record; "
+            f"at most {MAX_RECORD_SAMPLES} are allowed: lower sample_rate or duration"
+        )
+    if 1.5 / x.pulse_duration <= max(frequency.start, frequency.stop / 10.0):
+        raise StudyError(
+            f"[experiment].pulse_duration: a {_num(x.pulse_duration)} s hammer pulse has its first spectral zero at "
+            f"{_num(1.5 / x.pulse_duration)} Hz, far below [frequency].stop ({_num(frequency.stop)} Hz): it does not excite "
+            f"the band; give a pulse shorter than {_num(1.5 / frequency.stop)} s"
+        )
+    if x.exponential_window and x.exponential_window < x.duration / 100.0:
+        raise StudyError(
+            f"[experiment].exponential_window: tau = {_num(x.exponential_window)} s is below duration / 100 "
+            f"({_num(x.duration / 100.0)} s): the window would remove nearly all of the record; give tau in s (0: none)"
+        )
+    return x
 
 
 def _frequency(data: Mapping) -> FrequencySpec:
@@ -416,7 +452,7 @@ def _parse_structure_study(data: Mapping[str, Any], source: str) -> Study:
     ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
     if ident.model_accelerometers:
         raise StudyError("[identification].model_accelerometers applies to [beam] studies only")
-    exp = ExperimentSpec(**_section(data.get("experiment", {}), "experiment", _EXPERIMENT))
+    exp = _experiment(data, frequency)
     return Study(None, None, measurement, frequency, None, ident, exp, source, None, structure, joints)
 
 
