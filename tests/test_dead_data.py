@@ -108,6 +108,12 @@ def hammer():
     return study, records, options
 
 
+@pytest.fixture(scope="module")
+def ex(hammer):
+    """``experiment()`` on the small study (H1 and coherence of 3 hits per node)."""
+    return experiment(hammer[0], seed=SEED)
+
+
 def test_frf_reports_a_dead_accelerometer_and_identify_leaves_it_out(hammer, tmp_path, capsys):
     study, records, _ = hammer
     dead = [ImpactRecord(r.force, r.responses * np.array([1.0, 0.0, 1.0])[None, :, None], r.sample_rate_hz,
@@ -159,9 +165,7 @@ def _beam_study_file(tmp_path, layout: bool = True):
 
 
 @pytest.mark.parametrize("value", [0.0, 1e-300])
-def test_a_dead_acquisition_is_one_line(hammer, tmp_path, capsys, value):
-    study, _, _ = hammer
-    ex = experiment(study, seed=SEED)
+def test_a_dead_acquisition_is_one_line(ex, tmp_path, capsys, value):
     frf = ex.frf
     dead = FRF(frf.frequency, np.full(frf.shape, value, dtype=complex), frf.responses, frf.references, frf.kind)
     path = write_uff_frf(tmp_path / "dead.uff", dead, coherence=np.zeros(frf.shape) if value == 0 else None, binary=True)

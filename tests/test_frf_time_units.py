@@ -53,14 +53,14 @@ def files(tmp_path_factory):
         conv.append(c)
     g = d / "g_minus_y.uff"
     pyuff.UFF(str(g)).write_sets(conv, mode="add")
-    return study, si, g, conv
+    return study, si, g, conv, records
 
 
 POINTS = [f"{1000 + n}={n}" for n in (1, 3, 9, 15)]
 
 
 def test_time_records_in_g_along_minus_y_at_points_1001_give_the_si_frfs(files, tmp_path, capsys):
-    study, si, g, _ = files
+    study, si, g, _, _ = files
     flags = _window_flags(study)
     assert main(["frf", str(si), "--out", str(tmp_path / "si"), "--no-plots", *flags]) == 0
     capsys.readouterr()
@@ -85,7 +85,7 @@ def test_time_records_in_g_along_minus_y_at_points_1001_give_the_si_frfs(files, 
 
 
 def test_the_study_gives_axis_and_points(files, tmp_path, capsys):
-    study, si, g, _ = files
+    study, si, g, _, _ = files
     text = benchmark_study_path().read_text().replace("[measurement]\n", "[measurement]\naxis = \"-Y\"\n", 1)
     text += "\n[measurement.points]\n" + "".join(f"{1000 + n} = {n}\n" for n in range(1, 20))
     p = tmp_path / "study.toml"
@@ -102,7 +102,7 @@ def test_the_study_gives_axis_and_points(files, tmp_path, capsys):
 
 
 def test_unknown_or_contradictory_label_is_one_line_naming_the_record(files, tmp_path, capsys):
-    _, _, _, conv = files
+    _, _, _, conv, _ = files
     bad = [dict(s) for s in conv]
     i = next(k for k, s in enumerate(bad) if s["ordinate_spec_data_type"] == 12 and s["rsp_node"] == 1009)
     bad[i]["ordinate_axis_units_lab"] = "furlong/fortnight^2"
@@ -143,10 +143,8 @@ def test_dataset_164_units_apply_to_unlabelled_time_records(tmp_path):
 
 def test_points_and_axis_are_refused_for_npz_and_bad_point_maps(files, tmp_path, capsys):
     from jointid.io.impact_files import write_impact_npz
-    from jointid.pipeline import virtual_hits
 
-    study, _, _, _ = files
-    records, _ = virtual_hits(study, seed=SEED)
+    records = files[4]
     f = write_impact_npz(tmp_path / "n3.npz", records[0])
     assert main(["frf", str(f), "--out", str(tmp_path / "o"), "--axis=-Y"]) == 2
     assert capsys.readouterr().err == (f"jointid frf: error: {f}: a point map and a measurement axis apply to UFF time "
