@@ -34,6 +34,7 @@ def test_report_figures_and_amplitude_table(tmp_path):
     amp = pq.read_table(out / "amplitude.parquet").to_pandas()
     assert list(amp["frequency_hz"]) == [1.0, 5.0, 25.0, 100.0] and (amp["temperature_c"] == 20.0).all()
     assert (amp["amplitudes"] == 4).all()
+    assert {"k0_n_m", "k0_n_m_std", "critical_amplitude_m", "loss_kmax_n_m", "loss_kmax_n_m_std"} <= set(amp.columns)
     # the Kraus storage law of the truth: K'(A) / K'(A_min) at 20 C, the same ratio at every frequency
     truth = CampaignTruth()
     g = np.array([truth.kraus_factor(a) for a in amplitudes])

@@ -11,7 +11,9 @@ Per specimen, from its ``direct`` tests that were processed:
   one asked for, else the tested temperature nearest the median of those tested.
 * **Amplitude dependence** (:func:`jointid.methods.amplitude_dependence.fit_kraus`): at
   each temperature, preload and test frequency tested at >= 4 amplitudes, the storage
-  stiffness against the *achieved* amplitude (commanded x ``amplitude_ratio``).
+  stiffness against the *achieved* amplitude (commanded x ``amplitude_ratio``), and the
+  loss stiffness K'' with the Kraus loss law sharing its ``Ac`` and ``m``
+  (:func:`~jointid.methods.amplitude_dependence.fit_kraus_loss`).
 * **Preload dependence** (:func:`~jointid.methods.amplitude_dependence.fit_preload`): at
   each temperature, amplitude and frequency tested at >= 3 preloads, a straight line
   ``K'(P)``.
@@ -51,7 +53,8 @@ class SpecimenAnalysis:
         :class:`jointid.methods.master_curve.MasterCurve`, None when not built.
     kraus : list of dict
         One per (temperature, preload, frequency): keys ``temperature_c``, ``preload_n``,
-        ``frequency_hz``, ``amplitude_m`` (A,), ``storage_n_m`` (A,), ``fit`` (KrausFit).
+        ``frequency_hz``, ``amplitude_m`` (A,), ``storage_n_m`` (A,), ``loss_n_m`` (A,), ``fit`` (KrausFit),
+        ``loss_fit`` (KrausLossFit or None).
     preload : list of dict
         One per (temperature, amplitude, frequency): ``temperature_c``, ``amplitude_m``,
         ``frequency_hz``, ``preload_n`` (P,), ``storage_n_m`` (P,), ``fit`` (PreloadFit).
@@ -112,14 +115,15 @@ def _master_curve(specimen, tests, outcomes, reference_temperature_c, vertical_s
 
 
 def _storage_by_line(t, outcome, achieved: bool):
+    """``{frequency: (amplitude, K', K'')}`` of a test (achieved or commanded amplitude)."""
     lines = outcome.lines
     amp = t.amplitude_m * (lines["amplitude_ratio"] if achieved else 1.0)
     amp = np.broadcast_to(amp, lines["frequency_hz"].shape)
-    return {_fkey(f): (a, s) for f, a, s in zip(lines["frequency_hz"], amp, lines["stiffness_real"])}
+    return {_fkey(f): (a, s, l) for f, a, s, l in zip(lines["frequency_hz"], amp, lines["stiffness_real"], lines["stiffness_imag"])}
 
 
 def _kraus(specimen, tests, outcomes, findings):
-    from ..methods.amplitude_dependence import fit_kraus
+    from ..methods.amplitude_dependence import fit_kraus, fit_kraus_loss
 
     groups = defaultdict(list)
     for t in tests:
@@ -130,20 +134,26 @@ def _kraus(specimen, tests, outcomes, findings):
             continue
         per_line = defaultdict(list)
         for t in group:
-            for f, (a, s) in _storage_by_line(t, outcomes[t.row], achieved=True).items():
-                per_line[f].append((a, s))
+            for f, point in _storage_by_line(t, outcomes[t.row], achieved=True).items():
+                per_line[f].append(point)
         for f, pts in sorted(per_line.items()):
-            if len({a for a, _ in pts}) < KRAUS_MIN_AMPLITUDES:
+            if len({p[0] for p in pts}) < KRAUS_MIN_AMPLITUDES:
                 continue
             pts.sort()
-            a = np.array([p[0] for p in pts])
-            s = np.array([p[1] for p in pts])
+            a, s, loss = (np.array([p[i] for p in pts]) for i in range(3))
+            where = f"specimen {specimen}: {temp:g} C, {pre:g} N, {f:g} Hz"
             try:
                 fit = fit_kraus(a, s)
             except JointIdError as exc:
-                findings.append(f"specimen {specimen}: {temp:g} C, {pre:g} N, {f:g} Hz: no Kraus fit: {' '.join(str(exc).split())}")
+                findings.append(f"{where}: no Kraus fit: {' '.join(str(exc).split())}")
                 continue
-            out.append({"temperature_c": temp, "preload_n": pre, "frequency_hz": f, "amplitude_m": a, "storage_n_m": s, "fit": fit})
+            try:
+                loss_fit = fit_kraus_loss(a, loss, fit)
+            except JointIdError as exc:
+                loss_fit = None
+                findings.append(f"{where}: no Kraus loss fit: {' '.join(str(exc).split())}")
+            out.append({"temperature_c": temp, "preload_n": pre, "frequency_hz": f, "amplitude_m": a, "storage_n_m": s,
+                        "loss_n_m": loss, "fit": fit, "loss_fit": loss_fit})
     return out
 
 
@@ -159,7 +169,7 @@ def _preload(specimen, tests, outcomes, findings):
             continue
         per_line = defaultdict(list)
         for t in group:
-            for f, (_, s) in _storage_by_line(t, outcomes[t.row], achieved=False).items():
+            for f, (_, s, _) in _storage_by_line(t, outcomes[t.row], achieved=False).items():
                 per_line[f].append((t.preload_n, s))
         for f, pts in sorted(per_line.items()):
             if len({p for p, _ in pts}) < PRELOAD_MIN_LEVELS:

@@ -226,7 +226,7 @@ def _write_outputs(o: OutputSet, manifest, outcomes, analysis, summary, sha, opt
 
     tables = {"results": results_table(manifest, outcomes, analysis), "tests": tests_table(manifest, outcomes, analysis, sha)}
     kraus = [(s, {"temperature_c": k["temperature_c"], "preload_n": k["preload_n"], "frequency_hz": k["frequency_hz"],
-                  "amplitudes": len(k["amplitude_m"])}, k["fit"]) for s, a in analysis.items() for k in a.kraus]
+                  "amplitudes": len(k["amplitude_m"])}, k["fit"], {"loss": k["loss_fit"]}) for s, a in analysis.items() for k in a.kraus]
     preload = [(s, {"temperature_c": k["temperature_c"], "amplitude_m": k["amplitude_m"], "frequency_hz": k["frequency_hz"],
                     "preloads": len(k["preload_n"])}, k["fit"]) for s, a in analysis.items() for k in a.preload]
     if kraus:

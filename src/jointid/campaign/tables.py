@@ -19,7 +19,8 @@ distortion and fit residuals; for ``identify``: method, reliable fraction) and
 ``log10_shift``.
 
 ``amplitude`` / ``preload``: one row per Kraus / preload fit (specimen, temperature,
-preload or amplitude, frequency) with the fit's parameters and their ``_std``.
+preload or amplitude, frequency) with the fit's parameters and their ``_std``; the
+amplitude table also has the Kraus loss fit (``loss_kinf_n_m``, ``loss_kmax_n_m``, ...).
 
 A value that is not given is null (empty in CSV); a computed value that is not a
 number (a loss factor over a zero storage part) is NaN (``nan``).
@@ -211,17 +212,21 @@ def fit_table(specimen_rows):
 
     Parameters
     ----------
-    specimen_rows : iterable of (str, dict, object)
+    specimen_rows : iterable of (str, dict, object) or (str, dict, object, dict)
         The specimen, the row's leading columns (temperature, preload or amplitude,
         frequency, counts) and the fit (``to_dict()``: ``{"value", "std"}`` entries
-        become ``name`` and ``name_std``; lists of findings become one text cell).
+        become ``name`` and ``name_std``; lists of findings become one text cell);
+        optionally more fits by column prefix (``{"loss": loss_fit}`` -> ``loss_kmax_n_m``, ...).
     """
     import pyarrow as pa
 
     rows = []
-    for specimen, keys, fit in specimen_rows:
+    for specimen, keys, fit, *more in specimen_rows:
         flat: dict = {}
         _flat("", fit.to_dict(), flat)
+        for prefix, other in (more[0].items() if more else ()):
+            if other is not None:
+                _flat(prefix, other.to_dict(), flat)
         rows.append({"specimen": specimen, **keys, **flat})
     names = list(dict.fromkeys(k for r in rows for k in r))
     return pa.table({n: pa.array([r.get(n) for r in rows]) for n in names})

@@ -6,6 +6,7 @@ Each function draws on the axes it is given (``ax=``, or a new figure) and retur
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.ticker import NullFormatter
 
 from .style import new_figure
 
@@ -149,21 +150,41 @@ def _dependence(entries, x_key: str, ax, xlabel: str, logx: bool, max_curves: in
     return ax.figure
 
 
-def plot_amplitude_dependence(entries, *, ax=None, max_curves: int = 8):
-    """Storage stiffness vs achieved amplitude (Payne effect) with the Kraus fits.
+def plot_amplitude_dependence(entries, *, axes=None, max_curves: int = 8):
+    """Storage K' and loss K'' stiffness vs achieved amplitude (Payne effect) with the Kraus fits.
 
     Parameters
     ----------
     entries : sequence of dict
-        ``temperature_c``, ``preload_n``, ``frequency_hz``, ``amplitude_m`` (A,), ``storage_n_m`` (A,), ``fit`` (KrausFit).
-    ax : Axes, optional
+        ``temperature_c``, ``preload_n``, ``frequency_hz``, ``amplitude_m`` (A,), ``storage_n_m`` (A,),
+        ``fit`` (KrausFit); optional ``loss_n_m`` (A,) and ``loss_fit`` (KrausLossFit or None).
+    axes : pair of Axes, optional
+        K' and K'' axes (default: a new figure with both).
     max_curves : int
         At most this many groups are drawn (evenly chosen).
     """
-    if ax is None:
-        fig, ax = new_figure(1, 1, figsize=(6.5, 4.5))
-    fig = _dependence(entries, "amplitude_m", ax, "amplitude (m, peak)", True, max_curves)
-    ax.set_title("storage stiffness vs amplitude, Kraus fits")
+    if axes is None:
+        fig, axes = new_figure(2, 1, figsize=(6.5, 6.5))
+    ax_k, ax_l = axes
+    fig = _dependence(entries, "amplitude_m", ax_k, "amplitude (m, peak)", True, max_curves)
+    ax_k.set_title("storage and loss stiffness vs amplitude, Kraus fits")
+    picks = list(entries)
+    if len(picks) > max_curves:
+        picks = [picks[i] for i in np.linspace(0, len(picks) - 1, max_curves).round().astype(int)]
+    for c, e in zip(_colors(len(picks)), picks):
+        if e.get("loss_n_m") is None:
+            continue
+        x = np.asarray(e["amplitude_m"], dtype=float)
+        ax_l.plot(x, e["loss_n_m"], "o", ms=4, color=c)
+        if e.get("loss_fit") is not None:
+            grid = np.geomspace(x.min(), x.max(), 100)
+            ax_l.plot(grid, e["loss_fit"].loss(grid), "-", color=c, lw=1)
+    ax_l.set_xscale("log")
+    for ax in (ax_k, ax_l):
+        ax.xaxis.set_minor_formatter(NullFormatter())  # short ranges: no crowded minor labels
+    ax_k.set_xlabel("")
+    ax_l.set_xlabel("amplitude (m, peak)")
+    ax_l.set_ylabel("K'' (N/m)")
     return fig
 
 
