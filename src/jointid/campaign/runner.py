@@ -133,6 +133,10 @@ def _run_local(todo, store, workers, emit):
             emit([o])
 
 
+class _PoolUnusable(Exception):
+    """The worker processes died before finishing any test (e.g. they cannot import the caller's main module)."""
+
+
 def _run_pool(todo, store, workers, emit):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -142,15 +146,19 @@ def _run_pool(todo, store, workers, emit):
     if START_METHOD == "forkserver":
         ctx.set_forkserver_preload(["jointid.campaign.tasks", "jointid.measurement.stepsine"])
     chunks = _chunks(todo, workers, 16)
+    finished = 0
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
         futures = {pool.submit(_pool_chunk, c, str(store.root)): c for c in chunks}
         try:
             for fut in as_completed(futures):
                 try:
                     outs = fut.result()
-                except BrokenProcessPool:
+                except BrokenProcessPool as exc:
+                    if not finished and not any(store.load(t.key) for t in futures[fut]):
+                        raise _PoolUnusable(" ".join(str(exc).split())) from None
                     outs = [_dead(t, store, "a worker process died (killed, or out of memory) while running this test; "
                                   "run the campaign again to retry it") for t in futures[fut]]
+                finished += len(outs)
                 emit(outs)
         except BaseException:
             pool.shutdown(wait=False, cancel_futures=True)
@@ -246,5 +254,11 @@ def execute_tasks(
         elif workers == 1 or len(todo) == 1:
             _run_local(todo, store, workers, emit)
         else:
-            _run_pool(todo, store, min(workers, len(todo)), emit)
+            try:
+                _run_pool(todo, store, min(workers, len(todo)), emit)
+            except _PoolUnusable as exc:
+                rest = [t for t in todo if t.key not in outcomes]
+                print(f"campaign: the worker processes stopped before finishing a test ({exc}); running the "
+                      f"{len(rest)} tests in this process", file=progress.stream, flush=True)
+                _run_local(rest, store, 1, emit)
     return outcomes, ExecutionCounts(computed=frozenset(t.key for t in todo), reused=frozenset(outcomes) - {t.key for t in todo})
