@@ -113,3 +113,58 @@ def test_bad_matrices_name_the_file_and_the_problem(tmp_path):
         with pytest.raises(DataError, match=message):
             read_free_matrices(*args, base=tmp_path)
     assert read_free_matrices("m.op4:MAA", "M.mtx", "d.csv", base=tmp_path).mass.shape == (4, 4)
+
+
+def _free_chain(n: int, k: float = 1e6) -> sp.csr_array:
+    """Stiffness of n unit masses in a free-free chain of springs k: eigenvalues 2k (1 - cos(j pi / n)), j = 0..n-1."""
+    main = np.full(n, 2 * k)
+    main[[0, -1]] = k
+    return sp.csr_array(sp.diags([np.full(n - 1, -k), main, np.full(n - 1, -k)], [-1, 0, 1]))
+
+
+@pytest.mark.parametrize("n", [100, 3000])  # the dense path (<= 200 DOFs) and the sparse LDL^T inertia
+def test_semidefinite_check_counts_the_negative_eigenvalues_of_a_shifted_chain(n):
+    from jointid.io.matrix_files import check_semidefinite
+
+    k = 1e6
+    lam = 2 * k * (1 - np.cos(np.arange(n) * np.pi / n))  # analytic spectrum, one rigid-body mode
+    K = _free_chain(n, k)
+    check_semidefinite(K, "chain")  # semidefinite: the rigid-body mode (0) passes
+    sigma = np.sqrt(np.finfo(float).eps) * 4 * k  # ||K||_inf = 4k
+    check_semidefinite(sp.csr_array(K - 0.5 * sigma * sp.eye_array(n)), "chain")  # -sigma/2: a rounding zero
+    c = 0.5 * (lam[5] + lam[6])  # six eigenvalues below -0 after the shift, with a wide gap either side
+    with pytest.raises(DataError) as e:
+        check_semidefinite(sp.csr_array(K - c * sp.eye_array(n)), "shifted.mtx")
+    assert str(e.value).startswith("shifted.mtx: the stiffness matrix is not positive semidefinite: 6 eigenvalue(s) below -")
+
+
+def test_negative_mass_and_negated_stiffness_are_refused_before_any_factorization(tmp_path):
+    from jointid.io.matrix_files import check_semidefinite
+
+    M = sp.csr_array(sp.diags(np.linspace(1.0, 2.0, 12)))
+    M[3, 3] = -0.5
+    with pytest.raises(DataError, match=r"^m\.npz: the mass matrix is not positive semidefinite: diagonal entry 4 is -0\.5 "
+                                        r"\(a negative mass\); its kinetic energy would be negative"):
+        check_semidefinite(M, "m.npz", "mass")
+    with pytest.raises(DataError, match=r"diagonal entry 2 is -2e\+06 \(a negative stiffness\); its strain energy"):
+        check_semidefinite(-_free_chain(12), "k.npz")
+    K = _free_chain(12).toarray()
+    np.savez(tmp_path / "model.npz", M=np.eye(12), K=-K)
+    write_dof_list(tmp_path / "d.csv", DofArray(np.arange(1, 13), np.full(12, 3)))
+    with pytest.raises(DataError, match=r"model\.npz: the stiffness matrix is not positive semidefinite"):
+        read_free_matrices("model.npz", "model.npz", "d.csv", base=tmp_path)
+
+
+def test_corrupt_npz_files_and_a_latin1_dof_list_are_one_line_data_errors(tmp_path):
+    np.savez(tmp_path / "m.npz", M=np.eye(3), K=np.eye(3))
+    raw = (tmp_path / "m.npz").read_bytes()
+    (tmp_path / "half.npz").write_bytes(raw[: len(raw) // 2])
+    (tmp_path / "zero.npz").write_bytes(b"")
+    for name in ("half.npz", "zero.npz"):
+        with pytest.raises(DataError, match=rf"^{tmp_path}/{name}: cannot read as a NumPy \.npz file: "):
+            read_matrix(tmp_path / name, "mass")
+    p = tmp_path / "d.csv"
+    p.write_bytes("node,component\n# unités\n1,x\n".encode("latin-1"))
+    with pytest.raises(DataError) as e:
+        read_dof_list(p)
+    assert str(e.value) == f"{p} line 2: not UTF-8 text (byte 0xe9); save the DOF list as UTF-8 (e.g. 'CSV UTF-8' in a spreadsheet)"

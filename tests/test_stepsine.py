@@ -152,3 +152,52 @@ def test_non_numeric_value(tmp_path):
     rows[5][3] = "abc"
     with pytest.raises(DataError, match="not a number"):
         read_stepsine_csv(_write(tmp_path, rows))
+
+
+def test_flat_top_share_of_a_clipped_sine_is_the_time_above_the_clip_level():
+    from jointid.measurement.stepsine_checks import flat_top_share
+
+    spc, cycles = 200, 10
+    t = np.arange(spc * cycles) / spc
+    y = np.sin(2 * np.pi * t + 0.3)
+    assert flat_top_share(y) == 0.0  # a sampled sine: no run of 3 equal samples at its extremes
+    for c in (0.3, 0.5, 0.9):
+        expected = 1 - 2 / np.pi * np.arcsin(c)  # share of the time with |sin| >= c
+        assert abs(flat_top_share(np.clip(y, -c, c)) - expected) <= 2.0 / spc  # one sample per edge per cycle
+    sym = np.cos(2 * np.pi * (np.arange(40) + 0.5) / 4)  # 4 samples per cycle, two equal samples at each peak
+    assert flat_top_share(sym) == 0.0
+
+
+def test_clipped_force_blocks_are_flagged_and_never_fitted():
+    """A load cell saturating at 30 % of the peak on every 3rd block: those lines are flagged, E comes from the others."""
+    from dataclasses import replace
+
+    from jointid.measurement.stepsine_synth import example_stepsine
+    from jointid.methods.material_fit import fit_material
+    from jointid.physics.elastomer_joint import MATERIALS
+
+    blocks = list(example_stepsine())[:24]  # 25-600 Hz
+    for i in range(0, len(blocks), 3):
+        F = blocks[i].force_n
+        blocks[i] = replace(blocks[i], force_n=np.clip(F, -0.3 * np.abs(F).max(), 0.3 * np.abs(F).max()))
+    r = process_stepsine(blocks)
+    clipped = np.zeros(len(blocks), bool)
+    clipped[::3] = True
+    assert np.array_equal(r.distorted, clipped) and np.array_equal(r.amplitude_ok, ~clipped)
+    assert len(r.distortion) == 8 and r.distortion[0].startswith("block at 25 Hz: force clipped (flat tops on ")
+    E = MATERIALS["B"].E
+    good = fit_material(r.frequency_hz[r.amplitude_ok], r.stiffness[r.amplitude_ok], density_kg_m3=1100.0)
+    assert good.parameter("elastic_modulus_pa").identified and abs(good.elastic_modulus_pa / E - 1) < 0.02
+    naive = fit_material(r.frequency_hz, r.stiffness, density_kg_m3=1100.0)  # what using every line would give
+    assert abs(naive.elastic_modulus_pa / E - 1) > 0.1
+
+
+def test_every_block_clipped_is_refused_naming_a_block():
+    from dataclasses import replace
+
+    from jointid.measurement.stepsine_synth import example_stepsine
+
+    blocks = [replace(b, force_n=np.clip(b.force_n, -0.3 * np.abs(b.force_n).max(), 0.3 * np.abs(b.force_n).max()))
+              for b in example_stepsine()[:6]]
+    with pytest.raises(DataError, match=r"^6 of 6 blocks are clipped or distorted \(block at 25 Hz: force clipped \(flat tops on "):
+        process_stepsine(blocks)

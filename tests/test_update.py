@@ -318,3 +318,27 @@ def test_simulate_free_with_truth_from_another_study(tmp_path, capsys):
         f"error: {other}: [beam].nodes = 21 differs from the 19 of {study}; the true beam needs the same grid of nodes\n"
     )
     assert not (tmp_path / "sim2").exists()
+
+
+def test_a_free_free_test_of_the_structure_gives_no_finding(chain):
+    report = json.loads((chain / "upd" / "update.json").read_text())
+    assert report["finding"] is None and all(p["status"] == "determined" for p in report["parameters"].values())
+
+
+def test_noise_level_is_the_median_misfit_of_white_noise_and_ignores_a_smooth_misfit():
+    from jointid.frequency import Frequency
+    from jointid.methods.update_check import NOISE_FACTOR, judge_update_fit, noise_level
+
+    rng = np.random.default_rng(4)
+    F, s = 4000, 0.01
+    noise = s * (rng.standard_normal((F, 3, 2)) + 1j * rng.standard_normal((F, 3, 2)))
+    # |noise| is Rayleigh(s): median s sqrt(2 ln 2); the estimate's standard error ~ 1.5 % at 24 000 values
+    assert noise_level(noise) == pytest.approx(s * np.sqrt(2 * np.log(2)), rel=0.05)
+    smooth = 0.3 * np.sin(np.linspace(0, 3 * np.pi, F))[:, None, None] * np.ones((1, 3, 2))
+    assert noise_level(noise + smooth) == pytest.approx(noise_level(noise), rel=0.02)
+    frf = FRF(Frequency(np.linspace(5, 1000, F)), np.ones((F, 3, 2), complex), ("1w", "2w", "3w"), ("1w", "2w"), "accelerance")
+    assert judge_update_fit(noise, frf, None, "this beam") is None  # a fit down to the noise
+    misfit = judge_update_fit(noise + smooth, frf, None, "this beam")
+    assert misfit.startswith("these FRFs do not look like a free-free test of the study's structure (this beam): after the update "
+                             "a typical value is still off by ")
+    assert NOISE_FACTOR * noise_level(noise + smooth) < np.median(np.abs(noise + smooth))

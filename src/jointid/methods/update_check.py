@@ -15,9 +15,10 @@ estimated from the second differences along frequency,
 
     sigma = median |r_{k+1} - 2 r_k + r_{k-1}| / sqrt(6)
 
-(for white noise of std ``sigma`` the second difference has std ``sqrt(6) sigma``;
-the median makes it robust to the few lines where a sharp resonance the model
-misses dominates). The fit is rejected when
+(for white noise the second difference has ``sqrt(6)`` times its standard
+deviation, so this is the median ``|r|`` the noise alone would leave; the median
+makes it robust to the few lines where a sharp resonance the model misses
+dominates, and a smooth misfit hardly changes it). The fit is rejected when
 
     median |r| > max(MISFIT_FLOOR, NOISE_FACTOR * sigma)
 
