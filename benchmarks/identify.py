@@ -1,18 +1,36 @@
-"""Benchmark the inverse identification: batched paths vs a per-line numpy.linalg.pinv loop.
+"""Benchmark the identification: whole processes, command-line start-up, and the batched paths in process.
 
-Benchmark beam, joint at node 10, 7 observed x 3 excited, 1000 and 20 000 lines.
-Prints seconds (best of a few runs, after a warm-up), the speed-up of the
-default method (receptance coupling on the 290-DOF refined free model, 1 % noise,
-smoothed, with uncertainty; model building and modes included) and of the
-Hong & Lee paths (QR estimation, cond_A certified to 1%; SVD estimation) over
-the loop, and the accuracy of each on exact data. Best-of-N times, because other
-processes on a shared machine only ever add time.
+Sections (default: ``startup process``; ``all`` adds ``in-process``)::
+
+    python benchmarks/identify.py [startup] [process] [in-process] [--lines N] [--repeats R]
+
+* ``startup``: ``jointid --help`` and ``jointid identify --help`` against ``python -c "import numpy"``
+  (median of R runs each, wall and CPU), and the ratio.
+* ``process``: the whole ``jointid identify`` process (default estimator with its uncertainty,
+  figures, CSV and report written) on a 7 x 3 accelerance UFF of the benchmark beam with N lines
+  (default 19 901: 5-1000 Hz in 0.05 Hz steps, 1 % complex noise; written by ``jointid simulate``),
+  against a plain per-line ``numpy.linalg.pinv`` loop in its own process reading the same UFF with
+  pyuff (19-node model, both Hong & Lee steps, result written with ``numpy.savetxt``); best of R runs,
+  wall and CPU (user + sys of the child), and the ratio. Then the identify process's CPU split by
+  phase (imports, UFF read, column calibration, structured fit, ..., writing), from cProfile.
+* ``in-process``: the batched identification paths against the loop at 1000 and 20 000 lines
+  (exact data, warm-up first).
+
+Best-of-N (or median) times, because other processes on a shared machine only ever add time.
 Run: python benchmarks/identify.py
 """
 
 from __future__ import annotations
 
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -80,7 +98,8 @@ def t_loop_first(lines, beam, frf, jd):
     return _LOOP[lines]
 
 
-def main() -> None:
+def in_process() -> None:
+    """The batched paths against the per-line loop, in this process (1000 and 20 000 lines)."""
     beam = benchmark_beam()
     joint = parametric_joint(10, 2e5, 60.0, 1.5e3, 0.12, growth=0.5, reference_frequency=100, exponent=0.5)
     jd = joint.dofs
@@ -114,6 +133,185 @@ def main() -> None:
               f"{t_loop / t_svd:5.1f}x vs pinv loop   max rel. error {e_svd:.1e}")
         print(f"    pinv loop                                          {t_loop:6.3f} s                       max rel. error {e_loop:.1e}")
         print(f"    pinv loop with the same diagnostics                {t_diag:6.3f} s   (QR path {t_diag / t_qr:4.1f}x faster)")
+
+
+def _run(argv: list[str], env: dict | None = None) -> tuple[float, float, str]:
+    """Wall and CPU (user + sys) seconds of one child process, and its stdout; fails loudly."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    r = subprocess.run(argv, capture_output=True, text=True, env=env)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if r.returncode != 0:
+        raise SystemExit(f"{' '.join(argv)} failed ({r.returncode}): {r.stderr.strip()}")
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), r.stdout
+
+
+def _jointid() -> str:
+    return str(Path(sys.executable).with_name("jointid"))
+
+
+def startup(repeats: int) -> None:
+    """``jointid --help`` and ``jointid identify --help`` against ``python -c "import numpy"``."""
+    cases = {
+        'python -c "import numpy"': [sys.executable, "-c", "import numpy"],
+        "jointid --help": [_jointid(), "--help"],
+        "jointid identify --help": [_jointid(), "identify", "--help"],
+    }
+    times = {name: [_run(argv) for _ in range(repeats)] for name, argv in cases.items()}
+    base_wall = statistics.median(t[0] for t in times['python -c "import numpy"'])
+    base_cpu = statistics.median(t[1] for t in times['python -c "import numpy"'])
+    print(f"start-up (median of {repeats} runs; wall / CPU):")
+    for name, runs in times.items():
+        wall, cpu = statistics.median(t[0] for t in runs), statistics.median(t[1] for t in runs)
+        print(f"    {name:28s} {wall:6.3f} s / {cpu:6.3f} s   {wall / base_wall:4.1f}x / {cpu / base_cpu:4.1f}x import numpy")
+
+
+def study_text(lines: int) -> str:
+    """The benchmark study with ``lines`` lines over 5-1000 Hz."""
+    from jointid.benchmark import benchmark_study_path
+
+    text = Path(benchmark_study_path()).read_text()
+    step = (1000.0 - 5.0) / (lines - 1)
+    out = [f"step = {step!r}" if line.startswith("step =") else line for line in text.splitlines()]
+    assert any(line.startswith("step =") for line in text.splitlines())
+    return "\n".join(out) + "\n"
+
+
+LOOP_SCRIPT = """
+import sys
+import numpy as np
+import pyuff
+from jointid.study import load_study
+sys.path.insert(0, {bench!r})
+from identify import pinv_loop
+from jointid.frequency import Frequency
+from jointid.frf import FRF
+from jointid.dofs import Dof
+
+study = load_study({study!r})
+sets = [s for s in pyuff.UFF({uff!r}).read_sets() if s["type"] == 58 and s["func_type"] == 4]
+rsp = sorted({{s["rsp_node"] for s in sets}})
+ref = sorted({{s["ref_node"] for s in sets}})
+f = sets[0]["x"]
+H = np.empty((f.size, len(rsp), len(ref)), complex)
+for s in sets:
+    H[:, rsp.index(s["rsp_node"]), ref.index(s["ref_node"])] = s["data"]
+frf = FRF(Frequency(f), H, [Dof(n, "w") for n in rsp], [Dof(n, "w") for n in ref], "accelerance")
+K = pinv_loop(study.beam.structure(), frf, study.joint.joint_dofs)
+np.savetxt({out!r}, np.column_stack([f, K.reshape(f.size, -1).real, K.reshape(f.size, -1).imag]), delimiter=",")
+"""
+
+
+def process(lines: int, repeats: int) -> None:
+    """The whole ``jointid identify`` process against a whole per-line pinv-loop process on the same UFF."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        study = tmp / "study.toml"
+        study.write_text(study_text(lines))
+        _run([_jointid(), "simulate", str(study), "--noise", "0.01", "--out", str(tmp / "sim")])
+        uff = tmp / "sim" / "frf.uff"
+        loop = [sys.executable, "-c", LOOP_SCRIPT.format(bench=str(Path(__file__).parent), study=str(study), uff=str(uff),
+                                                          out=str(tmp / "loop.csv"))]
+        ident = [_jointid(), "identify", str(study), "--frf", str(uff), "--out", str(tmp / "id")]
+        t_loop = [_run(loop) for _ in range(repeats)]
+        t_id = [_run(ident) for _ in range(repeats)]
+        wall_l, cpu_l = min(t[0] for t in t_loop), min(t[1] for t in t_loop)
+        wall_i, cpu_i = min(t[0] for t in t_id), min(t[1] for t in t_id)
+        n = t_id[0][2].split(" lines (")[0].rsplit(" ", 1)[-1]
+        print(f"whole process, {n} lines, 7 x 3 accelerances, {uff.stat().st_size / 1e6:.1f} MB ASCII UFF "
+              f"(best of {repeats}; wall / CPU):")
+        print(f"    per-line pinv loop (pyuff read, 19-node model, savetxt)   {wall_l:6.2f} s / {cpu_l:6.2f} s")
+        print(f"    jointid identify (default estimator, uncertainty, outputs) {wall_i:6.2f} s / {cpu_i:6.2f} s   "
+              f"ratio {wall_i / wall_l:.2f} / {cpu_i / cpu_l:.2f} of the loop")
+        _split(ident[1:], tmp)
+
+
+#: Phases of the identify process: (label, module, function or Class.method); indented labels run inside the one above.
+PHASES = (
+    ("read the UFF (read_measured)", "jointid.pipeline", "read_measured"),
+    ("identification (pipeline.identify)", "jointid.pipeline", "identify"),
+    ("  column calibration", "jointid.methods.column_calibration", "estimate_column_calibration"),
+    ("  FRF variance", "jointid.methods.frf_variance", "frf_variance"),
+    ("  per-line fit", "jointid.methods.coupling_lines", "coupling_per_line"),
+    ("  structured fit", "jointid.methods.structured_select", "structured_estimate"),
+    ("  smoothing", "jointid.methods.smoothing", "smooth_series"),
+    ("figure (result.plot)", "jointid.methods.coupling", "CouplingResult.plot"),
+    ("PNG encoding (figure_png)", "jointid.plots.style", "figure_png"),
+    ("CSV (OutputSet.write_csv)", "jointid.io.output_dir", "OutputSet.write_csv"),
+    ("report.html", "jointid.report.identification", "identification_report"),
+    ("commit (OutputSet.commit)", "jointid.io.output_dir", "OutputSet.commit"),
+)
+
+SPLIT_SCRIPT = """
+import importlib, json, sys, time
+t0 = time.process_time()
+from jointid.cli.main import main
+PHASES = {phases!r}
+for _, module, _ in PHASES:
+    importlib.import_module(module)
+preimport = time.process_time() - t0
+spent = {{}}
+
+def timed(f, label):
+    def wrapper(*args, **kwargs):
+        t = time.process_time()
+        try:
+            return f(*args, **kwargs)
+        finally:
+            spent[label] = spent.get(label, 0.0) + time.process_time() - t
+    return wrapper
+
+for label, module, name in PHASES:
+    mod = sys.modules[module]
+    if "." in name:
+        cls, meth = name.split(".")
+        setattr(getattr(mod, cls), meth, timed(getattr(getattr(mod, cls), meth), label))
+        continue
+    f = getattr(mod, name)
+    w = timed(f, label)
+    for m in list(sys.modules.values()):  # every module that imported the function by name
+        if getattr(m, "__name__", "").startswith("jointid"):
+            for k, v in list(vars(m).items()):
+                if v is f:
+                    setattr(m, k, w)
+t1 = time.process_time()
+rc = main({argv!r})
+total = time.process_time() - t1
+print(json.dumps({{"rc": rc, "preimport": preimport, "run": total, "spent": spent, "modules": sorted(sys.modules)}}))
+"""
+
+
+def _split(argv: list[str], tmp: Path) -> None:
+    """CPU seconds by phase of one ``jointid identify`` process (timers wrapped around the phases' functions)."""
+    import json
+
+    _, _, out = _run([sys.executable, "-c", SPLIT_SCRIPT.format(phases=PHASES, argv=argv)])
+    report = json.loads(out.strip().splitlines()[-1])
+    mods = [m for m in report["modules"] if not m.startswith("__") and m != "jointid.cli.main"]
+    _, bare, _ = _run([sys.executable, "-c", "pass"])
+    _, imports, _ = _run([sys.executable, "-c", "import importlib\nfor m in %r:\n    try: importlib.import_module(m)\n    except Exception: pass" % mods])
+    print("    identify process CPU by phase (one run; timers around each phase's function):")
+    print(f"        {'python start-up':36s} {bare:6.2f} s")
+    print(f"        {'imports (every module the run loads)':36s} {imports - bare:6.2f} s")
+    print(f"        {'run (after the imports of jointid.cli, pipeline, methods)':36s} {report['run']:6.2f} s, of which:")
+    for label, _, _ in PHASES:
+        print(f"          {label:34s} {report['spent'].get(label, 0.0):6.2f} s")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("sections", nargs="*", default=["startup", "process"], choices=["startup", "process", "in-process", "all"])
+    parser.add_argument("--lines", type=int, default=19901)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    sections = {"startup", "process", "in-process"} if "all" in args.sections else set(args.sections)
+    if "startup" in sections:
+        startup(max(args.repeats, 5))
+    if "process" in sections:
+        process(args.lines, args.repeats)
+    if "in-process" in sections:
+        in_process()
 
 
 if __name__ == "__main__":

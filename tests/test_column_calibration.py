@@ -124,3 +124,75 @@ def test_residual_variance_recovers_a_heteroskedastic_noise_from_wrong_weights()
     assert q_wrong[0] < 0.45 and q_wrong[1] > 2.0, q_wrong  # what it started from
     # a line with fewer than 3 residual degrees of freedom cannot measure its noise
     assert residual_variance(Ymn[:, :2], Yne[:, :, :2], change[:, :2, :2], np.ones((F, 2, 2))) is None
+
+
+def _reference_calibration(hz, Ymn, Yne, change, H, variance, nb=16):
+    """The estimate written term by term as in the module docstring (dense einsum sums over the lines): c, f_stat, Cx, cond(Nc)."""
+    from scipy import stats
+
+    from jointid.methods.column_calibration import _hermitian_factor
+    from jointid.methods.coupling_lines import symmetric_parametrization, whitened_line_design
+    from jointid.methods.smoothing import _basis
+
+    F, m, n = Ymn.shape
+    e = Yne.shape[2]
+    p = symmetric_parametrization(n, True).shape[1]
+    dof = F * (m * e - p) - e * nb
+    sw, cs, Q, R = whitened_line_design(Ymn, Yne, variance, True)
+    Qh = np.conj(np.swapaxes(Q, 1, 2))
+    Gw = np.zeros((F, m * e, e), complex)
+    for r in range(m):
+        for j in range(e):
+            Gw[:, r * e + j, j] = H[:, r, j] * sw[:, r * e + j]
+    dw = change.reshape(F, m * e) * sw
+    QhG = np.einsum("fij,fjk->fik", Qh, Gw)
+    Z = Gw - np.einsum("fij,fjk->fik", Q, QhG)
+    r0 = dw - np.einsum("fij,fj->fi", Q, np.einsum("fij,fj->fi", Qh, dw))
+    B = _basis(hz, nb).toarray()
+    N = np.einsum("fai,fb,faj,fc->ibjc", Z.conj(), B, Z, B).reshape(e * nb, e * nb)
+    rhs = -np.einsum("fai,fa,fb->ib", Z.conj(), r0, B).reshape(e * nb)
+    Ninv = np.linalg.inv(N)
+    rss0 = np.sum(np.abs(r0) ** 2)
+    c = Ninv @ rhs
+    s2 = (rss0 - np.real(np.vdot(c, N @ c))) / dof
+    d = np.sum(1.0 - np.sum(np.abs(Q) ** 2, axis=2).reshape(F, m, e), axis=1)
+    Dm = np.zeros((e, nb, e, nb))
+    for j in range(e):
+        Dm[j, :, j, :] = np.einsum("f,fb,fc->bc", d[:, j], B, B)
+    Nc = N - s2 * Dm.reshape(e * nb, e * nb)
+    c = np.linalg.solve(Nc, rhs - s2 * np.einsum("fj,fb->jb", d, B).reshape(e * nb))
+    reduction = np.real(2.0 * np.vdot(c, rhs) - np.vdot(c, N @ c))
+    rss1 = rss0 - reduction
+    f_stat = (reduction / (2 * e * nb)) / (rss1 / (2 * dof))
+    U = np.linalg.solve(R, QhG) / cs[:, :, None]
+    G = np.einsum("fpj,fb,jbk->fpk", U, B, _hermitian_factor(rss1 / dof * Ninv).reshape(e, nb, e * nb))
+    Cx = np.einsum("fpk,fqk->fpq", G, G.conj())
+    return c, f_stat, stats.f.sf(f_stat, 2 * e * nb, 2 * dof), Cx, np.linalg.cond(Nc), rss0 / reduction
+
+
+def test_the_batched_estimate_equals_the_sums_written_out(case):
+    """The vectorized estimate (sparse basis products, batched BLAS) equals the normal equations summed term by term.
+
+    Both sum the same F terms in another order: each sum is off by at most ~F eps of the sum of the
+    terms' magnitudes, and the solution c by cond(Nc) times that; the F statistic's reduction is a
+    difference, amplified by rss0 / reduction. Bounds: 10 F eps cond(Nc) (x rss0 / reduction for F).
+    """
+    st, test, model = case
+    frf, n_dofs = test.frf, st.joint.joint_dofs
+    hz = frf.frequency.hz
+    measured = _measured(test, _smooth_error(hz, seed=4), 0.003, seed=5)
+    H = measured.to("receptance").data
+    Y = as_free_model(model).receptance(frf.frequency, tuple(frf.responses) + tuple(n_dofs), tuple(n_dofs) + tuple(frf.references))
+    Ymn, Yme, Yne = Y[:, :7, :2], Y[:, :7, 2:], Y[:, 7:, 2:]
+    var = (0.003 * np.abs(H)) ** 2
+    cal = estimate_column_calibration(hz, Ymn, Yne, Yme - H, H, var)
+    c_ref, f_ref, p_ref, Cx_ref, cond, amplification = _reference_calibration(hz, Ymn, Yne, Yme - H, H, var)
+    from jointid.methods.smoothing import _basis
+
+    c = np.linalg.lstsq(_basis(hz, 16).toarray(), cal.delta, rcond=None)[0].T.reshape(-1)  # B has full column rank
+    bound = 10 * hz.size * np.finfo(float).eps * cond
+    assert cal.significant and bound < 1e-6  # a meaningful comparison: a real column error, a well-posed system
+    assert np.max(np.abs(c - c_ref)) <= bound * np.max(np.abs(c_ref))
+    assert abs(cal.f_statistic - f_ref) <= bound * amplification * f_ref
+    assert np.max(np.abs(cal.x_covariance - Cx_ref)) <= bound * amplification * np.max(np.abs(Cx_ref))
+    assert cal.p_value == pytest.approx(p_ref, rel=1e-6, abs=1e-300)

@@ -60,8 +60,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 from scipy.ndimage import uniform_filter1d
+from scipy.special import fdtrc
 
 from .coupling_lines import symmetric_parametrization, whitened_line_design
 from .smoothing import _basis as bspline_basis
@@ -176,14 +176,19 @@ def estimate_column_calibration(
     idx = np.arange(e)
     Gw[:, :, idx, idx] = H
     Gw = Gw.reshape(F, m * e, e) * sw[:, :, None]
-    dw = change.reshape(F, m * e) * sw
+    dw = (change.reshape(F, m * e) * sw)[:, :, None]
     QhG = Qh @ Gw
-    Z = Gw - Q @ QhG
-    r0 = dw - np.einsum("fij,fj->fi", Q, np.einsum("fij,fj->fi", Qh, dw))
-    B = bspline_basis(np.asarray(hz, float), nb).toarray()  # cubic, uniform knots over the band
-    ZZ = np.einsum("fai,faj->fij", Z.conj(), Z)
-    N = np.einsum("fij,fb,fc->ibjc", ZZ, B, B).reshape(e * nb, e * nb)
-    rhs = -np.einsum("fai,fa,fb->ib", Z.conj(), r0, B).reshape(e * nb)
+    Z = Gw - Q @ QhG  # (F, m e, e)
+    r0 = dw - Q @ (Qh @ dw)  # (F, m e, 1)
+    # B is banded (cubic: 4 functions per line), so the sums over lines are sparse products B^T (...)
+    Bs = bspline_basis(np.asarray(hz, float), nb)  # (F, nb) CSR, uniform knots over the band
+    Bt = Bs.T.tocsr()
+    Bd = Bs.toarray()
+    ZZ = np.conj(np.swapaxes(Z, 1, 2)) @ Z  # (F, e, e)
+    # N[(i,b),(j,c)] = sum_f ZZ[f,i,j] B[f,b] B[f,c]
+    N = _gram(Bt, ZZ.reshape(F, e * e), Bd).reshape(nb, e, e, nb).transpose(1, 0, 2, 3).reshape(e * nb, e * nb)
+    v = (np.conj(np.swapaxes(Z, 1, 2)) @ r0)[:, :, 0]  # (F, e): Z^H r0 per line
+    rhs = -np.asarray(Bt @ v).T.reshape(e * nb)
     try:
         Ninv = np.linalg.inv(N)
     except np.linalg.LinAlgError:
@@ -193,12 +198,12 @@ def estimate_column_calibration(
     s2 = max(rss0 - float(np.real(np.vdot(c, N @ c))), np.finfo(float).tiny) / dof
     # errors in variables: H is in the regressor G and in the data d, so E[G^H P d] carries -s^2 sum_r (1 - h_rj)
     # per line and column (h: leverage of the per-line fit), E[G^H P G] +s^2 the same; removed (bias-compensated LS)
-    lev = np.sum(np.abs(Q) ** 2, axis=2).reshape(F, m, e)
+    lev = np.sum(Q.real ** 2 + Q.imag ** 2, axis=2).reshape(F, m, e)
     d = np.sum(1.0 - lev, axis=1)  # (F, e)
     Dm = np.zeros((e, nb, e, nb))
-    Dm[idx, :, idx, :] = np.einsum("fj,fb,fc->jbc", d, B, B)
+    Dm[idx, :, idx, :] = _gram(Bt, d, Bd).transpose(1, 0, 2)  # sum_f d[f,j] B[f,b] B[f,c]
     Nc = N - s2 * Dm.reshape(e * nb, e * nb)
-    rhs_c = rhs - s2 * np.einsum("fj,fb->jb", d, B).reshape(e * nb)
+    rhs_c = rhs - s2 * np.asarray(Bt @ d).T.reshape(e * nb)
     try:
         c = np.linalg.solve(Nc, rhs_c)
     except np.linalg.LinAlgError:
@@ -207,13 +212,14 @@ def estimate_column_calibration(
     rss1 = max(rss0 - reduction, np.finfo(float).tiny)
     s2 = rss1 / dof
     k = 2 * e * nb
-    f_stat = (reduction / k) / (rss1 / (2 * dof))
-    p_value = float(stats.f.sf(f_stat, k, 2 * dof))
-    delta = B @ c.reshape(e, nb).T
+    with np.errstate(over="ignore"):  # an exact fit (rss1 at round-off): F = inf, p = 0
+        f_stat = (reduction / k) / (rss1 / (2 * dof))
+    p_value = float(fdtrc(k, 2 * dof, f_stat))  # F(k, 2 dof) survival function (scipy.stats.f.sf without importing scipy.stats)
+    delta = np.asarray(Bs @ c.reshape(e, nb).T)
     # d x / d c per line: x = (R^-1 Q^H (dw + Gw delta)) / cs
     U = np.linalg.solve(R, QhG) / cs[:, :, None]  # (F, p, e)
-    T = np.einsum("fpj,fb->fpjb", U, B).reshape(F, p, e * nb)
-    G = T @ _hermitian_factor(s2 * Ninv)
+    T = (U[:, :, :, None] * Bd[:, None, None, :]).reshape(F * p, e * nb)
+    G = (T @ _hermitian_factor(s2 * Ninv)).reshape(F, p, e * nb)  # one BLAS product for all lines
     Cx = G @ np.conj(np.swapaxes(G, 1, 2))
     return ColumnCalibration(delta, Cx, float(f_stat), p_value, nb, G)
 
@@ -272,6 +278,16 @@ def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, vari
     with np.errstate(divide="ignore", invalid="ignore"):
         v = num / den
     return np.where(np.isfinite(v) & (v > 0), v, variance.reshape(F, m * e)).reshape(F, m, e)
+
+
+def _gram(Bt, values: np.ndarray, Bd: np.ndarray) -> np.ndarray:
+    """``out[b, k, c] = sum_f values[f, k] B[f, b] B[f, c]`` for a banded ``B`` (``Bt``: B^T as CSR, ``Bd``: B dense).
+
+    One sparse product over the lines, ``B^T (values (x) B)``: (F, K) values, (F, nb) basis -> (nb, K, nb).
+    """
+    F, K = values.shape
+    nb = Bd.shape[1]
+    return np.asarray(Bt @ (values[:, :, None] * Bd[:, None, :]).reshape(F, K * nb)).reshape(nb, K, nb)
 
 
 def _hermitian_factor(C: np.ndarray) -> np.ndarray:

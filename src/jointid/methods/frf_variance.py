@@ -160,48 +160,109 @@ def column_noise_fraction(data: np.ndarray, coherence: np.ndarray) -> np.ndarray
 
 
 def _split(logq: np.ndarray, logM: np.ndarray, m: int, e: int) -> np.ndarray:
-    """``b / (a + b)`` of lines (rows of ``logq``, ``logM``: shape (F, m e)) by Levenberg-Marquardt in log scale."""
+    """``b / (a + b)`` of lines (rows of ``logq``, ``logM``: shape (F, m e)) by Levenberg-Marquardt in log scale.
+
+    Parameters per line, in log: ``a_j`` (e), ``s_r`` (m), ``t_j`` (e - 1; ``t_0 = 1`` fixes the
+    scale). The model ``lmod = log(exp(la) + exp(lb))`` with ``la[r, j] = a_j`` and
+    ``lb[r, j] = s_r + t_j - log M[r, j]`` has the Jacobian columns ``wa`` (a), ``wb`` (s, t) with
+    ``wa, wb = exp(la - lmod), exp(lb - lmod)``, each nonzero on one row or one column of the
+    (m, e) values, so the normal matrix is formed from sums over rows and columns, its ``s``
+    block is diagonal and is eliminated (Schur complement), and the remaining ``2 e - 1``
+    unknowns are solved by a Cholesky factorization vectorized over the lines.
+    """
     F = logq.shape[0]
-    q, M = np.exp(logq).reshape(F, m, e), np.exp(logM).reshape(F, m, e)
-    # parameters per line, in log: a_j (e), s_r (m), t_j (e - 1; t_0 = 1 fixes the scale)
-    rows, cols = np.divmod(np.arange(m * e), e)
-    Sa = np.zeros((m * e, e)); Sa[np.arange(m * e), cols] = 1
-    Ss = np.zeros((m * e, m)); Ss[np.arange(m * e), rows] = 1
-    St = Sa[:, 1:]
-    theta = np.concatenate([np.log(0.5 * q.min(axis=1)), np.log(np.median(q * M, axis=2)), np.zeros((F, e - 1))], axis=1)
+    lq = logq.reshape(F, m, e)
+    lM = logM.reshape(F, m, e)
+    q, M = np.exp(lq), np.exp(lM)
+    a = np.log(0.5 * q.min(axis=1))  # (F, e)
+    s_ = np.log(np.median(q * M, axis=2))  # (F, m)
+    t = np.zeros((F, e - 1))
     lo = np.log(RELATIVE_FLOOR**2)
+    rows, cols = np.divmod(np.arange(m * e), e)
+    on_col = (cols[:, None] == np.arange(e)).astype(float)  # (m e, e): sum over the rows r of a column j
+    on_row = (rows[:, None] == np.arange(m)).astype(float)  # (m e, m): sum over the columns j of a row r
 
-    def parts(th):
-        la = th[:, :e] @ Sa.T
-        lb = th[:, e:e + m] @ Ss.T + th[:, e + m:] @ St.T - logM
-        top = np.maximum(la, lb)
-        lmod = top + np.log(np.exp(la - top) + np.exp(lb - top))
-        return la, lb, lmod
+    def col_sum(x):  # (F, m, e) -> (F, e), one BLAS product
+        return x.reshape(F, m * e) @ on_col
 
-    def cost(th):
-        return np.sum((logq - parts(th)[2]) ** 2, axis=1)
+    def row_sum(x):  # (F, m, e) -> (F, m)
+        return x.reshape(F, m * e) @ on_row
+
+    def model(a, s_, t):
+        """``lmod`` and the shares ``wa, wb`` (one exp, one log1p per value)."""
+        la = a[:, None, :]
+        lb = s_[:, :, None] + np.concatenate([np.zeros((F, 1)), t], axis=1)[:, None, :] - lM
+        d = la - lb
+        ex = np.exp(-np.abs(d))
+        lmod = np.maximum(la, lb) + np.log1p(ex)
+        inv = 1.0 / (1.0 + ex)
+        big_a = d >= 0
+        return lmod, np.where(big_a, inv, ex * inv), np.where(big_a, ex * inv, inv)
+
+    def cost(lmod):
+        return np.sum(((lq - lmod) ** 2).reshape(F, m * e), axis=1)
 
     lam = np.full(F, 1e-2)
-    c = cost(theta)
+    lmod, wa, wb = model(a, s_, t)
+    c = cost(lmod)
+    kt = np.arange(e - 1)
+    k = np.arange(e)
     for _ in range(_SPLIT_ITERATIONS):  # Levenberg-Marquardt, every line at once
-        la, lb, lmod = parts(theta)
-        wa, wb = np.exp(la - lmod), np.exp(lb - lmod)  # shares of the model
-        J = np.concatenate([wa[:, :, None] * Sa, wb[:, :, None] * Ss, wb[:, :, None] * St], axis=2)  # d lmod / d theta
-        r = logq - lmod
-        Jt = np.swapaxes(J, 1, 2)
-        JJ = Jt @ J  # batched BLAS (einsum's loop took 10 s on a 196-line frame test)
-        g = (Jt @ r[..., None])[..., 0]
-        D = np.einsum("fkk->fk", JJ) + 1e-12
-        step = np.linalg.solve(JJ + lam[:, None, None] * D[:, :, None] * np.eye(JJ.shape[1]), g[..., None])[..., 0]
-        trial = theta + step
-        trial[:, :e] = np.maximum(trial[:, :e], lo)
-        ct = cost(trial)
+        r = lq - lmod
+        wab = wa * wb
+        wb2 = wb * wb
+        # J^T J by blocks (the diagonal ones as vectors) and J^T r
+        d_a = col_sum(wa * wa)  # (F, e)
+        d_s = row_sum(wb2)  # (F, m)
+        d_t = col_sum(wb2)[:, 1:]  # (F, e - 1)
+        c_at = col_sum(wab)[:, 1:]  # (F, e - 1): a_j with t_j (j >= 1)
+        g_a, g_s, g_t = col_sum(wa * r), row_sum(wb * r), col_sum(wb * r)[:, 1:]
+        damp = 1.0 + lam[:, None]  # JJ + lam (diag(JJ) + 1e-12)
+        tiny = lam[:, None] * 1e-12
+        h_a, h_s, h_t = d_a * damp + tiny, d_s * damp + tiny, d_t * damp + tiny
+        # Schur complement of the diagonal s block: unknowns u = (a, t), coupling C (F, m, 2e - 1)
+        C = np.concatenate([wab, wb2[:, :, 1:]], axis=2)
+        Cs = C / h_s[:, :, None]
+        S = -(np.swapaxes(C, 1, 2) @ Cs)  # (F, 2e - 1, 2e - 1)
+        S[:, k, k] += h_a
+        S[:, e + kt, e + kt] += h_t
+        S[:, kt + 1, e + kt] += c_at
+        S[:, e + kt, kt + 1] += c_at
+        g_u = np.concatenate([g_a, g_t], axis=1) - (np.swapaxes(Cs, 1, 2) @ g_s[:, :, None])[:, :, 0]
+        u = _cholesky_solve(S, g_u)
+        step_s = (g_s - (C @ u[:, :, None])[:, :, 0]) / h_s
+        ta, ts, tt = np.maximum(a + u[:, :e], lo), s_ + step_s, t + u[:, e:]
+        lmod_t, wa_t, wb_t = model(ta, ts, tt)
+        ct = cost(lmod_t)
         better = ct < c
-        theta = np.where(better[:, None], trial, theta)
+        b1, b3 = better[:, None], better[:, None, None]
+        a, s_, t = np.where(b1, ta, a), np.where(b1, ts, s_), np.where(b1, tt, t)
+        lmod, wa, wb = np.where(b3, lmod_t, lmod), np.where(b3, wa_t, wa), np.where(b3, wb_t, wb)
         c = np.where(better, ct, c)
         lam = np.where(better, lam / 3.0, lam * 4.0)
-    la, lb, lmod = parts(theta)
-    return np.exp(lb - lmod)
+    return wb.reshape(F, m * e)
+
+
+def _cholesky_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve ``A x = b`` for symmetric positive definite ``A`` (F, k, k), ``b`` (F, k): Cholesky vectorized over F.
+
+    A loop over the ``k`` (small) columns, each step an array operation over all lines: no
+    per-line LAPACK call (batched ``numpy.linalg.solve`` spends its time calling one per line).
+    """
+    F, k, _ = A.shape
+    L = np.zeros_like(A)
+    for j in range(k):
+        d = A[:, j, j] - np.sum(L[:, j, :j] ** 2, axis=1)
+        L[:, j, j] = np.sqrt(np.maximum(d, np.finfo(float).tiny))
+        if j + 1 < k:
+            L[:, j + 1:, j] = (A[:, j + 1:, j] - np.einsum("fik,fk->fi", L[:, j + 1:, :j], L[:, j, :j])) / L[:, j, j][:, None]
+    y = np.empty_like(b)
+    for j in range(k):
+        y[:, j] = (b[:, j] - np.sum(L[:, j, :j] * y[:, :j], axis=1)) / L[:, j, j]
+    x = np.empty_like(b)
+    for j in reversed(range(k)):
+        x[:, j] = (y[:, j] - np.sum(L[:, j + 1:, j] * x[:, j + 1:], axis=1)) / L[:, j, j]
+    return x
 
 
 def _coherence(coherence, shape) -> np.ndarray:
