@@ -192,6 +192,18 @@ def test_missing_column_and_empty_manifest(tmp_path, capsys):
     assert capsys.readouterr().err.strip() == f"jointid campaign: error: {m}: no tests; add one row per test after the header"
 
 
+@pytest.mark.parametrize("option,message", [
+    (["--workers", "0"], "--workers must be >= 1, got 0"),
+    (["--reference-temperature", "-300"], "--reference-temperature must be a temperature in degrees C, got -300.0"),
+    (["--tolerance", "0"], "--tolerance must be a positive fraction (e.g. 0.05), got 0.0"),
+])
+def test_bad_options_one_line_exit_2(campaign, tmp_path, capsys, option, message):
+    manifest, _, _ = campaign
+    assert main(["campaign", str(manifest), "--out", str(tmp_path / "o"), *option]) == 2
+    assert capsys.readouterr().err.strip() == f"jointid campaign: error: {message}"
+    assert not (tmp_path / "o").exists()
+
+
 def test_simulated_crash_keeps_finished_tests(campaign, tmp_path):
     """A run that dies after 3 tests wrote nothing but the 3 stored results; the re-run computes only the rest."""
     manifest, out_full, _ = campaign
