@@ -342,3 +342,24 @@ def test_noise_level_is_the_median_misfit_of_white_noise_and_ignores_a_smooth_mi
     assert misfit.startswith("these FRFs do not look like a free-free test of the study's structure (this beam): after the update "
                              "a typical value is still off by ")
     assert NOISE_FACTOR * noise_level(noise + smooth) < np.median(np.abs(noise + smooth))
+
+
+def test_update_on_a_structure_study_given_its_jointed_frfs_reports_a_finding(tmp_path, capsys):
+    """The spring chain on a grounded mount: the jointed structure's FRFs are no free-free test; nothing is determined."""
+    from structure_model import labels, write_model
+
+    write_model(tmp_path, 4)
+    (tmp_path / "s.toml").write_text(
+        '[structure]\nmass = "model.npz"\nstiffness = "model.npz"\ndofs = "model_dofs.csv"\nloss_factor = 0.01\n'
+        '[[joint]]\nname = "j"\ndofs = ["2z", "2ry"]\n[joint.model]\ntype = "mount"\nstiffness = [1e6, 1e3]\n'
+        f'[measurement]\nobserved = {labels(1) + labels(4)!r}\nexcited = ["1x", "1z", "4y", "4z"]\n'
+        "[frequency]\nstart = 5.0\nstop = 100.0\nstep = 5.0\n"
+    )
+    assert main(["simulate", str(tmp_path / "s.toml"), "--out", str(tmp_path / "sim")]) == 0
+    capsys.readouterr()
+    assert main(["update", str(tmp_path / "s.toml"), "--frf", str(tmp_path / "sim" / "frf.uff"), "--no-plots", "--out", str(tmp_path / "u")]) == 0
+    out = capsys.readouterr()
+    assert out.out.startswith("these FRFs do not look like a free-free test of the study's structure (this structure): ")
+    assert "Warning" not in out.err
+    report = json.loads((tmp_path / "u" / "update.json").read_text())
+    assert report["finding"] and all(p["status"] == "not_determined" for p in report["parameters"].values())
