@@ -118,6 +118,7 @@ def d(tmp_path_factory) -> Path:
     (base / "nocolumn.csv").write_text("\n".join(lines[:3] + [",".join(x.split(",")[:4]) for x in lines[3:]]) + "\n")
     (base / "dup.csv").write_text("\n".join(lines + [lines[4]]) + "\n")
     (base / "empty.csv").write_bytes(b"")
+    (base / "utf16.csv").write_bytes(text.encode("utf-16"))
     (base / "frf.txt").write_text(text)
 
     # a [structure] study, its FRFs, and broken matrix / DOF-list files
@@ -301,6 +302,8 @@ for cid, fn, msg in [
     ("beam_and_structure", lambda d: BEAM + '[structure]\nmass = "m.npz"\n', "give either [beam] (the beam factory) or [structure]"),
     ("poisson", lambda d: _beam("poisson_ratio", "0.7"), "[beam].poisson_ratio: expected a number in (-1, 0.5), got 0.7"),
     ("empty_file", lambda d: "", "missing section [beam]"),
+    ("utf16_file", lambda d: BEAM.encode("utf-16"), "line 1: UTF-16 text; save the study file as UTF-8"),
+    ("binary_file", lambda d: bytes(range(256)), "line 2: not UTF-8 text (byte 0x80)"),
 ]:
     _add("study syntax", cid, _study_case(fn), 2, "jointid simulate: error: {tmp}/study.toml" + (" " if msg.startswith("line") else ": ") + msg)
 
@@ -329,6 +332,7 @@ for cid, name, msg in [
     ("csv_missing_column", "nocolumn.csv", "row 4 of {d}/nocolumn.csv has 4 cells, the header has 5"),
     ("csv_duplicate_row", "dup.csv", "{d}/dup.csv"),
     ("csv_empty", "empty.csv", "{d}/empty.csv"),
+    ("csv_utf16", "utf16.csv", "{d}/utf16.csv line 1: UTF-16 text (a spreadsheet's 'Unicode text'); save the FRF CSV file as UTF-8"),
 ]:
     _add("FRF files", cid, _identify(name), 2, "jointid identify: error: " + msg)
     if cid in ("uff_1e300", "csv_1e300", "uff_half", "csv_latin1"):

@@ -499,6 +499,8 @@ def load_study(path: str | os.PathLike) -> Study:
         raw = p.read_bytes()
     except OSError as exc:
         raise StudyError(f"{p}: cannot read the study file ({exc.strerror or exc})") from None
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise StudyError(f"{p} line 1: UTF-16 text; save the study file as UTF-8")
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:

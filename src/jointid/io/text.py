@@ -16,13 +16,15 @@ def read_utf8(path: str | os.PathLike, what: str = "file") -> str:
     Raises
     ------
     DataError
-        The file cannot be read, or is not UTF-8 (naming the line and the byte).
+        The file cannot be read, is UTF-16 (a byte-order mark), or is not UTF-8 (naming the line and the byte).
     """
     p = Path(path)
     try:
         raw = p.read_bytes()
     except OSError as exc:
         raise DataError(f"{p}: cannot read the {what} ({exc.strerror or exc})") from None
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise DataError(f"{p} line 1: UTF-16 text (a spreadsheet's 'Unicode text'); save the {what} as UTF-8 (e.g. 'CSV UTF-8')")
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
