@@ -8,6 +8,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -250,6 +251,59 @@ def test_sigkill_mid_run_resumes(campaign, tmp_path):
     result = run_campaign(manifest, out, CampaignOptions(plots=False), workers=1, stream=open(os.devnull, "w"))
     assert (result.summary["computed"], result.summary["reused"]) == (n - stored, stored)
     assert pq.read_table(out / "results.parquet").equals(pq.read_table(out_full / "results.parquet"))
+
+
+def _descendants(pid: int) -> set[int]:
+    """Processes whose parent chain leads to ``pid`` (from /proc)."""
+    parents = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                parents[int(d.name)] = int((d / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                pass
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {p for p, pp in parents.items() if pp in frontier} - found
+        found |= frontier
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc (Linux)")
+def test_sigkilled_campaign_leaves_no_worker_processes(campaign, tmp_path):
+    """``kill -9`` of the campaign process alone: its pool's worker processes notice and exit (no orphans)."""
+    manifest, _, _ = campaign
+    n = len(manifest_rows(manifest))
+    jointid = Path(sys.executable).parent / "jointid"
+    proc = subprocess.Popen([str(jointid), "campaign", str(manifest), "--out", str(tmp_path / "o"), "--workers", "2", "--no-plots"],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                            env={**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"})
+    children: set[int] = set()
+    try:
+        for line in proc.stdout:
+            if line.startswith("campaign: ") and "tests done" in line:
+                children = _descendants(proc.pid)
+                proc.kill()  # SIGKILL to the campaign process only
+                break
+    finally:
+        proc.wait(timeout=60)
+    try:
+        assert children, f"no worker processes seen (a {n}-test campaign on 2 workers)"
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and any(_alive(p) for p in children):
+            time.sleep(0.2)
+        assert not [p for p in children if _alive(p)]
+    finally:
+        for p in children:  # never leave them behind, even when the test fails
+            if _alive(p):
+                os.kill(p, signal.SIGKILL)
 
 
 def test_tampered_cache_entry_is_recomputed(campaign, tmp_path):

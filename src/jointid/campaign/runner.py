@@ -133,6 +133,27 @@ def _run_local(todo, store, workers, emit):
             emit([o])
 
 
+def _watch_parent(pid: int, interval_s: float = 1.0) -> None:
+    """Pool worker initializer: exit when the campaign process ``pid`` is gone (killed with SIGKILL).
+
+    A worker blocked on the pool's queue would otherwise wait forever after its
+    campaign died; the check is one ``kill(pid, 0)`` per second in a daemon thread.
+    """
+    import threading
+
+    def watch() -> None:
+        while True:
+            time.sleep(interval_s)
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            except PermissionError:  # pragma: no cover - a pid reused by another user's process: ours is gone
+                os._exit(1)
+
+    threading.Thread(target=watch, name="jointid-campaign-parent-watch", daemon=True).start()
+
+
 class _PoolUnusable(Exception):
     """The worker processes died before finishing any test (e.g. they cannot import the caller's main module)."""
 
@@ -147,7 +168,7 @@ def _run_pool(todo, store, workers, emit):
         ctx.set_forkserver_preload(["jointid.campaign.tasks", "jointid.measurement.stepsine"])
     chunks = _chunks(todo, workers, 16)
     finished = 0
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_watch_parent, initargs=(os.getpid(),)) as pool:
         futures = {pool.submit(_pool_chunk, c, str(store.root)): c for c in chunks}
         try:
             for fut in as_completed(futures):
