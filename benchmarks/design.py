@@ -13,7 +13,12 @@ and 3 excited nodes from all 19, the rotational term first (weights K_w_w = K_w_
    periodic=True)`` with response noise only, (c) the same with the benchmark's
    1 % force noise as well. Printed: the median over seeds per term and K_theta_theta per seed.
 
-Not a test: run ``python benchmarks/design.py [--seeds 5] [--mc 4] [--no-hammer]``.
+With ``--default-search`` it only runs the default search of ``jointid design`` on the
+benchmark study (7 x 3 of 19 nodes, 5-1000 Hz, every term weighted 1, no Monte Carlo)
+and prints its wall and CPU time (this process and its workers), the layouts
+evaluated and the chosen vs current layout per term.
+
+Not a test: run ``python benchmarks/design.py [--seeds 5] [--mc 4] [--no-hammer] [--default-search]``.
 """
 
 from __future__ import annotations
@@ -56,12 +61,33 @@ def hammer(study, seed, force_noise):
     return median_errors(identify(st, ex.frf.band(100, 1000)).stiffness, ex.truth)
 
 
+def default_search() -> None:
+    """``jointid design`` on the benchmark with the default search: time, layouts and per-term figures."""
+    import os
+    import resource
+
+    from jointid.cli.design import summary_lines
+
+    t, c = time.perf_counter(), time.process_time()
+    d = design_study(benchmark_study(), progress=lambda line: print("  " + line, flush=True))
+    wall, cpu = time.perf_counter() - t, time.process_time() - c
+    workers = resource.getrusage(resource.RUSAGE_CHILDREN)
+    print(f"default search: {d.evaluations} layouts on {d.search_lines} lines; wall {wall:.1f} s, CPU {cpu:.1f} s "
+          f"in this process + {workers.ru_utime + workers.ru_stime:.1f} s in its workers ({os.cpu_count()} cores)")
+    for line in summary_lines(d):
+        print(line)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--mc", type=int, default=4, help="Monte Carlo seeds of the design's final check (0: none)")
     ap.add_argument("--no-hammer", action="store_true")
+    ap.add_argument("--default-search", action="store_true", help="only time the default search of jointid design")
     args = ap.parse_args()
+    if args.default_search:
+        default_search()
+        return
     base = benchmark_study()
     base = dataclasses.replace(base, frequency=dataclasses.replace(base.frequency, start=100.0))
     layouts = {"Model 3": base}

@@ -154,7 +154,7 @@ def test_cli_design_of_a_structure_study_is_not_worse_than_the_current_layout(fi
     assert all(x in out["candidates"] for x in out["chosen"]["observed"] + out["chosen"]["excited"])
     assert (tmp_path / "d" / "design.png").stat().st_size > 0
     text = capsys.readouterr().out
-    assert "chosen : observed " in text and "K_y_y" in text
+    assert "chosen layout : observed " in text and "K_y_y" in text
 
 
 def test_two_joints_each_joints_own_terms_and_weights_by_name(files):

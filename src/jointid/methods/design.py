@@ -81,8 +81,9 @@ band; each stands for ``F / search_lines`` lines of the band (its variance is
 divided by that) and the smoother has :data:`SEARCH_BASIS` functions. That grid
 samples the narrow resonances of a lightly damped beam by luck (the smoothed
 prediction of one layout moved by up to 2x between a 300-line grid and the
-full band), hence step 4. Cost on the benchmark (7 x 3 of 19 nodes, 901 lines,
-K_theta_theta only): about 800 layouts, 25-40 s on one loaded core.
+full band), hence step 4. The layouts of each step (and the re-ranked ones) are
+evaluated on forked workers, one BLAS thread each (:mod:`jointid.methods.design_pool`;
+BLAS threads only contend on these small matrices); ``benchmarks/design.py`` prints the time.
 
 Caveats: the prediction is linear in the FRF errors (at the true joint) and
 uses the *expected* GCV lambda; on data lambda scatters with the noise, and
@@ -101,7 +102,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -114,7 +114,8 @@ from ..errors import IdentificationError
 from ..frequency import Frequency
 from ..parallel import single_threaded_blas
 from ..physics.free_model import as_free_model
-from .design_pool import LayoutPool, pool_workers
+from .design_pool import MAX_SEED_SETS, LayoutPool, pool_workers
+from .design_pool import seed_sets as _seed_sets
 from .design_predictor import (
     DEFAULT_SCENARIOS, ESTIMATORS, NOISE_MODELS, LayoutPredictor, Scenario, Sensors, _Combined, geometric_mean,
     joint_blocks, layout_dofs, term_names,
@@ -129,8 +130,6 @@ __all__ = [
 SEARCH_BASIS = 60
 #: With a current layout, a layout predicted worse than it in a scenario by the ratio r pays r**DOMINANCE_PENALTY.
 DOMINANCE_PENALTY = 10.0
-#: Largest number of |n|-node seed sets evaluated exhaustively (more: a fixed-seed random sample).
-MAX_SEED_SETS = 2000
 #: Largest number of exchange passes.
 MAX_EXCHANGE_PASSES = 100
 #: Noise models of the Monte Carlo check (each adds one entry to the final criterion).
@@ -307,24 +306,6 @@ def _candidates(candidates, current):
     return cands, current
 
 
-def _seed_sets(cands: tuple, n: int) -> list[tuple]:
-    """Every n-subset of the candidates, or (more than MAX_SEED_SETS) a fixed-seed random sample of them.
-
-    Up to a million subsets they are listed and sampled (as always); beyond, drawn directly.
-    """
-    if math.comb(len(cands), n) <= 1_000_000:
-        seeds = list(itertools.combinations(cands, n))
-        if len(seeds) > MAX_SEED_SETS:
-            rng = np.random.default_rng(0)
-            seeds = [seeds[i] for i in sorted(rng.choice(len(seeds), MAX_SEED_SETS, replace=False))]
-        return seeds
-    rng = np.random.default_rng(0)
-    drawn: dict = {}
-    while len(drawn) < MAX_SEED_SETS:
-        drawn.setdefault(tuple(sorted(rng.choice(len(cands), n, replace=False).tolist())), None)
-    return [tuple(cands[i] for i in idx) for idx in sorted(drawn)]
-
-
 def _check_counts(n_joint: int, n_candidates: int, n_observed: int, n_excited: int, unit: str = "node") -> None:
     """K and L against the joint DOFs and the candidates (``unit``: "node" for beam nodes, "DOF" for DOFs)."""
     for what, k in (("observed", n_observed), ("excited", n_excited)):
@@ -462,16 +443,14 @@ def design_layout(
             c *= math.prod(max(1.0, x / y) ** DOMINANCE_PENALTY for x, y in zip(each, cur_grid))
         return c
 
-    def costs(layouts) -> list[float]:
-        """Each layout's cost, the ones not in the cache evaluated as one batch on the pool."""
+    def costs(layouts) -> list[float]:  # the ones not in the cache as one batch on the pool
         keys = [(frozenset(o), frozenset(e)) for o, e in layouts]
         todo = list({k: (tuple(sorted(k[0])), tuple(sorted(k[1]))) for k in keys if k not in cache}.items())
         for (k, _), c in zip(todo, pool.map([v for _, v in todo])):
             cache[k] = c
         return [cache[k] for k in keys]
 
-    def best_of(layouts):
-        """The first layout of the lowest cost (as ``min`` over them in order)."""
+    def best_of(layouts):  # the first layout of the lowest cost (as min over them in order)
         c = costs(layouts)
         i = min(range(len(layouts)), key=c.__getitem__)
         return layouts[i], c[i]
@@ -532,7 +511,6 @@ def design_layout(
 
     def rank_each(o, e) -> list[float]:
         return [_criterion(r, w)[0] for r in ranker.each(o, e)]
-
     items = [(o, e) for _, o, e in pool]
     if current is not None and dominate:
         items.append((tuple(sorted(current[0])), tuple(sorted(current[1]))))

@@ -15,14 +15,21 @@ with one core, the batch is evaluated in this process.
 
 from __future__ import annotations
 
+import itertools
+import math
 import multiprocessing
 import os
 import signal
 from typing import Callable, Sequence
 
+import numpy as np
+
 from ..parallel import single_threaded_blas
 
-__all__ = ["LayoutPool", "pool_workers"]
+__all__ = ["LayoutPool", "pool_workers", "seed_sets", "MAX_SEED_SETS"]
+
+#: Largest number of |n|-node seed sets evaluated exhaustively (more: a fixed-seed random sample).
+MAX_SEED_SETS = 2000
 
 #: Set in the parent just before the fork: the function the workers apply to each item.
 _TASK: Callable | None = None
@@ -102,3 +109,21 @@ class LayoutPool:
         size = -(-len(items) // k)
         chunks = [items[a:a + size] for a in range(0, len(items), size)]
         return [x for part in self._pool.map(_run_chunk, chunks) for x in part]
+
+
+def seed_sets(cands: tuple, n: int) -> list[tuple]:
+    """Every n-subset of the candidates, or (more than MAX_SEED_SETS) a fixed-seed random sample of them.
+
+    Up to a million subsets they are listed and sampled (as always); beyond, drawn directly.
+    """
+    if math.comb(len(cands), n) <= 1_000_000:
+        seeds = list(itertools.combinations(cands, n))
+        if len(seeds) > MAX_SEED_SETS:
+            rng = np.random.default_rng(0)
+            seeds = [seeds[i] for i in sorted(rng.choice(len(seeds), MAX_SEED_SETS, replace=False))]
+        return seeds
+    rng = np.random.default_rng(0)
+    drawn: dict = {}
+    while len(drawn) < MAX_SEED_SETS:
+        drawn.setdefault(tuple(sorted(rng.choice(len(cands), n, replace=False).tolist())), None)
+    return [tuple(cands[i] for i in idx) for idx in sorted(drawn)]
