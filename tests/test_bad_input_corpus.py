@@ -102,6 +102,11 @@ def d(tmp_path_factory) -> Path:
     _write_uff(base / "huge.uff", _uff_records(frf, np.full_like(frf.data, 1e300)))
     _write_uff(base / "g_on_si.uff", _uff_records(frf, num_lab="g"))  # labelled g, values already m/s^2
     _write_uff(base / "mm_as_si.uff", _uff_records(frf, frf.data * 1e3))  # values in mm/s^2, labelled SI
+    _write_uff(base / "zeros.uff", _uff_records(frf, np.zeros_like(frf.data)))
+    _write_uff(base / "tiny.uff", _uff_records(frf, frf.data * 1e-300))
+    dead = frf.data.copy()
+    dead[:, 2, :] = 0.0  # response 6w: a dead channel
+    _write_uff(base / "dead_channel.uff", _uff_records(frf, dead))
     raw = (base / "good.uff").read_bytes()
     (base / "half.uff").write_bytes(raw[: len(raw) // 2])
     (base / "empty.uff").write_bytes(b"")
@@ -487,6 +492,13 @@ _add("findings", "g_label_on_si_data", lambda d, t: ["identify", str(d / "beam.t
      0, "the structured joint model does not fit these FRFs")
 _add("findings", "mm_values_declared_si", lambda d, t: ["identify", str(d / "beam.toml"), "--frf", str(d / "mm_as_si.uff"), "--no-plots", "--out", str(t / "out")],
      0, "the structured joint model does not fit these FRFs")
+
+
+# dead and degenerate data (jointid's dead-data checks): refused, or the dead channel left out with a finding
+_add("findings", "all_zero_frfs", _identify("zeros.uff"), 2, "jointid identify: error: every measured FRF is zero on every line (a dead acquisition)")
+_add("findings", "all_1e-300_frfs", _identify("tiny.uff"), 2, "jointid identify: error: the measured FRFs are ")
+_add("findings", "dead_response_channel", lambda d, t: ["identify", str(d / "beam.toml"), "--frf", str(d / "dead_channel.uff"), "--no-plots", "--out", str(t / "out")],
+     0, "response 6w: its FRFs are zero on every line (a dead channel")
 
 
 # --------------------------------------------------------------------------- the test
