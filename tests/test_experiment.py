@@ -131,6 +131,8 @@ def test_cli_experiment_is_the_identify_path_on_its_own_file(tmp_path, capsys):
     assert shared(printed) == shared(identified)
     assert [x.split("; wrote")[0] for x in printed if x.startswith("identified ")] == \
            [x.split("; wrote")[0] for x in identified if x.startswith("identified ")]
+    assert ww in (tmp_path / "o" / "report.html").read_text()  # the report of a virtual test gives its error against the truth
+    assert "error against the true joint" not in (tmp_path / "i" / "report.html").read_text()
     a = (tmp_path / "o" / "joint_stiffness.csv").read_text()
     assert a == (tmp_path / "i" / "joint_stiffness.csv").read_text()  # the same numbers, bit for bit
 

@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
     from ..methods.inverse import stiffness_columns
     from ..pipeline import experiment
-    from .identify import identification_lines, identify_file, output_files
+    from .identify import identification_lines, identify_file, output_files, truth_error_lines, truth_errors
     from .simulate import write_true_joints
 
     study = study_from_args(args)
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
         identified, _ = identify_file(study, out.staged("frf.uff"), out, plots=not args.no_plots, truth=result.truth, shown=uff)
         f = identified.frequency.hz
         truth = result.truth[np.isin(result.frf.frequency.hz, f)]
-        errors = _errors_vs_truth(study, identified, truth)
+        errors = truth_errors(study, identified, truth)
         columns = {"frequency_hz": f}
         if not study.is_structure:
             k, t = identified.stiffness[:, 0, 0], truth[:, 0, 0]
@@ -69,29 +69,6 @@ def run(args: argparse.Namespace) -> int:
     wrote = [out.path(x) for x in ("frf.uff", *output_files(study), "experiment_errors.csv")]
     for line in identification_lines(identified, study, wrote=wrote):
         print(line)
-    print(f"error against the true joint over the study's band {f[0]:g}-{f[-1]:g} Hz ({f.size} lines), |K - K_true| / |K_true|:")
-    for name, e in errors.items():
-        print(f"{name}: median {100 * np.median(e):.3g} %, 90th percentile {100 * np.percentile(e, 90):.3g} %")
+    for line in truth_error_lines(study, identified, truth):
+        print(line)
     return 0
-
-
-def _errors_vs_truth(study, identified, truth) -> dict:
-    """Relative error ``|K - K_true| / |K_true|`` per line of each diagonal term, shape (F,) each.
-
-    Keys: ``K_i_i``; a structure study of several joints, ``<joint>_K_i_i`` with
-    each joint's own labels (as in its ``joint_stiffness_<joint>.csv``).
-    """
-    from ..methods.inverse import dof_term_labels
-
-    n = len(identified.joint_dofs)
-    diag = np.arange(n)
-    err = np.abs(identified.stiffness[:, diag, diag] - truth[:, diag, diag]) / np.abs(truth[:, diag, diag])  # (F, n)
-    if not study.is_structure:
-        return {f"K_{lab}_{lab}": err[:, a] for a, lab in enumerate(dof_term_labels(identified.joint_dofs))}
-    out, i = {}, 0
-    for joint in study.joints:
-        prefix = "" if len(study.joints) == 1 else f"{joint.name}_"
-        for a, lab in enumerate(dof_term_labels(joint.joint_dofs)):
-            out[f"{prefix}K_{lab}_{lab}"] = err[:, i + a]
-        i += len(joint.joint_dofs)
-    return out

@@ -13,7 +13,7 @@ from .common import add_out_argument, add_study_argument, study_from_args
 
 __all__ = [
     "add_parser", "run", "summary", "write_identification", "stiffness_file", "MAX_PRINTED_FINDINGS",
-    "identify_file", "identification_lines", "term_lines", "output_files",
+    "identify_file", "identification_lines", "term_lines", "output_files", "truth_errors", "truth_error_lines",
 ]
 
 #: Findings printed on the console (all of them are in summary.json): a 12 x 12 joint may have dozens.
@@ -186,7 +186,41 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
     info = summary(result, study, source)
     out.write_text("summary.json", json.dumps(info, indent=2) + "\n")
     lines = identification_lines(result, study, max_findings=None)
+    if truth is not None:  # a virtual test: how far the identification is from the true joint
+        lines += truth_error_lines(study, result, truth)
     out.write_text("report.html", identification_report(info, lines, notes, figures))
+
+
+def truth_errors(study, result, truth) -> dict:
+    """Relative error ``|K - K_true| / |K_true|`` per line of each diagonal term, shape (F,) each.
+
+    ``truth`` (F, n, n) on ``result``'s lines and joint DOFs. Keys: ``K_i_i``;
+    a structure study of several joints, ``<joint>_K_i_i`` with each joint's
+    own labels (as in its ``joint_stiffness_<joint>.csv``).
+    """
+    from ..methods.inverse import dof_term_labels
+
+    n = len(result.joint_dofs)
+    diag = np.arange(n)
+    err = np.abs(result.stiffness[:, diag, diag] - truth[:, diag, diag]) / np.abs(truth[:, diag, diag])  # (F, n)
+    if not study.is_structure:
+        return {f"K_{lab}_{lab}": err[:, a] for a, lab in enumerate(dof_term_labels(result.joint_dofs))}
+    out, i = {}, 0
+    for joint in study.joints:
+        prefix = "" if len(study.joints) == 1 else f"{joint.name}_"
+        for a, lab in enumerate(dof_term_labels(joint.joint_dofs)):
+            out[f"{prefix}K_{lab}_{lab}"] = err[:, i + a]
+        i += len(joint.joint_dofs)
+    return out
+
+
+def truth_error_lines(study, result, truth) -> list[str]:
+    """The lines ``experiment`` prints (and its report shows): each diagonal term's error against the truth over the band."""
+    f = result.frequency.hz
+    lines = [f"error against the true joint over the study's band {f[0]:g}-{f[-1]:g} Hz ({f.size} lines), |K - K_true| / |K_true|:"]
+    for name, e in truth_errors(study, result, truth).items():
+        lines.append(f"{name}: median {100 * np.median(e):.3g} %, 90th percentile {100 * np.percentile(e, 90):.3g} %")
+    return lines
 
 
 def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, truth=None, shown: Path | None = None):
