@@ -197,6 +197,11 @@ def _run_dask(todo, store, scheduler, emit):
         raise DataError(f"--scheduler {scheduler}: cannot connect to the Dask scheduler ({' '.join(str(exc).split())}); "
                         "check the address, or leave --scheduler out to use this machine's cores") from None
     try:
+        try:
+            client.wait_for_workers(1, timeout=60)
+        except (TimeoutError, OSError):
+            raise DataError(f"--scheduler {scheduler}: the Dask cluster has no workers (waited 60 s); start workers "
+                            "(dask worker ADDRESS) or leave --scheduler out to use this machine's cores") from None
         n = max(1, len(client.scheduler_info().get("workers", {})))
         chunks = _chunks(todo, n, 4)
         futures = client.map(run_tasks, chunks, pure=False)
