@@ -131,3 +131,31 @@ def test_update_and_direct_write_reports(tmp_path):
     assert list(page.sections) == ["findings", "figures", "trust", "inputs"]
     assert page.items["findings"][0].startswith("direct: 60 lines (0 flagged), E = ")
     assert "elastic_modulus_pa" in page.sections["findings"] and len(page.images) == 1
+
+
+def test_trust_section_gives_a_verdict_per_term():
+    from jointid.report.identification import trust_items
+
+    terms = {
+        "K_w_w": {"median_magnitude": 1e5, "reliable_fraction": 1.0, "median_predicted_relative_std": 0.0013},
+        "K_w_theta": {"median_magnitude": 800.0, "reliable_fraction": 0.84, "median_predicted_relative_std": 0.014},
+        "K_theta_w": {"median_magnitude": 800.0, "reliable_fraction": 0.84, "median_predicted_relative_std": 0.014},
+        "K_theta_theta": {"median_magnitude": 15.0, "reliable_fraction": 0.0, "median_predicted_relative_std": 0.5},
+    }
+    items = trust_items({"method": "receptance", "options": {"max_relative_std": 0.1}, "terms": terms})
+    assert items[:3] == [
+        "Trust K_w_w over the whole band: reliable on every line, median predicted error 0.13 %.",
+        "Trust K_w_theta only where it is reliable: on 84 % of the lines, median predicted error 1.4 %; "
+        "the findings name the bands to leave out.",
+        "Do not use K_theta_theta: these FRFs determine it on no line.",
+    ]
+    assert items[3].startswith("Reliable means: the predicted relative error (1 sigma) of the term is at most 10 % ")
+
+
+def test_titled_lists_render_and_an_empty_one_is_left_out(tmp_path):
+    from jointid.report.html import Section, render_report
+
+    page = render_report("t", "m", [Section("Summary", "summary", lists=(("What to trust", ["a < b"]), ("What not to trust", [])))])
+    assert "<h3>What to trust</h3><ul><li>a &lt; b</li></ul>" in page and "What not to trust" not in page
+    (tmp_path / "r.html").write_text(page)
+    assert parse_report(tmp_path / "r.html").items["summary"] == ["a < b"]

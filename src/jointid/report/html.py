@@ -27,8 +27,9 @@ class Table:
 class Section:
     """A report section: title, paragraphs, a bulleted list, tables and figures (name, PNG bytes, caption).
 
-    ``items`` (short statements, e.g. what to trust and what not) are drawn as a
-    list after the paragraphs. A figure's ``name`` is its file: ``"x.png"`` (a
+    ``items`` (short statements) are drawn as a list after the paragraphs, then
+    ``lists``, titled lists (e.g. ``(("What to trust", [...]), ("What not to trust", [...]))``);
+    an empty titled list is left out. A figure's ``name`` is its file: ``"x.png"`` (a
     path relative to the report) as given, a bare name ``"x"`` as ``figures/x.png``.
     """
 
@@ -38,6 +39,7 @@ class Section:
     tables: Sequence[Table] = ()
     figures: Sequence[tuple[str, bytes, str]] = field(default_factory=tuple)
     items: Sequence[str] = ()
+    lists: Sequence[tuple[str, Sequence[str]]] = ()
 
 
 _CSS = """
@@ -80,6 +82,9 @@ def render_report(title: str, meta: str, sections: Sequence[Section]) -> str:
         parts.extend(f"<p>{html.escape(p)}</p>" for p in s.paragraphs)
         if s.items:
             parts.append("<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in s.items) + "</ul>")
+        for heading, entries in s.lists:
+            if entries:
+                parts.append(f"<h3>{html.escape(heading)}</h3><ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in entries) + "</ul>")
         parts.extend(_table_html(t) for t in s.tables)
         for name, png, caption in s.figures:
             data = base64.b64encode(png).decode("ascii")

@@ -40,8 +40,31 @@ def _terms_table(caption: str, terms: dict, units: dict) -> Table:
     return Table(caption, ["term", "median |K|", "unit", "median loss factor", "predicted error (1 sigma, median)", "lines reliable"], rows)
 
 
+def _term_verdicts(summary: dict) -> list[str]:
+    """One line per independent term: trust it on the whole band, on part of it, or not at all."""
+    blocks = [(f"joint {n}: ", j["terms"]) for n, j in summary["joints"].items()] if "joints" in summary else [("", summary["terms"])]
+    out = []
+    for prefix, terms in blocks:
+        names = list(terms)
+        n = int(round(len(names) ** 0.5))
+        for idx, name in enumerate(names):
+            i, j = divmod(idx, n)
+            if j < i or (n > 3 and i != j) or "reliable_fraction" not in terms[name]:
+                continue
+            frac, err = terms[name]["reliable_fraction"], terms[name].get("median_predicted_relative_std")
+            e = f", median predicted error {100 * err:.2g} %" if err is not None else ""
+            if frac >= 1.0:
+                out.append(f"Trust {prefix}{name} over the whole band: reliable on every line{e}.")
+            elif frac > 0.0:
+                out.append(f"Trust {prefix}{name} only where it is reliable: on {100 * frac:.0f} % of the lines{e}; "
+                           "the findings name the bands to leave out.")
+            else:
+                out.append(f"Do not use {prefix}{name}: these FRFs determine it on no line.")
+    return out
+
+
 def trust_items(summary: dict) -> list[str]:
-    """How to read the flags and bands of an identification, with this run's thresholds."""
+    """How to read the flags and bands of an identification, with this run's thresholds and a verdict per term."""
     if summary.get("method") == "receptance":
         limit = summary.get("options", {}).get("max_relative_std", 0.1)
         items = [
@@ -62,7 +85,7 @@ def trust_items(summary: dict) -> list[str]:
             "the thresholds in summary.json (reliability_thresholds); there is no band. Use the receptance method "
             "([identification] method = \"receptance\", the default) for per-term bands.",
         ]
-    items += [
+    items = _term_verdicts(summary) + items + [
         "The loss factor Im K / Re K is a material loss factor only where the storage stiffness Re K > 0. Where Re K crosses "
         "zero (an internal mode of the joint, or a term dominated by inertia), the figure shows the phase of K in degrees "
         "instead; coupling terms get no loss factor.",
