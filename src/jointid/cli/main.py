@@ -91,8 +91,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 success, 2 error, 3 internal error, 130 interrupted, 143 terminated).
 
     ``--debug`` (before or after the subcommand) shows tracebacks and Python's warnings as they are;
-    without it an error is one line on stderr and the warnings of a run (overflow, invalid value, ...)
-    are summarized in one ``finding`` line. SIGTERM and SIGINT unwind the run: no partial output.
+    without it an error is one line on stderr, and the warnings of a successful run (overflow, invalid
+    value, ...) are summarized in one ``finding`` line (after an error, the error line is all).
+    SIGTERM and SIGINT unwind the run: no partial output.
     """
     argv, debug_anywhere = _split_debug(list(sys.argv[1:] if argv is None else argv))
     parser = build_parser()
@@ -109,11 +110,17 @@ def main(argv: list[str] | None = None) -> int:
         try:
             with _signal_handlers():
                 code = int(args.func(args) or 0)
+            line = _warning_line(args.command, caught)  # on success only: an error is its own one line
+            if line is not None:
+                print(line, file=sys.stderr)
         except KeyboardInterrupt:
             print(f"jointid {args.command}: interrupted; no partial output was written", file=sys.stderr)
             return 130
         except Terminated as exc:
-            name = signal.Signals(exc.signum).name if exc.signum in signal.Signals._value2member_map_ else str(exc.signum)
+            try:
+                name = signal.Signals(exc.signum).name
+            except ValueError:
+                name = f"signal {exc.signum}"
             print(f"jointid {args.command}: terminated ({name}); no partial output was written", file=sys.stderr)
             return 128 + exc.signum
         except (JointIdError, OSError) as exc:
@@ -130,10 +137,6 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return 3
-        finally:
-            line = _warning_line(args.command, caught)
-            if line is not None:
-                print(line, file=sys.stderr)
     return code
 
 
