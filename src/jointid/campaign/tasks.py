@@ -51,6 +51,17 @@ class ProcessingOptions:
     settle_tolerance: float = 0.02
     min_cycles: int = 2
 
+    def __post_init__(self) -> None:
+        import math
+
+        from ..errors import DataError
+
+        for name, ok in (("tolerance", self.tolerance > 0), ("settle_tolerance", self.settle_tolerance > 0),
+                         ("harmonics", self.harmonics >= 1), ("min_cycles", self.min_cycles >= 1)):
+            value = getattr(self, name)
+            if not (ok and math.isfinite(value)):
+                raise DataError(f"ProcessingOptions.{name} must be positive (harmonics, min_cycles: integers >= 1), got {value!r}")
+
 
 @dataclass(frozen=True)
 class TestTask:
