@@ -27,7 +27,6 @@ message.
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -36,8 +35,9 @@ __all__ = ["Uff58Reader"]
 
 #: Header lines of a dataset 58 block (the leading ``    -1`` included), as pyuff counts them.
 _HEADER_LINES = 13
-#: Anything but printable ASCII and line ends (line breaks ``str.splitlines`` knows and ``bytes`` does not, NULs an ``S`` cast drops, tabs).
-_IRREGULAR = re.compile(rb"[^\x20-\x7e\r\n]")
+#: The bytes a regular block holds: printable ASCII and line ends (not: line breaks ``str.splitlines`` knows and
+#: ``bytes`` does not, NULs an ``S`` cast drops, tabs, non-ASCII).
+_REGULAR = bytes(range(0x20, 0x7F)) + b"\r\n"
 
 
 class _Irregular(Exception):
@@ -116,28 +116,42 @@ def _fields(odt: int, spacing: int, length: int) -> list[tuple[int, int]]:
 
 
 def _ascii_values(block: bytes, odt: int, spacing: int) -> np.ndarray:
-    """Every value of an ASCII 58 block, in file order (float64)."""
-    if odt not in (2, 4, 5, 6) or _IRREGULAR.search(block):
+    """Every value of an ASCII 58 block, in file order (float64).
+
+    The lines are found from the positions of the line feeds (``\\n`` or ``\\r\\n``, the
+    terminators ``splitlines`` keeps): the data lines but the last must all have one
+    length, so they form one (lines, length) character array.
+    """
+    if odt not in (2, 4, 5, 6) or block.translate(None, _REGULAR):  # anything left is irregular
         raise _Irregular
-    lines = block.splitlines(True)[_HEADER_LINES:]
-    if not lines:
+    chars = np.frombuffer(block, dtype=np.uint8)
+    nl = np.flatnonzero(chars == 10)
+    cr = np.flatnonzero(chars == 13)
+    if nl.size < _HEADER_LINES or (cr.size and (cr[-1] + 1 >= chars.size or np.any(chars[cr + 1] != 10))):
+        raise _Irregular  # a lone CR is a line break to pyuff's str.splitlines
+    bounds = np.concatenate([[nl[_HEADER_LINES - 1] + 1], nl[_HEADER_LINES:] + 1])  # starts of the data lines, then ends
+    if bounds[-1] < chars.size:  # an unterminated last line
+        bounds = np.append(bounds, chars.size)
+    if bounds.size < 2:
         raise _Irregular
-    body, last = lines[:-1], lines[-1]
+    last = block[bounds[-2]:bounds[-1]]
     parts = []
-    if body:
-        length = len(body[0])
-        if any(len(line) != length for line in body):
+    if bounds.size > 2:
+        lengths = np.diff(bounds[:-1])
+        length = int(lengths[0])
+        if np.any(lengths != length):
             raise _Irregular
-        content = len(body[0].rstrip(b"\r\n"))
-        if any(len(line.rstrip(b"\r\n")) != content for line in body):
+        body = chars[bounds[0]:bounds[-2]].reshape(-1, length)
+        ends = body[:, -2:]
+        term = 2 if ends[0, 0] == 13 else 1
+        if np.any((ends[:, 0] == 13) != (term == 2)):
             raise _Irregular
         fields = _fields(odt, spacing, length)
-        if not fields or fields[-1][0] + fields[-1][1] > content:
+        if not fields or fields[-1][0] + fields[-1][1] > length - term:
             raise _Irregular
-        chars = np.frombuffer(b"".join(body), dtype=np.uint8).reshape(len(body), length)
         columns = []
         for start, width in fields:
-            text = np.ascontiguousarray(chars[:, start:start + width]).view(f"S{width}")[:, 0]
+            text = np.ascontiguousarray(body[:, start:start + width]).view(f"S{width}")[:, 0]
             try:
                 columns.append(text.astype(np.float64))
             except ValueError:
