@@ -230,6 +230,10 @@ BOUNDS = [
     ("joint_loss_huge", "loss_factor", "50.0", "joint.model", "[joint.model].loss_factor: 50 is outside 0-2"),
     ("joint_ref_freq", "reference_frequency", "1e300", "joint.model", "[joint.model].reference_frequency: 1e300 Hz is outside 0-1e6 Hz"),
     ("stop_huge", "stop", "1e300", "frequency", "[frequency].stop: 1e300 Hz is outside 0-1e6 Hz"),
+    ("k_w_w_huge", "k_w_w", "1e300", "joint.model", "[joint.model].k_w_w: 1e300 N/m is outside 1e-6-1e15 N/m"),
+    ("k_theta_theta_tiny", "k_theta_theta", "1e-300", "joint.model", "[joint.model].k_theta_theta: 1e-300 N*m/rad is outside 1e-6-1e15 N*m/rad"),
+    ("k_w_theta_huge", "k_w_theta", "-1e300", "joint.model", "[joint.model].k_w_theta: -1e300 N/rad is outside -1e15-1e15 N/rad"),
+    ("growth_huge", "growth", "1e300", "joint.model", "[joint.model].growth: 1e300 is outside 0-1e3"),
 ]
 
 
@@ -382,8 +386,22 @@ MATRIX_CASES = [
     ("dofs_node_zero", {"dofs": "zero_dofs.csv"}, "[structure].dofs: row 2 of {d}/zero_dofs.csv: node must be an integer >= 1"),
     ("dofs_missing", {"dofs": "nothere.csv"}, "[structure].dofs: {d}/nothere.csv: DOF list not found"),
 ]
+MOUNT_CASES = [
+    ("mount_stiffness_huge", "stiffness = [1e6, 1e3]", "stiffness = [1e6, 1e300]",
+     "[[joint]] 'j' [joint.model].stiffness: entry 2 (1e300) is outside 1e-6-1e15 (N/m, N*m/rad)"),
+    ("mount_loss_huge", "stiffness = [1e6, 1e3]", "stiffness = [1e6, 1e3]\nloss_factor = 1e9",
+     "[[joint]] 'j' [joint.model].loss_factor: 1e9 is outside 0-2"),
+    ("structure_loss_huge", "loss_factor = 0.01", "loss_factor = 5.0", "[structure].loss_factor: 5 is outside 0-2"),
+    ("structure_scale_tiny", "loss_factor = 0.01", "loss_factor = 0.01\nmass_scale = 1e-300", "[structure].mass_scale: 1e-300 is outside 1e-6-1e6"),
+]
 for cid, files, msg in MATRIX_CASES:
     _add("matrix files", cid, _structure(**files), 2, "jointid simulate: error: {d}/s_*.toml: " + msg)
+for cid, old, new, msg in MOUNT_CASES:
+    def _mount(d, t, old=old, new=new):
+        p = d / f"{t.name}.toml"
+        p.write_text(_structure_text().replace(old, new, 1))
+        return ["simulate", str(p), "--out", str(t / "out")]
+    _add("study bounds", cid, _mount, 2, "jointid simulate: error: {d}/{tmp_name}.toml: " + msg)
 for cid, files, msg in MATRIX_CASES:
     if cid in ("mass_negative_diagonal", "stiffness_negated", "stiffness_indefinite", "npz_half"):
         for command in ("identify", "update"):
@@ -506,7 +524,7 @@ _add("findings", "dead_response_channel", lambda d, t: ["identify", str(d / "bea
 
 # --------------------------------------------------------------------------- the test
 def _expand(text: str, d: Path, tmp: Path) -> str:
-    return text.replace("{d}", str(d)).replace("{tmp}", str(tmp))
+    return text.replace("{d}", str(d)).replace("{tmp_name}", tmp.name).replace("{tmp}", str(tmp))
 
 
 #: Cases that wait for a change in a file this corpus's author does not own (/work/requests/H7.md).

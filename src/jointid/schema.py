@@ -23,7 +23,7 @@ from .errors import StudyError
 
 __all__ = [
     "Field", "typed", "section", "table", "positive", "nonneg", "choices", "format_number",
-    "LENGTH", "MODULUS", "DENSITY", "SHEAR_COEFFICIENT", "LOSS_FACTOR", "FREQUENCY", "SCALE",
+    "LENGTH", "MODULUS", "DENSITY", "SHEAR_COEFFICIENT", "LOSS_FACTOR", "FREQUENCY", "SCALE", "STIFFNESS", "GROWTH", "EXPONENT",
 ]
 
 #: Lengths (m): beam length and section, elastomer length and diameter, cap sizes.
@@ -40,6 +40,12 @@ LOSS_FACTOR = (0.0, 2.0)
 FREQUENCY = (0.0, 1e6)
 #: Scale factors of a [structure]'s matrices (stiffness_scale, mass_scale).
 SCALE = (1e-6, 1e6)
+#: Joint stiffnesses (N/m, N*m/rad, N/rad): from a soft suspension to a practically rigid bolt.
+STIFFNESS = (1e-6, 1e15)
+#: Frequency growth of a parametric joint model, K0 (1 + growth (f / f_ref)^exponent).
+GROWTH = (0.0, 1e3)
+#: Exponent of that growth.
+EXPONENT = (1e-3, 10.0)
 
 
 @dataclass(frozen=True)
@@ -165,13 +171,14 @@ def typed(section: str | None, key: str, f: Field, value: Any, label: str | None
             fail(complaint)
     if f.bounds is not None and f.kind in ("number", "number_list"):
         lo, hi = f.bounds
-        for v in value if f.kind == "number_list" else (value,):
-            if not lo <= v <= hi:
-                u = f" {f.unit}" if f.unit else ""
-                raise StudyError(
-                    f"{where}: {format_number(v)}{u} is outside {format_number(lo)}-{format_number(hi)}{u}"
-                    + (f"; give it in {f.unit}" if f.unit else "")
-                )
+        span = f"{format_number(lo)}-{format_number(hi)}"
+        if f.kind == "number_list":
+            for i, v in enumerate(value, 1):
+                if not lo <= v <= hi:
+                    raise StudyError(f"{where}: entry {i} ({format_number(v)}) is outside {span}" + (f" ({f.unit})" if f.unit else ""))
+        elif not lo <= value <= hi:
+            u = f" {f.unit}" if f.unit else ""
+            raise StudyError(f"{where}: {format_number(value)}{u} is outside {span}{u}" + (f"; give it in {f.unit}" if f.unit else ""))
     return value
 
 

@@ -105,7 +105,9 @@ Physical bounds (a value outside is refused in one line naming the key, e.g.
 :mod:`jointid.schema`): lengths 1e-6-1e4 m (``length``, ``width``, ``height``,
 ``diameter``, elastomer and cap sizes), moduli 1e3-1e13 Pa (``elastic_modulus``,
 ``shear_modulus``), densities 1-1e5 kg/m^3, ``shear_coefficient`` 0.1-1.5, loss
-factors 0-2, frequencies 0-1e6 Hz, ``[structure]`` scales 1e-6-1e6; ``[experiment]``:
+factors 0-2, frequencies 0-1e6 Hz, ``[structure]`` scales 1e-6-1e6, joint stiffnesses
+1e-6-1e15 (N/m, N*m/rad; couplings up to +-1e15), ``growth`` 0-1e3, ``exponent``
+1e-3-10; ``[experiment]``:
 ``sample_rate`` 1-1e7 Hz, ``duration`` 1e-3-1e4 s, at most :data:`MAX_RECORD_SAMPLES`
 samples per record, ``averages`` 1-1000, noise ratios 0-10, ``pulse_duration``
 1e-7-10 s and short enough to excite the band (its first spectral zero 1.5 / T above
@@ -130,7 +132,7 @@ from typing import Any, Callable, Mapping
 
 from .dofs import DIRECTIONS
 from .errors import StudyError
-from .schema import DENSITY, FREQUENCY, LENGTH, LOSS_FACTOR, MODULUS, SHEAR_COEFFICIENT
+from .schema import DENSITY, EXPONENT, FREQUENCY, GROWTH, LENGTH, LOSS_FACTOR, MODULUS, SHEAR_COEFFICIENT, STIFFNESS
 from .schema import Field as _Field
 from .schema import format_number as _num
 from .schema import choices as _choices
@@ -210,13 +212,13 @@ _JOINT = {
 }
 _PARAMETRIC = {
     "type": _Field("str", True),
-    "k_w_w": _Field("number", True, unit="N/m", check=_positive),
-    "k_w_theta": _Field("number", False, 0.0, unit="N/rad"),
-    "k_theta_theta": _Field("number", True, unit="N*m/rad", check=_positive),
+    "k_w_w": _Field("number", True, unit="N/m", check=_positive, bounds=STIFFNESS),
+    "k_w_theta": _Field("number", False, 0.0, unit="N/rad", bounds=(-STIFFNESS[1], STIFFNESS[1])),
+    "k_theta_theta": _Field("number", True, unit="N*m/rad", check=_positive, bounds=STIFFNESS),
     "loss_factor": _Field("number", False, 0.1, check=_nonneg, bounds=LOSS_FACTOR),
-    "growth": _Field("number", False, 0.0, check=_nonneg),
+    "growth": _Field("number", False, 0.0, check=_nonneg, bounds=GROWTH),
     "reference_frequency": _Field("number", False, 100.0, unit="Hz", check=_positive, bounds=FREQUENCY),
-    "exponent": _Field("number", False, 1.0, check=_positive),
+    "exponent": _Field("number", False, 1.0, check=_positive, bounds=EXPONENT),
 }
 _ELASTOMER = {"type": _Field("str", True), **ELASTOMER_MATERIAL_FIELDS}
 _AXES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")

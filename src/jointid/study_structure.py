@@ -78,7 +78,9 @@ import numpy as np
 
 from .dofs import Dof, DofArray, parse_dof
 from .errors import DataError, DofError, ModelError, StudyError
-from .schema import DENSITY, FREQUENCY, LENGTH, LOSS_FACTOR, MODULUS, SCALE, Field, choices, nonneg, positive, section, typed
+from .schema import (
+    DENSITY, EXPONENT, FREQUENCY, GROWTH, LENGTH, LOSS_FACTOR, MODULUS, SCALE, STIFFNESS, Field, choices, nonneg, positive, section, typed,
+)
 
 __all__ = [
     "StructureSpec", "MountSpec", "ElastomerSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key",
@@ -115,12 +117,12 @@ _STRUCTURE_FIELDS = {
 _MOUNT_FIELDS = {
     "type": Field("str", check=choices("mount")),
     "stiffness": Field("number_list", True, unit="N/m, N*m/rad", check=_all_positive,
-                       expected="a list of positive stiffnesses, one per DOF of dofs", unique=False),
+                       expected="a list of positive stiffnesses, one per DOF of dofs", unique=False, bounds=STIFFNESS),
     "couplings": Field("any", default=[], check=_list_of_lists),
     "loss_factor": Field("number", default=0.1, check=nonneg, bounds=LOSS_FACTOR),
-    "growth": Field("number", default=0.0, check=nonneg),
+    "growth": Field("number", default=0.0, check=nonneg, bounds=GROWTH),
     "reference_frequency": Field("number", default=100.0, unit="Hz", check=positive, bounds=FREQUENCY),
-    "exponent": Field("number", default=1.0, check=positive),
+    "exponent": Field("number", default=1.0, check=positive, bounds=EXPONENT),
 }
 #: Schema of the elastomer joint's material and geometry keys (as
 #: :func:`~jointid.physics.elastomer_joint.elastomer_joint_model` takes them), shared by the
@@ -452,7 +454,7 @@ def _mount(where: str, data: Mapping, dofs: tuple[Dof, ...]) -> MountSpec:
         if a == b or frozenset((a, b)) in seen:
             raise StudyError(f"{where}.couplings: [{a}, {b}] is " + ("a diagonal term (give it in stiffness)" if a == b else "given twice"))
         seen.add(frozenset((a, b)))
-        couplings.append((str(a), str(b), typed(None, "couplings", Field("number"), c[2], where)))
+        couplings.append((str(a), str(b), typed(None, "couplings", Field("number", bounds=(-STIFFNESS[1], STIFFNESS[1])), c[2], where)))
     return MountSpec(
         v["stiffness"], tuple(couplings), v["loss_factor"], v["growth"], v["reference_frequency"], v["exponent"],
     )
