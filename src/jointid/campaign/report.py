@@ -126,7 +126,7 @@ def _figures(specimen, tests, outcomes, a):
                      f"Specimen {specimen}: master curve (shifted data, fitted modulus) and log aT vs temperature with WLF and Arrhenius"))
     if a.kraus:
         figs.append((f"{slug}_amplitude", figure_png(plot_amplitude_dependence(a.kraus)),
-                     f"Specimen {specimen}: storage stiffness vs achieved amplitude with the Kraus fits (a subset of the groups)"))
+                     f"Specimen {specimen}: storage and loss stiffness vs achieved amplitude with the Kraus fits (a subset of the groups)"))
     if a.preload:
         figs.append((f"{slug}_preload", figure_png(plot_preload_dependence(a.preload)),
                      f"Specimen {specimen}: storage stiffness vs preload with straight-line fits"))
