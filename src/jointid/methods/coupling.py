@@ -409,18 +409,11 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     variance, source = frf_variance(H, coherence, options.weighting, options.averages)
     variance = floor_exact_zeros(variance, H, RELATIVE_FLOOR)
     notes = list(screen.findings)
-    if source == "coherence" and noise_level_unknown(coherence):
-        # no noise information in the coherence: the variance is measured from the residuals when each line has
-        # the redundancy to do so (else the relative shape of frf_variance, scaled by the per-line residuals)
-        params = nn * (nn + 1) // 2 if options.symmetric else nn * nn
-        measured_var = None
-        if nm * len(e_dofs) - params >= RESIDUAL_MIN_REDUNDANCY:
-            measured_var = residual_variance(Ymn, Yne, Yme - H, variance, options.symmetric)
-        if measured_var is not None:
-            variance = floor_exact_zeros(measured_var, H, RELATIVE_FLOOR)
-        notes.append("the coherence is identically 1 (one average per excitation, or noise-free data): the FRF noise level "
-                     "is unknown, so it was measured from the residuals of the per-line fit"
-                     + ("" if measured_var is not None else " (its scale per line; the layout is too small for more)"))
+    # coherence identically 1 carries no noise information: the variance is measured from the residuals of the
+    # per-line fit once column errors are removed (below), where each line has the redundancy for it
+    unknown = source == "coherence" and noise_level_unknown(coherence)
+    params = nn * (nn + 1) // 2 if options.symmetric else nn * nn
+    measurable = nm * len(e_dofs) - params >= RESIDUAL_MIN_REDUNDANCY
     cal, applied = None, False
     if uses_kronecker(freq.size, nm, len(e_dofs), nn, options.symmetric):  # many joint DOFs: no full design, no calibration
         if options.calibration == "columns":
@@ -428,7 +421,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     elif options.calibration != "none":
         # the calibration removes the column-common error: what is left in each value is its
         # variance without the column-common part (frf_variance.column_noise_fraction)
-        left = variance * column_noise_fraction(H, coherence) if source == "coherence" and not noise_level_unknown(coherence) else variance
+        left = variance * column_noise_fraction(H, coherence) if source == "coherence" and not unknown else variance
         cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, left, options.symmetric, options.calibration_basis)
         applied = cal is not None and (options.calibration == "columns" or cal.significant)
         if applied:  # weights: the variance left once the column error is removed, measured from the residuals
@@ -437,6 +430,14 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
                 variance = left
             else:
                 cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, options.calibration_basis) or cal
+    if unknown and not applied and measurable and not uses_kronecker(freq.size, nm, len(e_dofs), nn, options.symmetric):
+        measured_var = residual_variance(Ymn, Yne, Yme - H, variance, options.symmetric)
+        variance = variance if measured_var is None else measured_var
+    if unknown:
+        notes.append("the coherence is identically 1 (one average per excitation, or noise-free data): the FRF noise level "
+                     "is unknown, so it was measured from the residuals of the per-line fit"
+                     + ("" if measurable or applied else " (its scale per line only: the layout has too few equations per line for more)"))
+    variance = floor_exact_zeros(variance, H, RELATIVE_FLOOR)
     common = None
     if applied:
         H, variance = cal.apply(H, variance)
