@@ -16,6 +16,7 @@ import pytest
 
 from jointid.benchmark import benchmark_study_path
 from jointid.cli.main import main
+from jointid.dofs import Dof
 from jointid.hits import frf_from_hits
 from jointid.io.impact_files import read_impact_uff, write_impact_uff
 from jointid.io.uff import read_uff_frf
@@ -153,3 +154,17 @@ def test_points_and_axis_are_refused_for_npz_and_bad_point_maps(files, tmp_path,
     assert capsys.readouterr().err == "jointid frf: error: --points: points 1001 and 1002 both map to node 1; map each node once\n"
     assert main(["frf", str(f), "--out", str(tmp_path / "o"), "--points", "1001"]) == 2
     assert capsys.readouterr().err == "jointid frf: error: --points: expected POINT=NODE with integers >= 1 (e.g. 1001=1), got '1001'\n"
+
+
+def test_3d_reading_names_the_components_and_flips_negative_codes(files):
+    """``axis=None`` (a [structure] study): code -2 is y sign-flipped, +2 is y as recorded."""
+    _, si, g, conv, records = files
+    pts = {1000 + n: n for n in (1, 3, 9, 15)}
+    back = read_impact_uff(g, points=pts, axis=None)
+    assert [r.reference for r in back] == [Dof(3, "y"), Dof(9, "y")]
+    assert back[0].response_dofs == (Dof(1, "y"), Dof(9, "y"), Dof(15, "y"))
+    rec = read_impact_uff(si)[0]
+    # force and 9y along -Y: flipped; 1y, 15y along +Y (their data negated in the file): read as recorded, i.e.
+    # also the negated SI signal; x / G0 * G0 rounds twice: 2 u
+    np.testing.assert_allclose(back[0].force, -rec.force, rtol=4.5e-16)
+    np.testing.assert_allclose(back[0].responses, -rec.responses, rtol=4.5e-16)
