@@ -215,9 +215,11 @@ def test_frame_in_xz_plane_reproduces_planar_beam_receptance(meshed_member):
     ip = planar.index(rows2)
     Yp = Yp_all[:, ip][:, :, ip] * np.outer(sign, sign)
     Y3 = frame.free_model(method="direct").receptance(f, rows3, rows3)
-    np.testing.assert_allclose(Y3[1:], Yp[1:], rtol=1e-10, atol=0)
-    # 3 Hz, near the rigid-body modes: both solves lose ~cond * eps on the small entries; compare norm-wise
-    assert np.abs(Y3[0] - Yp[0]).max() <= 1e-10 * np.abs(Yp[0]).max()
+    # two backward-stable solves of the same N x N pencil differ norm-wise by at most ~N eps cond(D) per line
+    # (cond 1.2e4 - 6e6, 3 Hz the largest: near the rigid-body modes; measured 1e-15 - 2.5e-11 relative)
+    D = planar.dynamic_stiffness(f)
+    tol = D.shape[-1] * np.finfo(float).eps * np.linalg.cond(D)
+    assert np.all(np.abs(Y3 - Yp).max(axis=(1, 2)) <= tol * np.abs(Yp).max(axis=(1, 2)))
 
 
 def test_many_elements_assemble_fast():
