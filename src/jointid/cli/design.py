@@ -27,7 +27,9 @@ def add_parser(sub) -> None:
         "A [structure] study: candidates are DOFs (default: x, y, z of every node the study observes or excites), "
         "the criterion is over every [[joint]]'s own terms (named JOINT:K_x_x with several joints). "
         "Writes DIR/design.json (chosen and current layout, median predicted relative error per term and scenario) "
-        "and DIR/design.png (per-term predicted relative error vs frequency, both layouts). See jointid.methods.design.",
+        "and DIR/design.png (per-term predicted relative error vs frequency, both layouts); prints a progress line per "
+        "step of the search, then per term the chosen and current layout's figures and which is better. "
+        "See jointid.methods.design.",
     )
     add_study_argument(p, required=False)
     add_out_argument(p)

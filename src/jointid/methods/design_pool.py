@@ -8,8 +8,8 @@ them, so the batch is split over **forked** worker processes that inherit the
 layout predictor (its receptances are computed once, before the fork, and
 shared copy-on-write), each with one BLAS thread. A layout's value does not
 depend on which process computes it or with which other layouts, so the result
-is the same as a sequential evaluation. Where ``fork`` is unavailable (Windows,
-macOS' default), inside a daemonic worker (a study run in a process pool), or
+is the same as a sequential evaluation. Where ``fork`` is not safe (other systems
+than Linux), inside a daemonic worker (a study run in a process pool), or
 with one core, the batch is evaluated in this process.
 """
 
@@ -20,6 +20,7 @@ import math
 import multiprocessing
 import os
 import signal
+import sys
 from typing import Callable, Sequence
 
 import numpy as np
@@ -43,8 +44,8 @@ def pool_workers(tasks: int) -> int:
         cores = os.cpu_count() or 1
     if cores < 2 or tasks < 2 or multiprocessing.current_process().daemon:
         return 1
-    if "fork" not in multiprocessing.get_all_start_methods():
-        return 1
+    if not sys.platform.startswith("linux") or "fork" not in multiprocessing.get_all_start_methods():
+        return 1  # fork is unsafe with macOS' system libraries and absent on Windows
     return min(cores, 4, tasks)
 
 
