@@ -27,7 +27,7 @@ def test_pool_maps_in_order_on_workers_and_in_process():
 
 def test_search_on_two_workers_equals_the_sequential_search(monkeypatch):
     st = benchmark_study()
-    st = dataclasses.replace(st, frequency=dataclasses.replace(st.frequency, start=100.0, step=20.0))
+    st = dataclasses.replace(st, frequency=dataclasses.replace(st.frequency, start=100.0, step=50.0))
     runs = {}
     for workers in (1, 2):
         monkeypatch.setattr(design_module, "pool_workers", lambda tasks, k=workers: min(k, tasks))
