@@ -188,6 +188,9 @@ def test_coherence_identically_one_says_the_noise_level_is_unknown(hammer):
     one = dataclasses.replace(study, experiment=dataclasses.replace(study.experiment, averages=1))
     ex = experiment(one, seed=SEED)
     assert np.all(ex.coherence >= 1.0 - 1e-12)  # one hit: |Gxy|^2 = Gxx Gyy up to round-off
+    assert ex.impact.notes[0] == ("excited node(s) 3w, 9w: one accepted hit: the coherence is 1 by construction and says "
+                                  "nothing about the noise (identify then measures the noise from the residuals); average "
+                                  "several hits")
     result = identify(one, FRF(ex.frf.frequency, ex.frf.data, ex.frf.responses, ex.frf.references, ex.frf.kind, ex.coherence))
     notes = [f for f in result.findings() if f.startswith("the coherence is identically 1")]
     assert len(notes) == 1 and "noise level is unknown" in notes[0]

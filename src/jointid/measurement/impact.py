@@ -98,7 +98,8 @@ class ImpactFRF:
     window_modes : tuple of WindowMode
         Modes fitted for the window correction (empty if none).
     notes : tuple of str
-        Data checks, one line each: a response channel that is flat zero (dead), a median coherence
+        Data checks, one line each: excited nodes with one accepted hit (coherence 1 by construction),
+        a response channel that is flat zero (dead), a median coherence
         below :data:`DEAD_CHANNEL_COHERENCE`, an exponential window that keeps less than
         :data:`WINDOW_MIN_ENERGY` of the responses' energy; then mode bands that were detected but
         not corrected, and why.
@@ -270,6 +271,10 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
     for d, refs_d in dead.items():
         checks.append(f"response {d}: flat zero in every hit of excited node(s) {', '.join(refs_d)} (a dead channel): "
                       "its FRF is 0 and its coherence 0; check the sensor and its cable")
+    single = [str(ref) for ref, n in zip(refs, n_avg) if n == 1]
+    if single:
+        checks.append(f"excited node(s) {', '.join(single)}: one accepted hit: the coherence is 1 by construction and says "
+                      "nothing about the noise (identify then measures the noise from the residuals); average several hits")
     if all(n > 1 for n in n_avg):
         med = np.median(coh, axis=0)  # (r, c)
         for i, j in zip(*np.nonzero(med < DEAD_CHANNEL_COHERENCE)):
