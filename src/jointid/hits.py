@@ -17,6 +17,10 @@ Example::
     result.frf                # FRF (H1), accelerance (m/s^2)/N, (F, responses, excited)
     result.coherence          # (F, responses, excited)
     result.rejected_table()   # columns of rejected_hits.csv
+
+    # UFF time records in g/lbf along -Y at points 1001..: converted to SI and mapped as FRF records are
+    result = frf_from_hits("hits.uff", points={1001: 1, 1003: 3}, axis="-Y")
+    result.summary()          # first: what was converted and mapped, then averages and data checks
 """
 
 from __future__ import annotations
