@@ -59,6 +59,15 @@ def test_planar_frame_measured_in_plane_refuses_the_out_of_plane_joint_dofs(tmp_
         "so the FRFs cannot determine their terms (e.g. a planar model's out-of-plane DOFs measured in plane); remove "
         "them from the joint's dofs or measure DOFs that move with them")
     assert not (tmp_path / "id").exists()
+    # as the line says: the in-plane joint DOFs alone, on the same file, are identified exactly
+    inplane = planar_study(tmp_path, obs, exc, ["1x", "1y", "1rz"])
+    assert main(["identify", str(inplane), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id"),
+                 "--no-plots"]) == 0
+    truth, got = _table(tmp_path / "sim" / "true_joint.csv"), _table(tmp_path / "id" / "joint_stiffness.csv")
+    for c in ("x", "y", "rz"):
+        k = f"K_{c}_{c}"
+        t, g = truth[k + "_real"] + 1j * truth[k + "_imag"], got[k + "_real"] + 1j * got[k + "_imag"]
+        assert np.abs(g - t).max() / np.abs(t).max() < 1e-8
 
 
 def test_planar_frame_with_exactly_zero_cross_plane_frfs_is_identified_exactly(tmp_path, capsys):
