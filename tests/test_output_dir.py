@@ -186,3 +186,37 @@ def test_bad_names_are_programming_errors(tmp_path):
         o.write_text("ok.txt", "x")
         with pytest.raises(ValueError, match="written twice"):
             o.write_text("ok.txt", "y")
+
+
+def test_a_sigterm_during_the_renames_is_held_until_the_set_is_complete(tmp_path, monkeypatch):
+    """A signal between two renames would leave half a set: it is handled once every file is in place."""
+    import signal
+
+    from jointid.errors import Terminated
+    from jointid.io import output_dir
+
+    def on_term(signum, frame):
+        raise Terminated(signum)
+
+    previous = signal.signal(signal.SIGTERM, on_term)
+    real_replace = os.replace
+    calls = []
+
+    def replace_and_signal(src, dst):
+        calls.append(os.path.basename(dst))
+        if calls[-1] == "a.txt":
+            signal.raise_signal(signal.SIGTERM)  # arrives between the renames of a.txt and b.txt
+        real_replace(src, dst)
+
+    monkeypatch.setattr(output_dir.os, "replace", replace_and_signal)
+    try:
+        with pytest.raises(Terminated):
+            with OutputSet(tmp_path / "out", "cmd") as out:
+                out.write_text("a.txt", "a\n")
+                out.write_text("b.txt", "b\n")
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert [c for c in calls if c.endswith(".txt")] == ["a.txt", "b.txt"]  # both renames ran before the handler
+    assert calls[-1] == ".jointid-manifest.json"  # and the final manifest
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".jointid-manifest.json", "a.txt", "b.txt"]
+    assert (tmp_path / "out" / "b.txt").read_text() == "b\n"
