@@ -2,7 +2,7 @@
 
 Sections (default: ``startup process``; ``all`` adds ``in-process``)::
 
-    python benchmarks/identify.py [startup] [process] [in-process] [--lines N] [--repeats R]
+    python benchmarks/identify.py [startup] [process] [in-process] [--lines N] [--repeats R] [--coherence]
 
 * ``startup``: ``jointid --help`` and ``jointid identify --help`` against ``python -c "import numpy"``
   (median of R runs each, wall and CPU), and the ratio.
@@ -12,7 +12,9 @@ Sections (default: ``startup process``; ``all`` adds ``in-process``)::
   against a plain per-line ``numpy.linalg.pinv`` loop in its own process reading the same UFF with
   pyuff (19-node model, both Hong & Lee steps, result written with ``numpy.savetxt``); best of R runs,
   wall and CPU (user + sys of the child), and the ratio. Then the identify process's CPU split by
-  phase (imports, UFF read, column calibration, structured fit, ..., writing), from cProfile.
+  phase (imports, UFF read, column calibration, structured fit, ..., writing), from timers wrapped
+  around each phase's function. ``--coherence``: the file also holds coherence records (weights
+  from coherence, its column/response split, the residual variance).
 * ``in-process``: the batched identification paths against the loop at 1000 and 20 000 lines
   (exact data, warm-up first).
 
@@ -203,7 +205,22 @@ np.savetxt({out!r}, np.column_stack([f, K.reshape(f.size, -1).real, K.reshape(f.
 """
 
 
-def process(lines: int, repeats: int) -> None:
+def _with_coherence(uff: Path, out: Path) -> Path:
+    """``uff`` with coherence records: the H1 coherence of 1e-4..2e-4 force noise per column and a response noise
+    floor per channel (the split's model, :mod:`jointid.methods.frf_variance`), scattered as from 10 averages."""
+    from jointid.io.uff import read_uff_frf, write_uff_frf
+
+    frf = read_uff_frf(uff)
+    H = frf.data
+    rng = np.random.default_rng(0)
+    a = 1e-4 * (1 + rng.random(H.shape[2]))
+    s = 1e-3 * (1 + rng.random(H.shape[1])) * np.median(np.abs(H)) ** 2
+    q = (a[None, None, :] + s[None, :, None] / np.abs(H) ** 2) * rng.chisquare(10, size=H.shape) / 10
+    write_uff_frf(out, frf, kind="accelerance", coherence=1.0 / (1.0 + q))
+    return out
+
+
+def process(lines: int, repeats: int, coherence: bool = False) -> None:
     """The whole ``jointid identify`` process against a whole per-line pinv-loop process on the same UFF."""
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -211,6 +228,8 @@ def process(lines: int, repeats: int) -> None:
         study.write_text(study_text(lines))
         _run([_jointid(), "simulate", str(study), "--noise", "0.01", "--out", str(tmp / "sim")])
         uff = tmp / "sim" / "frf.uff"
+        if coherence:
+            uff = _with_coherence(uff, tmp / "frf_coherence.uff")
         loop = [sys.executable, "-c", LOOP_SCRIPT.format(bench=str(Path(__file__).parent), study=str(study), uff=str(uff),
                                                           out=str(tmp / "loop.csv"))]
         ident = [_jointid(), "identify", str(study), "--frf", str(uff), "--out", str(tmp / "id")]
@@ -219,7 +238,8 @@ def process(lines: int, repeats: int) -> None:
         wall_l, cpu_l = min(t[0] for t in t_loop), min(t[1] for t in t_loop)
         wall_i, cpu_i = min(t[0] for t in t_id), min(t[1] for t in t_id)
         n = t_id[0][2].split(" lines (")[0].rsplit(" ", 1)[-1]
-        print(f"whole process, {n} lines, 7 x 3 accelerances, {uff.stat().st_size / 1e6:.1f} MB ASCII UFF "
+        what = " and coherences" if coherence else ""
+        print(f"whole process, {n} lines, 7 x 3 accelerances{what}, {uff.stat().st_size / 1e6:.1f} MB ASCII UFF "
               f"(best of {repeats}; wall / CPU):")
         print(f"    per-line pinv loop (pyuff read, 19-node model, savetxt)   {wall_l:6.2f} s / {cpu_l:6.2f} s")
         print(f"    jointid identify (default estimator, uncertainty, outputs) {wall_i:6.2f} s / {cpu_i:6.2f} s   "
@@ -233,6 +253,8 @@ PHASES = (
     ("identification (pipeline.identify)", "jointid.pipeline", "identify"),
     ("  column calibration", "jointid.methods.column_calibration", "estimate_column_calibration"),
     ("  FRF variance", "jointid.methods.frf_variance", "frf_variance"),
+    ("  coherence split", "jointid.methods.frf_variance", "column_noise_fraction"),
+    ("  residual variance", "jointid.methods.column_calibration", "residual_variance"),
     ("  per-line fit", "jointid.methods.coupling_lines", "coupling_per_line"),
     ("  structured fit", "jointid.methods.structured_select", "structured_estimate"),
     ("  smoothing", "jointid.methods.smoothing", "smooth_series"),
@@ -304,12 +326,13 @@ def main() -> None:
     parser.add_argument("sections", nargs="*", default=["startup", "process"], choices=["startup", "process", "in-process", "all"])
     parser.add_argument("--lines", type=int, default=19901)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--coherence", action="store_true", help="the UFF also holds coherence records (the coherence weighting path)")
     args = parser.parse_args()
     sections = {"startup", "process", "in-process"} if "all" in args.sections else set(args.sections)
     if "startup" in sections:
         startup(max(args.repeats, 5))
     if "process" in sections:
-        process(args.lines, args.repeats)
+        process(args.lines, args.repeats, args.coherence)
     if "in-process" in sections:
         in_process()
 

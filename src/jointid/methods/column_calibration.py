@@ -63,6 +63,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.special import fdtrc
 
+from ..parallel import single_threaded_blas
 from .coupling_lines import symmetric_parametrization, whitened_line_design
 from .smoothing import _basis as bspline_basis
 
@@ -162,6 +163,12 @@ def estimate_column_calibration(
     ColumnCalibration, or None when the data have no redundancy for it
     (too few lines or residual degrees of freedom).
     """
+    with single_threaded_blas():  # per-line products of a few rows: BLAS threads only contend on such sizes
+        return _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis)
+
+
+def _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis) -> ColumnCalibration | None:
+    """:func:`estimate_column_calibration`'s computation (its docstring)."""
     F, m, n = Ymn.shape
     e = Yne.shape[2]
     p = symmetric_parametrization(n, symmetric).shape[1]
@@ -214,7 +221,8 @@ def estimate_column_calibration(
     k = 2 * e * nb
     with np.errstate(over="ignore"):  # an exact fit (rss1 at round-off): F = inf, p = 0
         f_stat = (reduction / k) / (rss1 / (2 * dof))
-    p_value = float(fdtrc(k, 2 * dof, f_stat))  # F(k, 2 dof) survival function (scipy.stats.f.sf without importing scipy.stats)
+    # F(k, 2 dof) survival function (scipy.stats.f.sf, which is 1 for F <= 0, without importing scipy.stats)
+    p_value = float(fdtrc(k, 2 * dof, max(f_stat, 0.0)))
     delta = np.asarray(Bs @ c.reshape(e, nb).T)
     # d x / d c per line: x = (R^-1 Q^H (dw + Gw delta)) / cs
     U = np.linalg.solve(R, QhG) / cs[:, :, None]  # (F, p, e)
@@ -267,9 +275,10 @@ def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, vari
     p = symmetric_parametrization(n, symmetric).shape[1]
     if m * e - p < 3:
         return None
-    sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric)
+    with single_threaded_blas():
+        sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric)
     dw = change.reshape(F, m * e) * sw
-    rw = dw - np.einsum("fij,fj->fi", Q, np.einsum("fji,fj->fi", Q.conj(), dw))
+    rw = dw - (Q @ (np.conj(np.swapaxes(Q, 1, 2)) @ dw[:, :, None]))[:, :, 0]
     r2 = (np.abs(rw) / sw) ** 2  # |residual|^2, (m/N)^2
     free = np.clip(1.0 - np.sum(np.abs(Q) ** 2, axis=2), 0.0, None)
     width = min(int(lines), max(1, F // 10)) | 1
