@@ -38,7 +38,7 @@ test-blas: setup
 	$(BIN)/python tests/run_blas_kernels.py --kernels $(BLAS_KERNELS) --threads $(BLAS_THREADS) --tests $(BLAS_TESTS)
 
 test-kernel: setup
-	$(BIN)/python tests/run_blas_kernels.py --kernels $(KERNEL) --threads 1 --tests numerics
+	$(BIN)/python tests/run_blas_kernels.py --kernels $(KERNEL) --threads 1 --tests numerics -- -n $(WORKERS) --dist loadfile
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache
