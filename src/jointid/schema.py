@@ -85,7 +85,14 @@ class Field:
 
 
 def format_number(x: float) -> str:
-    """``x`` short, exponents without ``+`` and leading zeros: ``1e-300``, ``1e13``, ``1e3``, ``0.1``, ``3.9e6``."""
+    """``x`` short, exponents without ``+`` and leading zeros: ``1e-300``, ``1e13``, ``1e3``, ``0.1``, ``3.9e6``.
+
+    Parameters
+    ----------
+    x : float
+        Any finite number; ``|x|`` in [1e-3, 1e3) (or 0) is written with ``%.6g``, others as
+        mantissa (up to 6 digits) and exponent.
+    """
     if x == 0 or 1e-3 <= abs(x) < 1e3:
         return f"{x:.6g}"
     mant, exp = f"{x:.5e}".split("e")

@@ -94,6 +94,13 @@ def read_frf(
 def check_frf_magnitudes(frf: FRF, source: str | os.PathLike) -> None:
     """Refuse FRF values that are not finite or above :data:`MAX_FRF_MAGNITUDE` (in SI).
 
+    Parameters
+    ----------
+    frf : FRF
+        Values in SI units of its kind (after any unit conversion), shape (F, r, c).
+    source : path-like
+        The file, for the message.
+
     Raises
     ------
     DataError
