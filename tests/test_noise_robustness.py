@@ -126,5 +126,11 @@ def test_noise_robustness_config_keys(tmp_path):
     assert (cfg.robustness_levels, cfg.robustness_seeds, cfg.robustness_layouts, cfg.robustness_joint_nodes) == ((0.01, 0.03), 5, ("model_4",), (19,))
     assert [c.label(cfg) for c in nr.cases(cfg)] == ["Model 4, beam end (node 19), Material A", "Model 4, beam end (node 19), Material B"]
     default = load_config(None)
-    assert (default.robustness_levels, default.robustness_seeds) == ((0.003, 0.01, 0.03), 3)
+    assert (default.robustness_levels, default.robustness_seeds) == ((0.003, 0.01, 0.03), 1)  # the quick default
     assert len(nr.cases(default)) == 8
+    assert load_config(None, seeds=4).robustness_seeds == 4  # --seeds N
+    p = tmp_path / "s.toml"
+    p.write_text("[noise_robustness]\nseeds = 5\n")
+    assert load_config(p).robustness_seeds == 5 and load_config(p, seeds=2).robustness_seeds == 2  # --seeds overrides the file
+    with pytest.raises(StudyError, match="^--seeds: expected an integer >= 1, got 0$"):
+        load_config(None, seeds=0)

@@ -1,5 +1,6 @@
 """The reproduce runner: outputs whole or not at all, failures name the study, config validation."""
 
+import re
 import types
 
 import pytest
@@ -26,13 +27,28 @@ def _fake_module(fail: bool, data: str = "fake"):
 
 def test_failing_study_leaves_previous_output_untouched(tmp_path, monkeypatch):
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "report.html").write_text("previous")
+    monkeypatch.setattr(runner, "load_study_module", lambda name: _fake_module(fail=False))
+    runner.run_reproduce(load_config(), out, ["conditioning"], quiet=True)
+    previous = (out / "report.html").read_text()
     monkeypatch.setattr(runner, "load_study_module", lambda name: _fake_module(fail=True))
     with pytest.raises(runner.StudyFailed, match="study 'conditioning' failed: ValueError: the joint model diverged at 950 Hz; no report was written"):
         runner.run_reproduce(load_config(), out, ["conditioning"], quiet=True)
-    assert (out / "report.html").read_text() == "previous"
+    assert (out / "report.html").read_text() == previous
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary directory left
+    assert sorted(p.name for p in out.iterdir()) == [".jointid-manifest.json", "data", "report.html"]
+
+
+def test_a_users_report_is_refused_before_any_study_runs(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.html").write_text("my notes")
+    ran = []
+    monkeypatch.setattr(runner, "load_study_module", lambda name: ran.append(name) or _fake_module(fail=False))
+    assert main(["reproduce", "--out", str(out), "--only", "conditioning"]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.strip() == f"jointid reproduce: error: {out / 'report.html'} exists and was not written by jointid; move it or choose another --out"
+    assert ran == [] and captured.out == ""  # refused before the studies were even planned
+    assert (out / "report.html").read_text() == "my notes" and sorted(p.name for p in out.iterdir()) == ["report.html"]
 
 
 def test_successful_run_replaces_its_own_output_only(tmp_path, monkeypatch):
@@ -96,3 +112,33 @@ def test_bad_config_names_the_key(tmp_path, text, message):
     with pytest.raises(StudyError) as e:
         load_config(p)
     assert str(e.value) == f"{p}: {message}"
+
+
+def test_parallel_run_gives_the_serial_numbers_and_one_progress_line_per_study(tmp_path, capsys):
+    """Noise realizations and studies on 2 processes: the same CSVs and figures as in one process, bit for bit."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[frequency]\nstart = 5.0\nstop = 1000.0\nstep = 20.0\n"
+                   "[noise_robustness]\nlevels = [0.01]\nlayouts = [\"model_3\"]\njoint_nodes = [1]\n")
+    args = ["reproduce", "--only", "noise-robustness", "--config", str(cfg), "--seeds", "2"]
+    assert main(args + ["--out", str(tmp_path / "one"), "--jobs", "1"]) == 0
+    capsys.readouterr()
+    assert main(args + ["--out", str(tmp_path / "two"), "--jobs", "2"]) == 0
+    lines = capsys.readouterr().out.splitlines()  # stdout is not a terminal here: the lines are there all the same
+    assert lines[0] == "running 1 study as 4 tasks on 2 processes (noise-robustness: 2 noise realizations per level; --seeds N for more)"
+    assert re.fullmatch(r"\[1/1\] noise-robustness: \d+\.\d s \(CPU \d+\.\d s\)", lines[1]), lines
+    assert re.fullmatch(r"wrote .*report\.html \(1 study, \d+\.\d s on 2 processes\)", lines[2]) and len(lines) == 3
+    one, two = tmp_path / "one", tmp_path / "two"
+    for sub in ("data", "figures"):
+        names = sorted(p.name for p in (one / sub).iterdir())
+        assert names == sorted(p.name for p in (two / sub).iterdir()) and names
+        for name in names:
+            assert (one / sub / name).read_bytes() == (two / sub / name).read_bytes(), name
+    html = (two / "report.html").read_text()
+    assert "2 noise realizations per level and case" in html and "2 noise realizations per level" in html
+
+
+def test_quiet_prints_only_the_result_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(runner, "load_study_module", lambda name: _fake_module(fail=False))
+    assert main(["reproduce", "--out", str(tmp_path / "o"), "--only", "conditioning", "--quiet"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 1 and out[0].startswith("wrote ")

@@ -35,7 +35,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.interpolate import BSpline
 
-__all__ = ["StructuredModel", "structured_stiffness", "default_scale", "sym_basis", "unpack", "pack", "extend", "drop_last_mode"]
+__all__ = ["StructuredModel", "structured_stiffness", "structured_terms", "default_scale", "sym_basis", "unpack", "pack", "extend", "drop_last_mode"]
 
 
 @dataclass(frozen=True)
@@ -142,13 +142,105 @@ def pack(A, B, E, modes, gam) -> np.ndarray:
     return np.r_[np.asarray(A, float)[1:], B, E, np.asarray(modes, float).ravel(), np.stack([gam.real, gam.imag], axis=-1).ravel()]
 
 
+def structured_terms(theta: np.ndarray, hz: np.ndarray, model: StructuredModel, jacobian: bool = False, Gd: np.ndarray | None = None):
+    """``Du'`` and its parameter derivatives in factored form: frequency functions times fixed real symmetric matrices.
+
+    ``Du'(f) = sum_t coefs[t](f) mats[t]``. With ``jacobian``: ``dDu'/dtheta_k = jc[k](f) jm[k]`` for
+    every parameter but the spline of ``g`` (the first ``P - 2 K`` columns, in parameter order) and
+    ``dDu'/dg = dg(f)``, so ``dDu'/dgamma_j = b_j(f) dg`` (and ``i b_j(f) dg`` for its imaginary part).
+    The fit (:mod:`jointid.methods.structured_fit`) maps each fixed matrix once per line instead of
+    forming the dense ``(F, n, n, P)`` Jacobian of :func:`structured_stiffness`.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (P,)
+    hz : ndarray, shape (F,)
+        Frequencies, Hz.
+    model : StructuredModel
+    jacobian : bool
+    Gd : ndarray, shape (F, K), optional
+        ``model.g_design(hz)``, when the caller holds it already.
+
+    Returns
+    -------
+    coefs : ndarray, shape (T, F), complex
+    mats : ndarray, shape (T, n, n)
+    jac : tuple ``(jc (P - 2K, F) complex, jm (P - 2K, n, n), dg (F, n, n) complex, Gd (F, K))`` or None
+    """
+    n = model.n
+    Eb = sym_basis(n)
+    idx = _sym_index(n)
+    A, B, E, modes, gam = unpack(theta, model)
+    Gd = model.g_design(hz) if Gd is None else Gd
+    g = Gd @ gam
+    w2 = (hz / model.f_ref) ** 2
+    w4 = w2 ** 2
+    r = model.n_modes
+    T = 2 + model.residual + r
+    coefs = np.empty((T, hz.size), complex)  # Du' = sum coefs[t] mats[t]
+    mats = np.empty((T, n, n))
+    coefs[0], coefs[1] = g, -w2
+    mats[0], mats[1] = A[idx], B[idx]
+    t = 2
+    if model.residual:
+        coefs[t] = -w4 / g
+        mats[t] = E[idx]
+        t += 1
+    c = modes[:, :n]  # (r, n)
+    mu = np.exp(np.clip(modes[:, n], -50.0, 50.0))  # (r,)
+    q = 1.0 / (g[None] * mu[:, None] - w2[None])  # (r, F)
+    coefs[t:] = -w4[None] * q
+    mats[t:] = c[:, :, None] * c[:, None, :]
+    if not jacobian:
+        return coefs, mats, None
+    # dDu'/dg = A + w'^4 E / g^2 + sum_r w'^4 mu_r q_r^2 C_r
+    dgc = np.empty((T - 1, hz.size), complex)
+    dgc[0] = 1.0
+    dgc[1:] = 0.0
+    if model.residual:
+        dgc[1] = w4 / g ** 2
+    dgc[t - 1:] = w4[None] * q ** 2 * mu[:, None]
+    dgm = np.delete(mats, 1, axis=0)  # A, [E], C_r
+    dg = (dgc.T @ dgm.reshape(T - 1, n * n)).reshape(hz.size, n, n)
+    p = Eb.shape[0]
+    J = model.n_params - 2 * model.g_basis
+    jc = np.empty((J, hz.size), complex)
+    jm = np.empty((J, n, n))
+    jc[:p - 1], jm[:p - 1] = g, Eb[1:]
+    jc[p - 1:2 * p - 1], jm[p - 1:2 * p - 1] = -w2, Eb
+    k = 2 * p - 1
+    if model.residual:
+        jc[k:k + p], jm[k:k + p] = coefs[2], Eb
+        k += p
+    eye = np.eye(n)
+    for m in range(r):  # c_r (n columns), then nu_r
+        jc[k:k + n] = coefs[t + m]
+        ec = eye[:, :, None] * c[m][None, None, :]  # e_k c^T
+        jm[k:k + n] = ec + ec.transpose(0, 2, 1)
+        jc[k + n] = w4 * q[m] ** 2 * g * mu[m]
+        jm[k + n] = mats[t + m]
+        k += n + 1
+    return coefs, mats, (jc, jm, dg, Gd)
+
+
+@lru_cache(maxsize=16)
+def _sym_index(n: int) -> np.ndarray:
+    """``k`` of entry (i, j) in the upper-triangle vector of a symmetric n x n matrix (:func:`sym_basis` order); read-only."""
+    idx = np.zeros((n, n), int)
+    for k, (i, j) in enumerate(zip(*np.triu_indices(n))):
+        idx[i, j] = idx[j, i] = k
+    idx.flags.writeable = False
+    return idx
+
+
 def structured_stiffness(theta: np.ndarray, hz: np.ndarray, model: StructuredModel, jacobian: bool = False):
     """Scaled model stiffness ``Du'`` (F, n, n) and optionally ``dDu'/dtheta`` (F, n, n, P), complex.
 
     Every derivative is a frequency function times a fixed symmetric matrix
     (``dDu'/dA_k = g E_k``, ``dDu'/dB_k = -w'^2 E_k``, ``dDu'/dc_rk = h_r (e_k c_r^T + c_r e_k^T)``
     with ``h_r = -w'^4 / (g mu_r - w'^2)``, ``dDu'/dnu_r = w'^4 g mu_r c_r c_r^T / (g mu_r - w'^2)^2``),
-    except the spline of ``g``: ``dDu'/dgamma_j = b_j(f) dDu'/dg`` (and ``i b_j`` for its imaginary part).
+    except the spline of ``g``: ``dDu'/dgamma_j = b_j(f) dDu'/dg`` (and ``i b_j`` for its imaginary part);
+    :func:`structured_terms` gives these factors.
 
     Parameters
     ----------
@@ -160,46 +252,12 @@ def structured_stiffness(theta: np.ndarray, hz: np.ndarray, model: StructuredMod
     jacobian : bool
     """
     n = model.n
-    Eb = sym_basis(n)
-    A, B, E, modes, gam = unpack(theta, model)
-    Gd = model.g_design(hz)
-    g = Gd @ gam
-    w2 = (hz / model.f_ref) ** 2
-    Am = np.einsum("k,kij->ij", A, Eb)
-    Bm = np.einsum("k,kij->ij", B, Eb)
-    coefs, mats = [g, -w2 + 0j], [Am, Bm]  # Du' = sum coefs[t] mats[t]
-    dgc, dgm = [np.ones_like(g)], [Am]  # dDu'/dg = sum dgc[t] dgm[t]
-    jc, jm = [], []  # Jacobian columns: coefficient (F,) and matrix (n, n)
-    if jacobian:
-        jc += [g] * (Eb.shape[0] - 1) + [-w2 + 0j] * Eb.shape[0]
-        jm += list(Eb[1:]) + list(Eb)
-    if model.residual:
-        Em = np.einsum("k,kij->ij", E, Eb)
-        coefs.append(-(w2 ** 2) / g)
-        mats.append(Em)
-        dgc.append(w2 ** 2 / g ** 2)
-        dgm.append(Em)
-        if jacobian:
-            jc += [-(w2 ** 2) / g] * Eb.shape[0]
-            jm += list(Eb)
-    eye = np.eye(n)
-    for r in range(model.n_modes):
-        c, mu = modes[r, :n], np.exp(np.clip(modes[r, n], -50.0, 50.0))
-        cc = np.outer(c, c)
-        q = 1.0 / (g * mu - w2)
-        h = -(w2 ** 2) * q
-        coefs.append(h)
-        mats.append(cc)
-        dgc.append(w2 ** 2 * q ** 2 * mu)
-        dgm.append(cc)
-        if jacobian:
-            jc += [h] * n + [w2 ** 2 * q ** 2 * g * mu]
-            jm += [np.outer(eye[k], c) + np.outer(c, eye[k]) for k in range(n)] + [cc]
-    D = (np.asarray(coefs).T @ np.asarray(mats).reshape(len(mats), n * n)).reshape(hz.size, n, n)
+    coefs, mats, jac = structured_terms(theta, hz, model, jacobian)
+    D = (coefs.T @ mats.reshape(len(mats), n * n)).reshape(hz.size, n, n)
     if not jacobian:
         return D
-    dg = (np.asarray(dgc).T @ np.asarray(dgm).reshape(len(dgm), n * n)).reshape(hz.size, n, n)
-    Jl = np.einsum("tf,tk->fkt", np.asarray(jc), np.asarray(jm).reshape(len(jm), n * n)).reshape(hz.size, n, n, len(jm))
+    jc, jm, dg, Gd = jac
+    Jl = jc.T[:, None, None, :] * np.moveaxis(jm, 0, -1)[None]  # (F, n, n, P - 2K)
     Jg = dg[..., None] * Gd[:, None, None, :]  # (F, n, n, K)
     Jg = np.stack([Jg, 1j * Jg], axis=-1).reshape(*Jg.shape[:-1], 2 * model.g_basis)  # (re_0, im_0, re_1, ...)
     return D, np.concatenate([Jl, Jg], axis=-1)

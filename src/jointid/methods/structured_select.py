@@ -117,11 +117,12 @@ def select_structured(hz, lines, common=None, max_modes: int = MAX_MODES, max_g_
     if common is not None:
         max_g_basis = 1
     fits: dict = {}
+    cache: dict = {}  # what every order's fit computes alike (smoothed curves, the first mode's grid start)
 
     def fit(order, start):
         if order not in fits:
             try:
-                fits[order] = fit_structured(hz, lines, order, common=common, start=start)
+                fits[order] = fit_structured(hz, lines, order, common=common, start=start, cache=cache)
             except (np.linalg.LinAlgError, ValueError):  # a degenerate start: skip this order
                 return None
         return fits[order]

@@ -27,6 +27,7 @@ __all__ = [
     "percentiles",
     "layout_table",
     "SUMMARY_BAND_HZ",
+    "png",
 ]
 
 #: Band of the summary error figures, Hz.
@@ -62,7 +63,7 @@ class StudyOutput:
     tables : tuple of Table
     data : mapping
         CSV base name -> columns (name -> 1-D array), written to ``data/<name>.csv``.
-    figures : tuple of (name, Figure, caption)
+    figures : tuple of (name, Figure or PNG bytes, caption)
         Written to ``figures/<name>.png`` and embedded in the report.
     summary : tuple of (label, magnitude error, loss-factor error)
         Median relative error of the identified translational stiffness magnitude and
@@ -79,6 +80,18 @@ class StudyOutput:
     figures: tuple = ()
     summary: tuple[tuple[str, float, float], ...] = ()
     findings: tuple[str, ...] = ()
+
+
+def png(fig, dpi: int = 110) -> bytes:
+    """``fig`` as PNG bytes (closed afterwards): a figure of the report, as it crosses a process boundary."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    plt.close(fig)
+    return buf.getvalue()
 
 
 def band_errors(identified: np.ndarray, truth: np.ndarray, frequency: Frequency, band=SUMMARY_BAND_HZ) -> tuple[float, float]:

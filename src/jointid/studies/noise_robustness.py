@@ -30,7 +30,7 @@ receptance per case (:class:`CachedReceptance`), identical to what
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Iterable, Mapping
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -48,7 +48,7 @@ from .common import Progress, StudyOutput, add_noise, band_errors
 __all__ = [
     "run", "Case", "CaseResult", "CachedReceptance", "TERMS", "METHODS", "BAND_HZ",
     "cases", "case_study", "run_case", "exact_frf", "term_errors", "within_band", "method_options",
-    "band_of", "position", "reference_level",
+    "band_of", "position", "reference_level", "parts", "combine", "run_part", "Example",
 ]
 
 #: Joint terms: label, row, column of the (F, 2, 2) stiffness.
@@ -260,21 +260,49 @@ def reference_level(levels) -> float:
     return min(levels, key=lambda x: abs(np.log(x / 0.01)))
 
 
-def run_case(config, case: Case, index: int = 0, progress: Progress | None = None) -> CaseResult:
-    """Identify ``case`` from exact FRFs and from ``config.robustness_seeds`` noisy realizations per level.
+@dataclass(frozen=True, eq=False)
+class Example:
+    """What the report keeps of one identification: its stiffness and 1-sigma bands (None for Hong-Lee)."""
 
-    The realization ``s`` of case ``index`` draws its noise from
-    ``numpy.random.default_rng([config.seed, index, s])``.
-    """
-    progress = progress or Progress()
-    levels = tuple(config.robustness_levels)
-    seeds = int(config.robustness_seeds)
+    stiffness: np.ndarray
+    std_real: np.ndarray | None = None
+    std_imag: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class _Part:
+    """Errors of one case for some of its realizations (a task of :func:`parts`)."""
+
+    index: int
+    seeds: tuple
+    frequency: Frequency
+    truth: np.ndarray
+    errors: Mapping[str, np.ndarray]  # method -> (levels, len(seeds), F, 3)
+    inside: Mapping[str, np.ndarray]  # receptance method -> (levels, len(seeds), 2, F, 3)
+    exact: Mapping[str, np.ndarray] | None  # with the first realization only
+    example: Mapping[str, Example] | None
+
+
+def _setup(config, case: Case):
     study = case_study(config, case)
-    hl_study = case_study(config, case, method="hong-lee")
     f = study.grid
     m = study.measurement
     cached = CachedReceptance(free_model(study), f, [*m.observed_dofs, *study.joint.joint_dofs, *m.excited_dofs])
     exact_data, truth = exact_frf(cached, true_joint(study), f, m.observed_dofs, m.excited_dofs)
+    return study, cached, exact_data, truth
+
+
+def run_part(config, case: Case, index: int, seeds: Sequence[int], progress: Progress | None = None) -> _Part:
+    """Identify ``case`` from its noisy realizations ``seeds`` at every level (and from exact FRFs with seed 0).
+
+    The realization ``s`` of case ``index`` draws its noise from
+    ``numpy.random.default_rng([config.seed, index, s])``, whichever task runs it.
+    """
+    progress = progress or Progress()
+    levels = tuple(config.robustness_levels)
+    seeds = tuple(int(s) for s in seeds)
+    study, cached, exact_data, truth = _setup(config, case)
+    hl_study = case_study(config, case, method="hong-lee")
     options = method_options(study)
 
     def solve(method, frf):
@@ -282,36 +310,84 @@ def run_case(config, case: Case, index: int = 0, progress: Progress | None = Non
             return identify(hl_study, frf)
         return identify_joint_coupling(cached, frf, study.joint.joint_dofs, options[method])
 
-    exact = {k: term_errors(solve(k, exact_data).stiffness, truth) for k in METHODS}
-    progress.update()
-    F = f.hz.size
-    errors = {k: np.empty((len(levels), seeds, F, 3)) for k in METHODS}
-    inside = {k: np.empty((len(levels), seeds, 2, F, 3), bool) for k in METHODS if options[k] is not None}
+    exact = None
+    if 0 in seeds:
+        exact = {k: term_errors(solve(k, exact_data).stiffness, truth) for k in METHODS}
+        progress.update()
+    F = study.grid.hz.size
+    errors = {k: np.empty((len(levels), len(seeds), F, 3)) for k in METHODS}
+    inside = {k: np.empty((len(levels), len(seeds), 2, F, 3), bool) for k in METHODS if options[k] is not None}
     ref = reference_level(levels)
-    example = {}
+    example = {} if 0 in seeds else None
     for li, level in enumerate(levels):
-        for s in range(seeds):
+        for si, s in enumerate(seeds):
             noisy = add_noise(exact_data, level, np.random.default_rng([config.seed, index, s]))
             for k in METHODS:
                 r = solve(k, noisy)
-                errors[k][li, s] = term_errors(r.stiffness, truth)
+                errors[k][li, si] = term_errors(r.stiffness, truth)
                 if k in inside:
-                    inside[k][li, s] = within_band(r.stiffness, r.std_real, r.std_imag, truth)
+                    inside[k][li, si] = within_band(r.stiffness, r.std_real, r.std_imag, truth)
                 if level == ref and s == 0:
-                    example[k] = r
+                    example[k] = Example(r.stiffness, getattr(r, "std_real", None), getattr(r, "std_imag", None))
             progress.update()
-    return CaseResult(case, f, truth, levels, errors, inside, exact, example, ref)
+    return _Part(index, seeds, study.grid, truth, errors, inside, exact, example)
+
+
+def _case_result(config, case: Case, parts: Sequence[_Part]) -> CaseResult:
+    """One case's result from its parts (every realization once)."""
+    parts = sorted(parts, key=lambda p: p.seeds[0])
+    first = parts[0]
+    return CaseResult(
+        case, first.frequency, first.truth, tuple(config.robustness_levels),
+        {k: np.concatenate([p.errors[k] for p in parts], axis=1) for k in first.errors},
+        {k: np.concatenate([p.inside[k] for p in parts], axis=1) for k in first.inside},
+        first.exact, first.example, reference_level(config.robustness_levels),
+    )
+
+
+def run_case(config, case: Case, index: int = 0, progress: Progress | None = None) -> CaseResult:
+    """Identify ``case`` from exact FRFs and from ``config.robustness_seeds`` noisy realizations per level.
+
+    The realization ``s`` of case ``index`` draws its noise from
+    ``numpy.random.default_rng([config.seed, index, s])``.
+    """
+    return _case_result(config, case, [run_part(config, case, index, range(config.robustness_seeds), progress)])
+
+
+def parts(config) -> list:
+    """The study's tasks for :func:`jointid.studies.runner.study_tasks`: one per case and noise realization.
+
+    Each is ``(run_part, (config, case, index, (s,)), cost)``; the first realization of a case
+    also identifies the exact FRFs. :func:`combine` assembles their results in any order.
+    """
+    cost = 3.0 * len(config.robustness_levels)  # structured fits: the longest tasks of reproduce
+    return [(run_part, (config, c, i, (s,)), cost + (1.0 if s == 0 else 0.0))
+            for i, c in enumerate(cases(config)) for s in range(config.robustness_seeds)]
+
+
+def combine(config, results: Sequence[_Part]) -> StudyOutput:
+    """The study's output from the results of :func:`parts` (any order)."""
+    todo = cases(config)
+    by_case: dict = {}
+    for part in results:
+        by_case.setdefault(part.index, []).append(part)
+    return _output(config, [_case_result(config, c, by_case[i]) for i, c in enumerate(todo)])
 
 
 def run(config, progress: Progress | None = None) -> StudyOutput:
-    """Run the noise-robustness study on ``config`` (a :class:`~jointid.studies.config.ReproduceConfig`)."""
-    from ..plots.noise_robustness import plot_band_examples, plot_error_vs_noise
-
+    """Run the noise-robustness study on ``config`` (a :class:`~jointid.studies.config.ReproduceConfig`) in this process."""
     progress = progress or Progress()
     todo = cases(config)
     levels = tuple(config.robustness_levels)
     progress.total(len(todo) * (1 + len(levels) * config.robustness_seeds))
-    results = [run_case(config, c, i, progress) for i, c in enumerate(todo)]
+    return _output(config, [run_case(config, c, i, progress) for i, c in enumerate(todo)])
+
+
+def _output(config, results) -> StudyOutput:
+    """Tables, figures, data and findings of the case results."""
+    from ..plots.noise_robustness import plot_band_examples, plot_error_vs_noise
+
+    levels = tuple(config.robustness_levels)
     ref = reference_level(levels)
     figures = []
     for mat in config.materials:
@@ -333,7 +409,7 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
         plot_error_vs_noise(levels, {k: np.stack([r.median(k) for r in results]) for k in METHODS},
                             {k: METHODS[k] for k in ("receptance", "receptance-raw", "hong-lee")}, [t for t, _, _ in TERMS]),
         f"Median relative error per term vs FRF noise level, per method: median over the {len(results)} cases (line) and their "
-        "range (shaded), log axes",
+        f"range (shaded), log axes; {_realizations(config)} per level and case",
     ))
     return StudyOutput(
         name="noise-robustness",
@@ -345,6 +421,12 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
         summary=_summary(config, results),
         findings=(_findings(config, results)[0],),
     )
+
+
+def _realizations(config) -> str:
+    """``"1 noise realization"`` / ``"3 noise realizations"``."""
+    s = config.robustness_seeds
+    return f"{s} noise realization{'s' if s != 1 else ''}"
 
 
 def _example_cases(config, results, material):
@@ -431,7 +513,7 @@ def _findings(config, results) -> tuple[str, str]:
     cov = np.stack([r.coverage("receptance")[li] for r in results])  # (cases, 2, 3)
     first = (
         f"At {100 * ref:g} % FRF noise the default receptance estimator's median errors (K_ww, K_wtheta, K_thetatheta) over the "
-        f"{len(results)} cases are {rng['receptance']}, against {rng['hong-lee']} for plain Hong-Lee and {rng['receptance-raw']} for "
+        f"{len(results)} cases ({_realizations(config)} each) are {rng['receptance']}, against {rng['hong-lee']} for plain Hong-Lee and {rng['receptance-raw']} for "
         f"the unweighted, unsmoothed receptance formulation; its 90 % bands hold the truth on {cov.min():.2f}-{cov.max():.2f} of the "
         "lines (per case, term and part)."
     )
@@ -452,7 +534,7 @@ def _paragraphs(config, results) -> tuple[str, ...]:
         f"{' and '.join(position(config, n) for n in config.robustness_joint_nodes)}; layouts {layouts}; no accelerometers; "
         f"{f.hz[0]:g}-{f.hz[-1]:g} Hz, {f.hz.size} lines) get complex Gaussian noise of relative rms {levels} on every FRF value, "
         f"{config.robustness_seeds} realization{'s' if config.robustness_seeds != 1 else ''} per level (the same draws for every level and method; "
-        "[noise_robustness] seeds and levels in the reproduce configuration set more). Three methods identify the joint: plain "
+        "jointid reproduce --seeds N or [noise_robustness] seeds in the reproduce configuration set more, levels the levels). Three methods identify the joint: plain "
         "Hong-Lee (method = \"hong-lee\", on the beam's grid nodes as jointid identify runs it), the default (method = "
         "\"receptance\": weighted receptance coupling, the structured joint model fitted over all lines, with 1-sigma bands) and the receptance formulation "
         "unweighted and unsmoothed. Errors are |K - K_true| / |K_true| per line; the coverage is the fraction of lines whose true "

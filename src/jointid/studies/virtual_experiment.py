@@ -19,9 +19,9 @@ from ..pipeline import constrained_model, experiment, identify
 from ..plots.studies import plot_terms
 from ..report.html import Table
 from ..study import Study, parse_study
-from .common import Progress, StudyOutput, band_errors, fmt, pct, terms_of
+from .common import Progress, StudyOutput, band_errors, fmt, pct, png, terms_of
 
-__all__ = ["run", "experiment_study"]
+__all__ = ["run", "experiment_study", "parts", "combine"]
 
 
 def experiment_study(config, material: str, layout: str = "model_3") -> Study:
@@ -43,57 +43,78 @@ def experiment_study(config, material: str, layout: str = "model_3") -> Study:
     return parse_study(data, f"virtual experiment, Material {material}")
 
 
-def run(config, progress: Progress | None = None) -> StudyOutput:
-    """Run the virtual-experiment study on ``config``."""
+def _material(config, mat: str) -> dict:
+    """One material's virtual test, identification and figure (a task of :func:`parts`)."""
     from ..io.frf_files import read_frf
     from ..io.uff import write_uff_frf
 
-    progress = progress or Progress()
-    materials = [m for m in ("A", "B") if m in config.materials]
-    progress.total(2 * len(materials) + 1)
-    rows, summary, figures, data, findings = [], [], [], {}, []
-    hits = None
-    for mat in materials:
-        study = experiment_study(config, mat)
-        hits = study.experiment.averages
-        ex = experiment(study, seed=config.seed, periodic=True)  # periodic: no leakage, no hysteretic precursor
-        with tempfile.TemporaryDirectory() as tmp:  # the same path as real data: UFF58 out and back in
-            path = write_uff_frf(Path(tmp) / "frf.uff", ex.frf, kind="accelerance", coherence=ex.coherence)
-            measured = read_frf(path, n_nodes=study.beam.nodes, coherence=True)
-        noisy = identify(study, measured)
-        progress.update()
-        f = noisy.frequency
-        exact_frf = synthesize_frf(constrained_model(study), f, study.measurement.observed_dofs, study.measurement.excited_dofs, kind="accelerance")
-        exact = identify(study, exact_frf)
-        progress.update()
-        truth = ex.truth
-        e_noisy = band_errors(noisy.term("w", "w"), truth[:, 0, 0], f)
-        e_exact = band_errors(exact.term("w", "w"), truth[:, 0, 0], f)
-        rel = np.abs(noisy.term("w", "w") - truth[:, 0, 0]) / np.abs(truth[:, 0, 0])
-        band = f.mask(100, 1000)
-        p90 = float(np.percentile(rel[band], 90))
-        summary += [(f"Material {mat}, roving hammer ({100 * config.experiment_noise:g}% noise)", *e_noisy), (f"Material {mat}, exact FRFs", *e_exact)]
-        rows.append([f"Material {mat}", str(sum(ex.impact.n_averages)), str(len(ex.impact.rejected)),
-                     pct(float(np.mean(ex.coherence > 0.95))),
-                     pct(e_noisy[0]), pct(p90), fmt(e_noisy[1], 2), pct(e_exact[0])])
-        figures.append((
-            f"experiment_material_{mat.lower()}",
-            plot_terms(f.hz, {"true": terms_of(truth), "exact FRFs": terms_of(exact.stiffness), "roving hammer": terms_of(noisy.stiffness)},
-                       title=f"Virtual roving-hammer experiment, Material {mat}"),
-            f"Material {mat}: joint identified from the virtual roving-hammer test (H1, UFF58 round trip) and from exact FRFs; true joint dashed",
-        ))
-        data[f"experiment_material_{mat.lower()}"] = {
+    study = experiment_study(config, mat)
+    ex = experiment(study, seed=config.seed, periodic=True)  # periodic: no leakage, no hysteretic precursor
+    with tempfile.TemporaryDirectory() as tmp:  # the same path as real data: UFF58 out and back in
+        path = write_uff_frf(Path(tmp) / "frf.uff", ex.frf, kind="accelerance", coherence=ex.coherence)
+        measured = read_frf(path, n_nodes=study.beam.nodes, coherence=True)
+    noisy = identify(study, measured)
+    f = noisy.frequency
+    exact_frf = synthesize_frf(constrained_model(study), f, study.measurement.observed_dofs, study.measurement.excited_dofs, kind="accelerance")
+    exact = identify(study, exact_frf)
+    truth = ex.truth
+    e_noisy = band_errors(noisy.term("w", "w"), truth[:, 0, 0], f)
+    e_exact = band_errors(exact.term("w", "w"), truth[:, 0, 0], f)
+    rel = np.abs(noisy.term("w", "w") - truth[:, 0, 0]) / np.abs(truth[:, 0, 0])
+    band = f.mask(100, 1000)
+    p90 = float(np.percentile(rel[band], 90))
+    figure = (
+        f"experiment_material_{mat.lower()}",
+        png(plot_terms(f.hz, {"true": terms_of(truth), "exact FRFs": terms_of(exact.stiffness), "roving hammer": terms_of(noisy.stiffness)},
+                       title=f"Virtual roving-hammer experiment, Material {mat}")),
+        f"Material {mat}: joint identified from the virtual roving-hammer test (H1, UFF58 round trip) and from exact FRFs; true joint dashed",
+    )
+    return {
+        "hits": study.experiment.averages,
+        "summary": [(f"Material {mat}, roving hammer ({100 * config.experiment_noise:g}% noise)", *e_noisy), (f"Material {mat}, exact FRFs", *e_exact)],
+        "row": [f"Material {mat}", str(sum(ex.impact.n_averages)), str(len(ex.impact.rejected)), pct(float(np.mean(ex.coherence > 0.95))),
+                pct(e_noisy[0]), pct(p90), fmt(e_noisy[1], 2), pct(e_exact[0])],
+        "figure": figure,
+        "data": {
             "frequency_hz": f.hz, "true_real": truth[:, 0, 0].real, "true_imag": truth[:, 0, 0].imag,
             "hammer_real": noisy.term("w", "w").real, "hammer_imag": noisy.term("w", "w").imag,
             "exact_real": exact.term("w", "w").real, "exact_imag": exact.term("w", "w").imag,
             "relative_error": rel, "coherence_min": ex.coherence.min(axis=(1, 2)),
-        }
-        findings.append(
+        },
+        "finding": (
             f"The virtual roving-hammer test of Material {mat} identifies the translational stiffness with a median error of "
             f"{100 * e_noisy[0]:.2g}% (90th percentile {100 * p90:.2g}%) over 100-1000 Hz, against {100 * e_exact[0]:.1g}% from exact FRFs."
-        )
-    shape_fig, shape_text = _internal_mode_figure(config)
-    progress.update()
+        ),
+    }
+
+
+def _mode_part(config) -> tuple:
+    """``(figure, text)`` of Material B's internal mode, the figure as PNG bytes, or ``(None, "")`` (a task of :func:`parts`)."""
+    fig, text = _internal_mode_figure(config)
+    return (None if fig is None else png(fig)), text
+
+
+def _materials(config) -> list[str]:
+    return [m for m in ("A", "B") if m in config.materials]
+
+
+def parts(config) -> list:
+    """The study's tasks for :func:`jointid.studies.runner.study_tasks`: one per material, one for the joint's mode shapes."""
+    return [(_material, (config, mat), 4.0) for mat in _materials(config)] + [(_mode_part, (config,), 0.5)]
+
+
+def combine(config, results) -> StudyOutput:
+    """The study's output from the results of :func:`parts` (in their order)."""
+    *materials, (shape_fig, shape_text) = results
+    rows, summary, figures, data, findings = [], [], [], {}, []
+    hits = None
+    for mat, r in zip(_materials(config), materials):
+        hits = r["hits"]
+        summary += r["summary"]
+        rows.append(r["row"])
+        figures.append(r["figure"])
+        data[f"experiment_material_{mat.lower()}"] = r["data"]
+        findings.append(r["finding"])
     if shape_fig is not None:
         figures.append(("experiment_joint_mode_shapes", shape_fig, shape_text))
         findings.append(shape_text)
@@ -118,6 +139,18 @@ def run(config, progress: Progress | None = None) -> StudyOutput:
         summary=tuple(summary),
         findings=tuple(findings),
     )
+
+
+def run(config, progress: Progress | None = None) -> StudyOutput:
+    """Run the virtual-experiment study on ``config`` in this process."""
+    progress = progress or Progress()
+    todo = parts(config)
+    progress.total(len(todo))
+    results = []
+    for fn, args, _ in todo:
+        results.append(fn(*args))
+        progress.update()
+    return combine(config, results)
 
 
 def _internal_mode_figure(config):
