@@ -363,3 +363,19 @@ def test_update_on_a_structure_study_given_its_jointed_frfs_reports_a_finding(tm
     assert "Warning" not in out.err
     report = json.loads((tmp_path / "u" / "update.json").read_text())
     assert report["finding"] and all(p["status"] == "not_determined" for p in report["parameters"].values())
+
+
+def test_resonances_left_misaligned_are_a_finding_even_when_the_misfit_is_small():
+    from jointid.frequency import Frequency
+    from jointid.methods.update_check import MAX_FREQUENCY_SHIFT, judge_update_fit
+
+    f = np.arange(5.0, 1000.0, 0.5)
+    modes = np.array([150.0, 410.0, 800.0])
+    H = sum(1.0 / (fr**2 - f**2 + 1j * 0.01 * fr**2) for fr in modes)  # three lightly damped modes
+    frf = FRF(Frequency(f), H[:, None, None], ("1w",), ("1w",), "receptance")
+    quiet = np.zeros((f.size, 1, 1), complex)
+    assert judge_update_fit(quiet, frf, modes * 1.003, "this beam") is None  # within the 2 % tolerance
+    finding = judge_update_fit(quiet, frf, modes / 1.05, "this beam")
+    assert MAX_FREQUENCY_SHIFT == 0.02 and finding.startswith(
+        "these FRFs do not look like a free-free test of the study's structure (this beam): the measured resonances lie +5 % "
+        "from the updated model's (3 matched)")
