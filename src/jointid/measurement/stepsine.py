@@ -56,13 +56,9 @@ Processing (:func:`process_stepsine`), per block
    ``tolerance`` flagged ``amplitude_ok = False``; the force's total harmonic
    distortion ``sqrt(sum_{h>=2} |F_h|^2) / |F_1|``; the rms residual of each
    channel's fit relative to the rms of its fundamental.
-5. **Clipping and distortion**: a block whose force or displacement has flat
-   tops (runs of 3 or more equal samples at the channel's maximum or minimum
-   on more than ``MAX_FLAT_SHARE`` of its samples: a saturated load cell,
-   amplifier or actuator) or a harmonic distortion above ``MAX_THD`` is
-   flagged ``distorted`` (reason in ``distortion``; :mod:`.stepsine_checks`) and is
-   not usable: ``amplitude_ok`` is False, so the material fit never uses it; if
-   fewer than 2 usable lines remain, :func:`process_stepsine` refuses the data.
+5. **Clipping and distortion** (:mod:`.stepsine_checks`): a block with a clipped
+   (flat-top) or heavily distorted channel is flagged ``distorted`` and is not
+   usable (``amplitude_ok`` False: never fitted); too few usable lines: refused.
 """
 
 from __future__ import annotations
