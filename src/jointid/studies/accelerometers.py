@@ -19,6 +19,9 @@ from .common import Progress, StudyOutput, band_errors, fmt, material_joint, pct
 
 __all__ = ["run"]
 
+#: About the CPU seconds of :func:`run` on the benchmark (``jointid reproduce`` starts the longest studies first).
+COST = 3.0
+
 
 def run(config, progress: Progress | None = None, layout: str = "model_3") -> StudyOutput:
     """Run the accelerometer-mass study on ``config``."""

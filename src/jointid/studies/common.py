@@ -83,15 +83,10 @@ class StudyOutput:
 
 
 def png(fig, dpi: int = 110) -> bytes:
-    """``fig`` as PNG bytes (closed afterwards): a figure of the report, as it crosses a process boundary."""
-    import io
+    """``fig`` as PNG bytes (:func:`jointid.plots.style.figure_png`): a figure of the report, as it crosses a process boundary."""
+    from ..plots.style import figure_png
 
-    import matplotlib.pyplot as plt
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    plt.close(fig)
-    return buf.getvalue()
+    return figure_png(fig, dpi=dpi)
 
 
 def band_errors(identified: np.ndarray, truth: np.ndarray, frequency: Frequency, band=SUMMARY_BAND_HZ) -> tuple[float, float]:

@@ -17,6 +17,9 @@ from .common import Progress, StudyOutput, add_noise, band_errors, fmt, layout_t
 
 __all__ = ["run"]
 
+#: About the CPU seconds of :func:`run` on the benchmark (``jointid reproduce`` starts the longest studies first).
+COST = 3.0
+
 
 def run(config, progress: Progress | None = None) -> StudyOutput:
     """Run the conditioning study on ``config`` (a :class:`~jointid.studies.config.ReproduceConfig`)."""

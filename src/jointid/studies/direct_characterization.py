@@ -22,6 +22,9 @@ from .common import Progress, StudyOutput, band_errors, elastomer_joint, fmt, pc
 
 __all__ = ["run", "characterize", "fitted_joint"]
 
+#: About the CPU seconds of :func:`run` on the benchmark (``jointid reproduce`` starts the longest studies first).
+COST = 4.0
+
 
 def run(config, progress: Progress | None = None) -> StudyOutput:
     """Run the direct characterization on ``config``."""

@@ -27,6 +27,9 @@ from .common import (
 
 __all__ = ["run", "VARIANTS", "NOMINAL_ERROR", "FREE_TEST_NOISE", "updating_comparison"]
 
+#: About the CPU seconds of :func:`run` on the benchmark (``jointid reproduce`` starts the longest studies first).
+COST = 8.0
+
 #: Parameter -> scale factors of the free-beam model.
 VARIANTS = {
     "loss_factor": (1 / 3, 2 / 3, 1.0, 4 / 3, 5 / 3),

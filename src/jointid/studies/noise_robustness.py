@@ -360,7 +360,7 @@ def parts(config) -> list:
     Each is ``(run_part, (config, case, index, (s,)), cost)``; the first realization of a case
     also identifies the exact FRFs. :func:`combine` assembles their results in any order.
     """
-    cost = 3.0 * len(config.robustness_levels)  # structured fits: the longest tasks of reproduce
+    cost = 2.0 * len(config.robustness_levels)  # about the CPU seconds: three identifications per level
     return [(run_part, (config, c, i, (s,)), cost + (1.0 if s == 0 else 0.0))
             for i, c in enumerate(cases(config)) for s in range(config.robustness_seeds)]
 

@@ -19,6 +19,9 @@ from .direct_characterization import fitted_joint
 
 __all__ = ["run"]
 
+#: About the CPU seconds of :func:`run` on the benchmark (``jointid reproduce`` starts the longest studies first).
+COST = 1.5
+
 
 def run(config, progress: Progress | None = None, material: str = "A", layout: str = "model_3") -> StudyOutput:
     """Run the verification study on ``config``."""

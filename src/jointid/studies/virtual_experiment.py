@@ -100,7 +100,7 @@ def _materials(config) -> list[str]:
 
 def parts(config) -> list:
     """The study's tasks for :func:`jointid.studies.runner.study_tasks`: one per material, one for the joint's mode shapes."""
-    return [(_material, (config, mat), 4.0) for mat in _materials(config)] + [(_mode_part, (config,), 0.5)]
+    return [(_material, (config, mat), 7.0) for mat in _materials(config)] + [(_mode_part, (config,), 0.5)]
 
 
 def combine(config, results) -> StudyOutput:
