@@ -96,29 +96,38 @@ def read_impact_npz(path: str | Path) -> ImpactRecord:
     """
     path = Path(path)
     try:
-        z = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as e:
-        raise DataError(f"{path}: cannot read as .npz ({e})") from None
-    with z:
-        missing = [k for k in ("force", "responses", "sample_rate_hz", "response_dofs", "reference") if k not in z]
-        if missing:
-            raise DataError(f"{path}: missing array(s) {missing}; see jointid.measurement.impact for the layout")
-        ref = str(z["reference"])
-        fs = float(z["sample_rate_hz"])
-        if "time_s" in z:
-            fs_t = _rate_from_time(np.asarray(z["time_s"], dtype=float), f"{path}: excited node {ref}, all hits")
-            if not math.isclose(fs_t, fs, rel_tol=1e-6):
-                raise DataError(
-                    f"{path}: excited node {ref}, all hits: time_s gives {fs_t:g} Hz but sample_rate_hz is {fs:g} Hz"
-                )
+        with np.load(path, allow_pickle=False) as z:
+            missing = [k for k in ("force", "responses", "sample_rate_hz", "response_dofs", "reference") if k not in z]
+            if missing:
+                raise DataError(f"{path}: missing array(s) {missing}; see jointid.measurement.impact for the layout")
+            arrays = {k: z[k] for k in ("force", "responses", "sample_rate_hz", "response_dofs", "reference", "time_s", "kind")
+                      if k in z}  # read inside the try: a member cut short fails only here
+    except DataError:
+        raise
+    except Exception as e:  # noqa: BLE001 - any parse failure of a user file (BadZipFile, EOFError, zlib.error) is a data error
+        raise DataError(f"{path}: cannot read as .npz ({' '.join(str(e).split()) or type(e).__name__})") from None
+    ref = str(arrays["reference"])
+    try:
+        fs = float(arrays["sample_rate_hz"])
+    except (TypeError, ValueError):
+        raise DataError(f"{path}: sample_rate_hz is not a number") from None
+    if "time_s" in arrays:
+        fs_t = _rate_from_time(np.asarray(arrays["time_s"], dtype=float), f"{path}: excited node {ref}, all hits")
+        if not math.isclose(fs_t, fs, rel_tol=1e-6):
+            raise DataError(
+                f"{path}: excited node {ref}, all hits: time_s gives {fs_t:g} Hz but sample_rate_hz is {fs:g} Hz"
+            )
+    try:
         return ImpactRecord(
-            force=z["force"],
-            responses=z["responses"],
+            force=arrays["force"],
+            responses=arrays["responses"],
             sample_rate_hz=fs,
-            response_dofs=tuple(str(x) for x in z["response_dofs"]),
+            response_dofs=tuple(str(x) for x in arrays["response_dofs"]),
             reference=ref,
-            kind=str(z["kind"]) if "kind" in z else "accelerance",
+            kind=str(arrays["kind"]) if "kind" in arrays else "accelerance",
         )
+    except DataError as e:
+        raise DataError(f"{path}: {e}") from None
 
 
 def _rate_from_time(t: np.ndarray, where: str) -> float:
