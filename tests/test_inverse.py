@@ -45,8 +45,11 @@ def test_exact_recovery(node, observed):
     frf = _measure(node, observed)
     r = identify_joint(BEAM, frf, [f"{node}w", f"{node}theta"])
     K = _joint(node)(FREQ.hz)
-    err = np.abs(r.stiffness - K) / np.abs(K)
-    assert err.max() < 1e-8
+    # exact data up to the synthesis' round-off (relative delta = 8e-14 on this beam, documented in
+    # jointid.physics.synthesis; measured 5e-14 - 1e-13 over OpenBLAS kernels: 2e-13 taken) and the
+    # solve's p eps (p = 3 unknowns): the estimate errs norm-wise by at most ~sqrt(p) cond_A (delta + p eps)
+    tol = np.sqrt(3) * r.cond_A * (2e-13 + 3 * np.finfo(float).eps)
+    assert np.all(np.abs(r.stiffness - K).max(axis=(1, 2)) <= tol * np.abs(K).max(axis=(1, 2)))
     # the estimated FRFs at the observed rows are the measured receptance
     assert np.allclose(r.estimated.select(frf.responses).data, frf.to("receptance").data, rtol=1e-12, atol=0)
 
