@@ -344,7 +344,7 @@ def true_beam_study(study: Study, truth: Study | None = None) -> Study:
     Raises
     ------
     StudyError
-        ``truth`` has a different number of beam nodes.
+        ``truth`` is a ``[structure]`` study, or has a different number of beam nodes.
     """
     from dataclasses import replace
 
@@ -352,6 +352,11 @@ def true_beam_study(study: Study, truth: Study | None = None) -> Study:
 
     if truth is None:
         return study.true_study()
+    if truth.is_structure:
+        raise StudyError(
+            f"{truth.source}: --truth needs a [beam] study (the true beam of {study.source}); "
+            "this one is a [structure] study"
+        )
     beam = truth.true_study().beam
     if beam.nodes != study.beam.nodes:
         raise StudyError(
