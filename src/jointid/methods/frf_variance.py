@@ -61,7 +61,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from ..errors import IdentificationError
-from ..parallel import single_threaded_blas
+from ..parallel import map_chunks, single_threaded_blas, worker_count
 
 __all__ = ["frf_variance", "column_noise_fraction", "WEIGHTINGS", "RELATIVE_FLOOR", "COHERENCE_SMOOTHING_LINES", "SPLIT_MIN_REDUNDANCY", "SPLIT_MIN_FRACTION"]
 
@@ -156,8 +156,15 @@ def column_noise_fraction(data: np.ndarray, coherence: np.ndarray) -> np.ndarray
     M = _smooth_log(np.maximum(np.abs(data) ** 2, tiny))
     logq, logM = np.log(q).reshape(F, m * e), np.log(M).reshape(F, m * e)
     chunk = max(1, _SPLIT_CHUNK_VALUES // (m * e * (m + 2 * e)))  # lines per batch: bounded memory
+    chunk = min(chunk, -(-F // worker_count(F)))  # and at least one batch per core (lines are independent)
+    frac = np.empty((F, m * e))
+
+    def split(lines: np.ndarray) -> None:
+        a, b = int(lines[0]), int(lines[-1]) + 1
+        frac[a:b] = _split(logq[a:b], logM[a:b], m, e)
+
     with single_threaded_blas():  # (F, 21) x (21, 3) products: BLAS threads only contend on such sizes
-        frac = np.concatenate([_split(logq[i:i + chunk], logM[i:i + chunk], m, e) for i in range(0, F, chunk)])
+        map_chunks(split, np.arange(F), chunk)  # numpy releases the GIL: the batches run on the cores
     return np.maximum(frac, SPLIT_MIN_FRACTION).reshape(F, m, e)
 
 
