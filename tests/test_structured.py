@@ -214,3 +214,35 @@ def test_a_model_whose_parameters_the_data_do_not_determine_is_left_out_of_the_a
     assert list(w) == ["a"] and np.allclose(sr, 1e3)
     _, sr, _, w = model_average({"a": fit(100.0, 1.0), "b": fit(101.0, 5.0)})
     assert set(w) == {"a", "b"} and np.all(sr > 2e3)
+
+
+@pytest.mark.parametrize("order, with_common", [((0, 1, False), False), ((2, 4, True), True), ((1, 1, True), False)])
+def test_whitened_fit_jacobian_matches_finite_differences(order, with_common):
+    """The fit's factored Jacobian (one map per line applied to fixed matrices) is the derivative of its residual."""
+    from jointid.methods.structured_fit import _Problem
+
+    rng = np.random.default_rng(4)
+    F, n = 23, 2
+    p = n * (n + 1) // 2
+    model = StructuredModel(n, order[0], order[1], order[2], (3.0, 0.5), 1000.0, (100.0, 1000.0))
+    hz = np.linspace(100.0, 1000.0, F)
+    Y = rng.standard_normal((F, n, n)) + 1j * rng.standard_normal((F, n, n))
+    Ynn = 1e-2 * (Y + np.swapaxes(Y, 1, 2))  # symmetric receptance (reciprocity)
+    G = rng.standard_normal((F, p, p)) + 1j * rng.standard_normal((F, p, p))
+    cov = G @ np.conj(np.swapaxes(G, 1, 2)) + np.eye(p)  # Hermitian positive definite per line
+    x = rng.standard_normal((F, p)) + 1j * rng.standard_normal((F, p))
+    common = 0.3 * (rng.standard_normal((F, p, 2)) + 1j * rng.standard_normal((F, p, 2))) if with_common else None
+    prob = _Problem(hz, x, cov, Ynn, model, common)
+    theta = 0.3 * rng.standard_normal(model.n_params)
+    for r in range(model.n_modes):  # poles inside the band
+        theta[model.sizes["A"] + model.sizes["B"] + model.sizes["E"] + r * (n + 1) + n] = np.log(0.4 + 0.3 * r)
+    theta[-2 * model.g_basis::2] += 1.0  # g near 1
+    J = prob.jacobian(theta)
+    assert J.shape == (2 * F * p, model.n_params)
+    h = 1e-6
+    for k in range(model.n_params):
+        step = np.zeros_like(theta)
+        step[k] = h
+        fd = (prob.residual(theta + step) - prob.residual(theta - step)) / (2 * h)
+        # central difference: error ~ h^2 |r'''| + eps |r| / h, far below 1e-6 of the column's scale here
+        assert np.max(np.abs(fd - J[:, k])) <= 1e-6 * max(1.0, np.max(np.abs(fd))), k
