@@ -35,7 +35,8 @@ SUMMARY_BAND_HZ = (100.0, 1000.0)
 
 
 class Progress:
-    """Progress of one study: ``total(n)`` once, then ``update(k)``; the runner draws the bar."""
+    """Progress of one study run in this process: ``total(n)`` once, then ``update(k)`` (no-op unless given callbacks;
+    ``jointid reproduce`` reports per study, :mod:`jointid.studies.runner`)."""
 
     def __init__(self, on_total: Callable[[int], None] | None = None, on_update: Callable[[int], None] | None = None):
         self._on_total = on_total or (lambda n: None)
