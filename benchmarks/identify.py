@@ -181,12 +181,9 @@ def study_text(lines: int) -> str:
 
 
 LOOP_SCRIPT = """
-import sys
 import numpy as np
 import pyuff
 from jointid.study import load_study
-sys.path.insert(0, {bench!r})
-from identify import pinv_loop
 from jointid.frequency import Frequency
 from jointid.frf import FRF
 from jointid.dofs import Dof
@@ -200,6 +197,7 @@ H = np.empty((f.size, len(rsp), len(ref)), complex)
 for s in sets:
     H[:, rsp.index(s["rsp_node"]), ref.index(s["ref_node"])] = s["data"]
 frf = FRF(Frequency(f), H, [Dof(n, "w") for n in rsp], [Dof(n, "w") for n in ref], "accelerance")
+{pinv_loop}
 K = pinv_loop(study.beam.structure(), frf, study.joint.joint_dofs)
 np.savetxt({out!r}, np.column_stack([f, K.reshape(f.size, -1).real, K.reshape(f.size, -1).imag]), delimiter=",")
 """
@@ -230,8 +228,10 @@ def process(lines: int, repeats: int, coherence: bool = False) -> None:
         uff = tmp / "sim" / "frf.uff"
         if coherence:
             uff = _with_coherence(uff, tmp / "frf_coherence.uff")
-        loop = [sys.executable, "-c", LOOP_SCRIPT.format(bench=str(Path(__file__).parent), study=str(study), uff=str(uff),
-                                                          out=str(tmp / "loop.csv"))]
+        import inspect
+
+        script = LOOP_SCRIPT.format(pinv_loop=inspect.getsource(pinv_loop), study=str(study), uff=str(uff), out=str(tmp / "loop.csv"))
+        loop = [sys.executable, "-c", script]  # imports numpy, pyuff and jointid's study and beam model only
         ident = [_jointid(), "identify", str(study), "--frf", str(uff), "--out", str(tmp / "id")]
         t_loop = [_run(loop) for _ in range(repeats)]
         t_id = [_run(ident) for _ in range(repeats)]
