@@ -535,9 +535,6 @@ def _expand(text: str, d: Path, tmp: Path) -> str:
 #: Cases that wait for a change in a file this corpus's author does not own (/work/requests/H7.md).
 PENDING = {
     "g_label_on_si_exact_data": "methods/column_calibration: F statistic overflows on noise-free data (request H7 item 3)",
-    "truth_structure": "pipeline.true_beam_study must refuse a [structure] --truth (request H7 item 1)",
-    "impact_npz_zero_bytes": "io/impact_files.read_impact_npz: every parse failure a DataError (request H7 item 2, H5's file)",
-    "impact_npz_half": "io/impact_files.read_impact_npz: every parse failure a DataError (request H7 item 2, H5's file)",
 }
 
 
