@@ -221,9 +221,9 @@ def test_argument_errors(tmp_path, main, capsys, monkeypatch, argv, message):
 
 
 def test_summary_json_is_strict_with_non_finite_values_as_null():
-    from jointid.cli.direct import summary_text
+    from jointid.io.json_files import json_text
 
-    text = summary_text({"a": float("inf"), "b": [1.0, float("nan")], "c": {"d": np.float64(2.0)}})
+    text = json_text({"a": float("inf"), "b": [1.0, float("nan")], "c": {"d": np.float64(2.0)}})
 
     def refuse(name):
         raise ValueError(name)

@@ -18,7 +18,6 @@ computes only what is missing or changed.
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from dataclasses import dataclass, field
@@ -26,6 +25,7 @@ from pathlib import Path
 from typing import Callable, TextIO
 
 from ..errors import DataError
+from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
 from .manifest import Manifest, read_manifest
 from .runner import execute_tasks
@@ -130,29 +130,8 @@ def campaign_summary(manifest: Manifest, outcomes: dict, computed_rows: set) -> 
     }
 
 
-def _strict(obj):
-    """``obj`` with non-finite floats as None (strict JSON)."""
-    import math
-
-    import numpy as np
-
-    if isinstance(obj, dict):
-        return {str(k): _strict(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_strict(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    if isinstance(obj, np.ndarray):
-        return _strict(obj.tolist())
-    return obj
-
-
 def _json(obj) -> str:
-    return json.dumps(_strict(obj), indent=2, allow_nan=False) + "\n"
+    return json_text(obj, note_key=None)
 
 
 def run_campaign(

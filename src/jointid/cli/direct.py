@@ -5,17 +5,17 @@ from __future__ import annotations
 import argparse
 import io
 import json
-import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import DataError
+from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
 from .common import OUT_HELP
 
-__all__ = ["add_parser", "run", "direct_summary", "summary_text", "strict_json"]
+__all__ = ["add_parser", "run", "direct_summary"]
 
 
 def _pairs(items, what: str, number: bool) -> dict:
@@ -69,35 +69,6 @@ def add_parser(sub) -> None:
     p.add_argument("--zener", action="store_true", help="also fit a fractional-derivative Zener model to E*(f)")
     p.add_argument("--no-plots", action="store_true", help="skip the figure")
     p.set_defaults(func=run)
-
-
-def strict_json(obj, path: str = "", replaced: list | None = None):
-    """``obj`` with every non-finite float replaced by None; the JSON paths replaced are appended to ``replaced``."""
-    if isinstance(obj, dict):
-        return {k: strict_json(v, f"{path}.{k}" if path else str(k), replaced) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [strict_json(v, f"{path}[{i}]", replaced) for i, v in enumerate(obj)]
-    if isinstance(obj, (float, np.floating)):
-        if math.isfinite(obj):
-            return float(obj)
-        if replaced is not None:
-            replaced.append(path)
-        return None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj
-
-
-def summary_text(summary: dict) -> str:
-    """The summary as strict JSON text (RFC 8259: no NaN/Infinity; non-finite numbers become null with a note)."""
-    replaced: list = []
-    clean = strict_json(summary, replaced=replaced)
-    if replaced:
-        shown = ", ".join(replaced[:5]) + (f" and {len(replaced) - 5} more" if len(replaced) > 5 else "")
-        clean["non_finite_values"] = f"{len(replaced)} value(s) were NaN or infinite and are written as null: {shown}"
-    return json.dumps(clean, indent=2, allow_nan=False) + "\n"
 
 
 def direct_summary(args, result, static, fit, modulus, zener=None) -> dict:
@@ -177,7 +148,7 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
         zener = fit_zener(f[c], modulus.modulus_pa[c])
 
     csv_columns = result.columns()
-    text = summary_text(direct_summary(args, result, static, fit, modulus, zener))
+    text = json_text(direct_summary(args, result, static, fit, modulus, zener))
     png = None
     if not args.no_plots:
         from ..plots.direct import plot_direct_stiffness

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 
+from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
 from .common import add_out_argument, add_study_argument, study_from_args
 
@@ -184,7 +184,7 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
                        f"joint {name}: |K_ij| of every term at a few frequencies")
             i += k
     info = summary(result, study, source)
-    out.write_text("summary.json", json.dumps(info, indent=2) + "\n")
+    out.write_text("summary.json", json_text(info))
     lines = identification_lines(result, study, max_findings=None)
     if truth is not None:  # a virtual test: how far the identification is from the true joint
         lines += truth_error_lines(study, result, truth)

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from ..errors import StudyError
+from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
 from ..study import load_study
 from .common import add_out_argument, add_study_argument, study_from_args
@@ -128,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
                     "mass": study.accelerometers.mass, "rotary_inertia": study.accelerometers.rotary_inertia,
                     "nodes": list(study.accelerometers.nodes)},
             }
-            js = out.write_text("true_beam.json", json.dumps(truth, indent=2) + "\n")
+            js = out.write_text("true_beam.json", json_text(truth))
         f = frf.frequency.hz
         print(f"wrote {uff} (free-free: {len(frf.responses)} x {len(frf.references)} accelerances, "
               f"{f.size} lines {f[0]:g}-{f[-1]:g} Hz, noise {args.noise:g}) and {js}")

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
 import os
 from pathlib import Path
 
 from ..errors import StudyError
+from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
 from ..methods.update_parameters import (
     DEFAULT_MAX_EVALUATIONS, DEFAULT_PARAMETERS, DEFAULT_STRUCTURE_PARAMETERS, PARAMETERS, STRUCTURE_PARAMETERS,
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
             "".join(f"# {h}\n" for h in header) + text
         report = result.to_dict()
         report.update({"study": study.source, "frf_file": str(args.frf), "fitted": list(names)})
-        out.write_text("update.json", json.dumps(report, indent=2) + "\n")
+        out.write_text("update.json", json_text(report))
         out.write_text("updated_study.toml", new_text)
         figures = []
         if not args.no_plots:

@@ -9,7 +9,7 @@ The main API, re-exported here (imported on first use)::
   ``write_frf_csv``;
 * :mod:`.impact_files` -- ``read_impact_npz``/``csv``/``uff`` and their writers;
 * :mod:`.output_dir` -- ``OutputSet`` (the ``--out DIR`` writer), ``OutputError``;
-* :mod:`.tables` -- ``write_csv``; :mod:`.atomic` -- ``atomic_write_text``,
+* :mod:`.tables` -- ``write_csv``; :mod:`.json_files` -- ``json_text`` (strict JSON); :mod:`.atomic` -- ``atomic_write_text``,
   ``atomic_write_bytes``, ``atomic_path``.
 """
 
@@ -31,7 +31,8 @@ __getattr__, __dir__, __all__ = attach(
         ),
         ".output_dir": ("OutputSet", "OutputError"),
         ".tables": ("write_csv",),
+        ".json_files": ("json_text", "strict_json"),
         ".atomic": ("atomic_write_text", "atomic_write_bytes", "atomic_path"),
     },
-    submodules=("frf_files", "uff", "frf_csv", "impact_files", "output_dir", "tables", "atomic"),
+    submodules=("frf_files", "uff", "frf_csv", "impact_files", "output_dir", "tables", "json_files", "atomic"),
 )
