@@ -66,13 +66,3 @@ def test_the_probe_sees_a_command_s_imports(tmp_path):
     assert code is None  # main returned (0) rather than exiting
     assert "jointid.physics.modes" in heavy and "scipy" in heavy
     assert (tmp_path / "modes.csv").is_file()
-
-
-def test_the_light_parameter_names_are_the_updating_module_s():
-    """`jointid update --help` lists names from methods.update_parameters (no scipy); the fit uses methods.updating's."""
-    from jointid.methods import update_parameters as light
-    from jointid.methods import updating
-
-    for name in ("PARAMETERS", "DEFAULT_PARAMETERS", "STRUCTURE_PARAMETERS", "DEFAULT_STRUCTURE_PARAMETERS"):
-        assert getattr(light, name) == getattr(updating, name), name
-    assert light.DEFAULT_MAX_EVALUATIONS == updating.UpdateOptions().max_evaluations

@@ -123,12 +123,11 @@ Limits (so that a typo cannot exhaust the memory): ``[beam].nodes`` at most
 
 from __future__ import annotations
 
-import math
 import os
 import tomllib
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Mapping
 
 from .dofs import DIRECTIONS
 from .errors import StudyError

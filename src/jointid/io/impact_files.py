@@ -329,7 +329,7 @@ def read_impact_uff(
     """
     import pyuff
 
-    from .uff_records import AXES, Selection, _map
+    from .uff_records import AXES, Selection, map_signal
     from .uff_units import SI, conversion_line, signal_units, time_factor, units_from_164
 
     path = Path(path)
@@ -342,14 +342,6 @@ def read_impact_uff(
     if isinstance(sets, dict):
         sets = [sets]
     sel = Selection(n_nodes=n_nodes, points=None if points is None else {int(k): int(v) for k, v in points.items()}, axis=axis)
-
-    def signal_dof(node, direction, where) -> tuple[Dof, float] | str:
-        """The model DOF and sign of one signal direction, or why the record is skipped (the FRF reader's mapping)."""
-        if not isinstance(direction, (int, np.integer)):
-            return f"in direction {direction}"
-        ref_dir = abs(int(direction)) if axis is None else AXES[axis]
-        mapped = _map({"rsp_node": node, "rsp_dir": int(direction), "ref_node": node, "ref_dir": ref_dir}, sel, where)
-        return mapped if isinstance(mapped, str) else (mapped[0], mapped[2])
 
     # pass 1: units, mapping, values in SI; every 58 record counts in the numbering (as in the FRF reader)
     system = SI
@@ -371,13 +363,13 @@ def read_impact_uff(
         if spec not in (_UFF_FORCE, *_UFF_KIND):
             raise DataError(f"{where}: ordinate specific data type {spec} is not a force (13), acceleration (12), "
                             "velocity (11) or displacement (8)")
-        sig = signal_dof(s.get("rsp_node"), s.get("rsp_dir"), where)
+        sig = map_signal(s.get("rsp_node"), s.get("rsp_dir"), sel, where)
         if isinstance(sig, str):
             sel.skipped[sig] += 1
             continue
         ref = None
         if int(s.get("ref_dir", 0) or 0) != 0:
-            r = signal_dof(s.get("ref_node"), s.get("ref_dir"), where)
+            r = map_signal(s.get("ref_node"), s.get("ref_dir"), sel, where)
             if isinstance(r, str):
                 sel.skipped[r if not r.startswith("in ") else r + " (reference)"] += 1
                 continue

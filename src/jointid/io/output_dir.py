@@ -67,7 +67,7 @@ from pathlib import Path, PurePosixPath
 from typing import Callable, Mapping, Sequence
 
 from ..errors import JointIdError
-from .atomic import atomic_write_text, create_temp_file
+from .atomic import atomic_write_text
 from .tables import format_csv
 
 try:  # POSIX; elsewhere runs are not locked against each other

@@ -30,7 +30,7 @@ from ..errors import DataError, FrequencyError
 from ..frequency import Frequency
 from .uff_units import SI, UnitSystem, abscissa_factor, ordinate_units, units_from_164
 
-__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line"]
+__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line", "map_record", "map_signal"]
 
 FUNC_TIME = 1
 FUNC_FRF = 4
@@ -102,7 +102,7 @@ def _describe(path: Path, index: int, d: dict) -> str:
     )
 
 
-def _map(d: dict, sel: Selection, where: str) -> tuple[Dof, Dof, float] | str:
+def map_record(d: dict, sel: Selection, where: str) -> tuple[Dof, Dof, float] | str:
     """The record's (response, reference, sign) or the reason to skip it.
 
     ``sel.axis`` ``None`` (3-D models): direction codes 1-6 are the components
@@ -153,6 +153,19 @@ def _map(d: dict, sel: Selection, where: str) -> tuple[Dof, Dof, float] | str:
         sign = (1.0 if dirs[0] == code else -1.0) * (1.0 if dirs[1] == code else -1.0)
     return dofs[0], dofs[1], sign
 
+
+
+def map_signal(node, direction, sel: Selection, where: str) -> tuple[Dof, float] | str:
+    """The model DOF and sign of one signal (a time record's node and direction), or why it is skipped.
+
+    The same mapping as :func:`map_record` (axis, point map, beam range) applied to one
+    signal instead of a response/reference pair.
+    """
+    if not isinstance(direction, (int, np.integer)):
+        return f"in direction {direction}"
+    ref_dir = abs(int(direction)) if sel.axis is None else AXES[sel.axis]
+    mapped = map_record({"rsp_node": node, "rsp_dir": int(direction), "ref_node": node, "ref_dir": ref_dir}, sel, where)
+    return mapped if isinstance(mapped, str) else (mapped[0], mapped[2])
 
 def _kind(d: dict, where: str) -> str:
     num, den = d.get("ordinate_spec_data_type"), d.get("orddenom_spec_data_type")
@@ -231,7 +244,7 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
             sel.skipped["coherence"] += 1
             continue
         where = _describe(path, index, d)
-        mapped = _map(d, sel, where)
+        mapped = map_record(d, sel, where)
         if isinstance(mapped, str):
             sel.skipped["coherence" if ft == FUNC_COHERENCE else mapped] += 1
             continue

@@ -102,31 +102,20 @@ from .fit_statistics import (
     jacobian_covariance,
 )
 
+from .update_parameters import (
+    DEFAULT_MAX_EVALUATIONS,
+    DEFAULT_PARAMETERS,
+    DEFAULT_STRUCTURE_PARAMETERS,
+    PARAMETERS,
+    STRUCTURE_PARAMETERS,
+    check_parameter_names,
+)
+
 __all__ = [
     "PARAMETERS", "DEFAULT_PARAMETERS", "STRUCTURE_PARAMETERS", "DEFAULT_STRUCTURE_PARAMETERS", "ModelFamily", "StructureFamily",
     "UpdateOptions", "UpdateResult", "update_free_model", "frequency_scale", "check_parameter_names",
 ]
 
-#: Parameters that can be updated: name -> (unit, bounds as ratios of the initial value, label).
-PARAMETERS: dict[str, tuple[str, tuple[float, float], str]] = {
-    "elastic_modulus": ("Pa", (0.2, 5.0), "E"),
-    "density": ("kg/m^3", (0.2, 5.0), "density"),
-    "loss_factor": ("-", (0.01, 100.0), "loss factor"),
-    "shear_coefficient": ("-", (0.2, 5.0), "shear coefficient"),
-    "accelerometers.mass": ("kg", (0.1, 10.0), "accelerometer mass"),
-    "accelerometers.rotary_inertia": ("kg*m^2", (0.01, 100.0), "accelerometer rotary inertia"),
-}
-#: What ``jointid update`` fits by default.
-DEFAULT_PARAMETERS = ("elastic_modulus", "density", "loss_factor")
-#: Parameters of a free structure given by matrices (``[structure]`` study): ``alpha K (1 + j eta) - w^2 beta M``
-#: (see :mod:`jointid.methods.updating_structure`).
-STRUCTURE_PARAMETERS: dict[str, tuple[str, tuple[float, float], str]] = {
-    "stiffness_scale": ("-", (0.2, 5.0), "stiffness scale"),
-    "mass_scale": ("-", (0.2, 5.0), "mass scale"),
-    "loss_factor": ("-", (0.01, 100.0), "loss factor"),
-}
-#: What ``jointid update`` fits by default on a ``[structure]`` study.
-DEFAULT_STRUCTURE_PARAMETERS = ("stiffness_scale", "mass_scale", "loss_factor")
 #: Every parameter name any model family knows: name -> (unit, bounds as ratios of the initial value, label).
 _ALL_PARAMETERS = {**PARAMETERS, **STRUCTURE_PARAMETERS}
 #: Finite-difference step of the Jacobian in ln p: small enough for sharp resonances (a step of 1e-5
@@ -152,7 +141,7 @@ class UpdateOptions:
     """
 
     parameters: tuple[str, ...] = DEFAULT_PARAMETERS
-    max_evaluations: int = 100
+    max_evaluations: int = DEFAULT_MAX_EVALUATIONS
     align_frequencies: bool = True
 
     def __post_init__(self) -> None:
@@ -161,22 +150,6 @@ class UpdateOptions:
         check_parameter_names(names, known=_ALL_PARAMETERS)
         if not (isinstance(self.max_evaluations, int) and self.max_evaluations >= 1):
             raise ModelError(f"max_evaluations must be an integer >= 1, got {self.max_evaluations!r}")
-
-
-def check_parameter_names(names: Sequence[str], prefix: str = "", known: Mapping[str, object] | None = None) -> None:
-    """Raise :class:`ModelError` (one line, starting with ``prefix``) for no, an unknown or a repeated name.
-
-    ``known``: the names allowed (default :data:`PARAMETERS`, the beam's; :data:`STRUCTURE_PARAMETERS` for a structure).
-    """
-    known = PARAMETERS if known is None else known
-    listed = ", ".join(known)
-    if not names:
-        raise ModelError(f"{prefix}give at least one of {listed}")
-    for n in names:
-        if n not in known:
-            raise ModelError(f"{prefix}unknown parameter {n!r}; expected any of {listed}")
-    if len(set(names)) != len(names):
-        raise ModelError(f"{prefix}{', '.join(names)!r} names a parameter twice")
 
 
 @dataclass(frozen=True, eq=False)
