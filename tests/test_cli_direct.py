@@ -250,3 +250,22 @@ def test_example_twice_replaces_its_own_file_and_refuses_a_users(tmp_path, main,
         err = capsys.readouterr().err.strip().splitlines()
         assert err == [f"jointid direct: error: {name} {why}; move it or give --example another file name"]
     assert (tmp_path / "mine.csv").read_text() == "a user's data\n" and (tmp_path / "ex.csv").read_text() == "edited by the user\n"
+
+
+def test_clipped_blocks_are_named_on_the_terminal_and_in_the_summary(tmp_path, main, capsys):
+    """Every 3rd block's force clipped at 30 % of its peak: one line says how many lines were not used and why."""
+    from dataclasses import replace
+
+    from jointid.measurement.stepsine import write_stepsine_csv
+    from jointid.measurement.stepsine_synth import example_stepsine
+
+    blocks = list(example_stepsine())[:24]  # 25-600 Hz
+    for i in range(0, len(blocks), 3):
+        F = blocks[i].force_n
+        blocks[i] = replace(blocks[i], force_n=np.clip(F, -0.3 * np.abs(F).max(), 0.3 * np.abs(F).max()))
+    write_stepsine_csv(tmp_path / "clipped.csv", blocks)
+    assert main(["direct", str(tmp_path / "clipped.csv"), "--out", str(tmp_path / "out"), "--no-plots"]) == 0
+    out = capsys.readouterr().out
+    assert "jointid direct: 8 of 24 lines not used: clipped or distorted (block at 25 Hz: force clipped" in out
+    summary = json.loads((tmp_path / "out" / "direct_fit.json").read_text())
+    assert summary["distorted_lines_hz"] == [25.0 + 75.0 * k for k in range(8)]

@@ -69,6 +69,9 @@ __getattr__, __dir__, __all__ = attach(
         # the reproduce studies
         ".studies.runner": ("run_reproduce",),
         ".studies.config": ("load_config",),
+        # test campaigns: many tests in one run
+        ".campaign.driver": ("run_campaign", "CampaignOptions"),
+        ".campaign.manifest": ("read_manifest",),
     },
     submodules=(
         "physics",
@@ -77,6 +80,7 @@ __getattr__, __dir__, __all__ = attach(
         "io",
         "plots",
         "studies",
+        "campaign",
         "report",
         "cli",
         "dofs",

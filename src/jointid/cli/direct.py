@@ -83,6 +83,8 @@ def direct_summary(args, result, static, fit, modulus, zener=None) -> dict:
         "lines": int(result.frequency_hz.size),
         "band_hz": [float(result.frequency_hz.min()), float(result.frequency_hz.max())],
         "flagged_lines_hz": [float(x) for x in flagged],
+        "distorted_lines_hz": [] if result.distorted is None else [float(x) for x in result.frequency_hz[result.distorted]],
+        "distortion": list(result.distortion),
         "max_force_thd": float(np.max(result.force_thd)),
         "max_force_residual": float(np.max(result.force_residual)),
         "static": static.to_dict(),
@@ -167,9 +169,14 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
             f"{rho.describe()}, residual {fit.residual_rms:.2%}")
     from ..report.command_reports import direct_report
 
+    lines = [line]
+    if result.distortion:
+        lines.append(f"{len(result.distortion)} of {ok.size} lines not used: clipped or distorted ({result.distortion[0]})")
     figures = [] if png is None else [("direct_stiffness.png", png, "|K21| per joint, loss factor or phase: measured and fitted")]
-    out.write_text("report.html", direct_report(json.loads(text), [line], figures))
+    out.write_text("report.html", direct_report(json.loads(text), lines, figures))
     print(f"{line}; wrote {out.directory}")
+    for extra in lines[1:]:
+        print(f"jointid direct: {extra}")
     for w in fit.warnings + (zener.warnings if zener is not None else ()):
         print(f"jointid direct: warning: {w}", file=sys.stderr)
     return 0
