@@ -9,6 +9,7 @@ from matplotlib.ticker import NullFormatter
 
 from ..methods.coupling import Z90 as _Z90
 from .inverse import TERM_UNITS
+from .nvh_axes import set_frequency_axis
 from .style import new_figure
 
 __all__ = ["plot_band_examples", "plot_error_vs_noise", "magnitude_band"]
@@ -73,8 +74,7 @@ def plot_band_examples(panels: Sequence, methods: Mapping[str, str], title: str 
             ax.grid(True, which="both", alpha=0.3)
             ax.set_title(f"{label}: |K_{di}_{dj}|", fontsize="medium")
             ax.set_ylabel(f"|K_{di}_{dj}| [{TERM_UNITS[(di, dj)]}]")
-            if r == rows - 1:
-                ax.set_xlabel("frequency [Hz]")
+            set_frequency_axis(ax, f, label=r == rows - 1)
     axes[0, 0].legend(fontsize="x-small")
     if title:
         fig.suptitle(title)

@@ -7,6 +7,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from .inverse import TERM_UNITS
+from .nvh_axes import loss_or_phase, robust_limits, set_frequency_axis
 from .style import new_figure
 
 __all__ = ["plot_terms", "plot_conditions"]
@@ -21,7 +22,12 @@ def plot_terms(
     title: str | None = None,
     truth_label: str | None = "true",
 ):
-    """|K| (log) and loss factor of joint terms, one line per variant (one legend entry each).
+    """|K| (log) and loss factor (or phase) of joint terms, one line per variant (one legend entry each).
+
+    The lower panel of a diagonal term shows the loss factor ``Im/Re``, or the
+    phase of K in degrees when the reference curve's ``Re K`` crosses zero
+    (:func:`jointid.plots.nvh_axes.loss_or_phase`); coupling terms get none.
+    The frequency axis is logarithmic when the band spans a decade.
 
     Parameters
     ----------
@@ -36,22 +42,28 @@ def plot_terms(
     for c, term in enumerate(terms):
         di, dj = _TERM_DIRS[term]
         ax_m, ax_l = axes[:, c]
+        # one kind per panel, decided by the reference curve (truth, else the first): loss factor, or the
+        # phase where Re K crosses zero (the loss factor runs to +-infinity there); limits from the reference
+        ref = curves.get(truth_label) or next(iter(curves.values()))
+        phase = bool(np.any(ref[term].real <= 0))
         for label, by_term in curves.items():
             k = by_term[term]
             style = dict(color="k", ls="--", lw=1.3) if label == truth_label else dict(lw=1.0)
             ax_m.semilogy(f_hz, np.abs(k), label=label, **style)
-            ax_l.plot(f_hz, k.imag / k.real, **style)
+            if di == dj:  # a loss factor (or phase) of diagonal terms only
+                ax_l.plot(f_hz, loss_or_phase(f_hz, k, force_phase=phase)[0], **style)
         ax_m.set_title(f"{term} K_{di}_{dj}")
         ax_m.set_ylabel(f"|K_{di}_{dj}| [{TERM_UNITS[(di, dj)]}]")
-        ax_l.set_ylabel("loss factor [-]")
-        ax_l.set_xlabel("frequency [Hz]")
-        # limits from the reference curve (truth, else the first): noisy estimates must not hide it
-        ref = curves.get(truth_label) or next(iter(curves.values()))
-        eta_ref = ref[term].imag / ref[term].real
-        lo, hi = np.nanpercentile(eta_ref, [2, 98])
-        pad = max(0.05, 0.25 * (hi - lo))
-        ax_l.set_ylim(lo - pad, hi + pad)
+        if di == dj:
+            ax_l.set_ylabel("phase [deg] (Re K crosses 0)" if phase else "loss factor [-]")
+            lim = robust_limits(loss_or_phase(f_hz, ref[term], force_phase=phase)[0], include=(0.0,))
+            if lim is not None:
+                ax_l.set_ylim(*lim)
+        else:
+            ax_l.axis("off")
+            ax_m.tick_params(labelbottom=True)  # the shared x axis' labels were on the panel now hidden
         for ax in (ax_m, ax_l):
+            set_frequency_axis(ax, f_hz, label=ax is ax_l or di != dj)
             ax.grid(True, which="both", alpha=0.3)
     axes[0, 0].legend(fontsize="small")
     if title:
@@ -75,8 +87,8 @@ def plot_conditions(f_hz: np.ndarray, conds: Mapping[str, Mapping[str, np.ndarra
         ax.set_ylabel("condition number [-]")
         ax.set_title(label, fontsize="medium")
         ax.grid(True, which="both", alpha=0.3)
+        set_frequency_axis(ax, f_hz, label=ax is axes[-1])
     axes[0].legend(fontsize="small")
-    axes[-1].set_xlabel("frequency [Hz]")
     if title:
         fig.suptitle(title)
     return fig

@@ -243,14 +243,13 @@ def _summary_section(outputs: Sequence[StudyOutput], config: ReproduceConfig, se
     for o in outputs:
         for label, mag, eta in o.summary:
             rows.append([o.title, label, f"{100 * mag:.3g} %", f"{eta:.3g}"])
-    findings = " ".join(s for o in outputs for s in o.findings)
     lo, hi = SUMMARY_BAND_HZ
     times = [[k, f"{v:.1f}", f"{cpu.get(k, float('nan')):.1f}"] for k, v in seconds.items()]
     times.append([f"all studies, on {workers} process{'es' if workers != 1 else ''} at once", f"{wall:.1f}", f"{sum(cpu.values()):.1f}"])
     return Section(
         "Summary",
         "summary",
-        paragraphs=(findings,) if findings else (),
+        items=tuple(s for o in outputs for s in o.findings),  # one short statement per line, not one paragraph
         tables=(
             Table(
                 f"Identified translational stiffness against truth, {lo:g}-{hi:g} Hz: median relative error of |K_ww| and median absolute error of its loss factor",
