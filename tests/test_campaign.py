@@ -323,3 +323,15 @@ def test_manifest_api(campaign):
     assert [t.row for t in m.tests] == list(range(1, len(m.tests) + 1))
     t = m.tests[0]
     assert t.kind == "direct" and t.parallel_joints == 2 and t.file.is_file() and t.value("batch") == "000"
+
+
+def test_a_users_results_csv_is_refused_before_any_test_runs(campaign, tmp_path, capsys):
+    """A file of one of the campaign's output names that jointid did not write: one line, exit 2, no test computed."""
+    manifest, _, _ = campaign
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "results.csv").write_text("my own table\n")
+    assert main(["campaign", str(manifest), "--out", str(out), "--workers", "1", "--no-plots"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"jointid campaign: error: {out / 'results.csv'} exists and was not written by jointid; move it or choose another --out"]
+    assert sorted(p.name for p in out.iterdir()) == ["results.csv"] and not (out / CACHE_DIR).exists()

@@ -220,3 +220,15 @@ def test_a_sigterm_during_the_renames_is_held_until_the_set_is_complete(tmp_path
     assert calls[-1] == ".jointid-manifest.json"  # and the final manifest
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".jointid-manifest.json", "a.txt", "b.txt"]
     assert (tmp_path / "out" / "b.txt").read_text() == "b\n"
+
+
+def test_check_refuses_a_users_file_without_staging_it(tmp_path):
+    """OutputSet.check: the same one-line refusal as a write, before anything is computed; nothing staged, nothing left."""
+    from jointid.io.output_dir import OutputError, OutputSet
+
+    (tmp_path / "report.html").write_text("mine")
+    with pytest.raises(OutputError, match=r"report\.html exists and was not written by jointid; move it or choose another --out$"):
+        with OutputSet(tmp_path, command="t") as o:
+            o.check("data/a.csv")  # a name not there: fine
+            o.check("report.html")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.html"] and (tmp_path / "report.html").read_text() == "mine"

@@ -187,6 +187,7 @@ def run_campaign(
             raise DataError("--scheduler needs dask.distributed, which is not installed: pip install 'jointid[dask]'") from None
     stream = stream if stream is not None else sys.stdout
     with OutputSet(out, command="campaign") as o:
+        o.check(*ALWAYS_WRITTEN)  # a user's file of one of these names is refused before any test runs
         tasks, sha = plan_tasks(manifest, options.processing)
         outcomes_by_key, counts = execute_tasks(list(tasks.values()), ResultStore(o.directory), workers=workers,
                                                 scheduler=scheduler, stream=stream, on_done=on_done)
@@ -197,6 +198,11 @@ def run_campaign(
         summary = campaign_summary(manifest, outcomes, computed_rows)
         _write_outputs(o, manifest, outcomes, analysis, summary, sha, options)
     return CampaignResult(manifest, outcomes, analysis, summary, Path(out))
+
+
+#: The files every campaign writes (``amplitude``/``preload`` tables and ``figures/`` only when there is something to show).
+ALWAYS_WRITTEN = ("results.parquet", "results.csv", "tests.parquet", "tests.csv", "master_curve.json", "campaign.json",
+                  "report.html")
 
 
 def _write_outputs(o: OutputSet, manifest, outcomes, analysis, summary, sha, options) -> None:

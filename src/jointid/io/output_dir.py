@@ -326,6 +326,16 @@ class OutputSet:
         """Names written so far, in order."""
         return tuple(self._files)
 
+    def check(self, *names: str) -> None:
+        """Refuse now, before anything is computed, if writing any of ``names`` would replace a file
+        jointid did not write (or one edited since): the same one-line :class:`OutputError` a
+        ``write_*`` of that name raises. Nothing is staged.
+        """
+        if self._staging is None:
+            raise RuntimeError("OutputSet is not open (use it in a with block)")
+        for name in names:
+            self._check_target(_key(name))
+
     def write_bytes(self, name: str, data: bytes) -> Path:
         """Stage ``data`` as output ``name``; returns its final path."""
         return self.write_file(name, lambda p: p.write_bytes(data))

@@ -123,15 +123,6 @@ def study_tasks(name: str, config: ReproduceConfig) -> tuple[list[tuple[Callable
     return [(_run_whole, (name, config), getattr(module, "COST", 1.0))], None
 
 
-def _reserve_report(target: OutputSet) -> None:
-    """Refuse a ``report.html`` that jointid did not write, now, before any study runs.
-
-    Staging the name runs OutputSet's check of the target; the report is written into the
-    staged file at the end (:func:`_write`). (H2: OutputSet.check would do this without staging.)
-    """
-    target.write_text("report.html", "")
-
-
 def run_reproduce(config: ReproduceConfig, out: str | os.PathLike, only: Sequence[str] | None = None, quiet: bool = False,
                   workers: int | None = None, stream=None) -> ReproduceResult:
     """Run the studies ``only`` (default: all) and write the report into ``out``.
@@ -163,7 +154,7 @@ def run_reproduce(config: ReproduceConfig, out: str | os.PathLike, only: Sequenc
         write; raised before any study runs (for another name clash, before anything is written).
     """
     with OutputSet(out, command="reproduce") as target:
-        _reserve_report(target)
+        target.check("report.html")  # a user's report.html is refused before any study runs
         outputs, seconds, cpu, used, wall = _run_studies(config, only, quiet, workers, stream)
         report = _write(target, config, outputs, seconds, cpu, used, wall)
     return ReproduceResult(tuple(outputs), seconds, report, used, wall, cpu)
@@ -264,7 +255,7 @@ def _summary_section(outputs: Sequence[StudyOutput], config: ReproduceConfig, se
 
 def _write(target: OutputSet, config: ReproduceConfig, outputs: Sequence[StudyOutput], seconds: dict, cpu: dict, workers: int = 1,
            wall: float = 0.0) -> Path:
-    """Write ``report.html`` (reserved by :func:`_reserve_report`), stage ``figures/*.png`` and ``data/*.csv`` in ``target``;
+    """Stage ``report.html``, ``figures/*.png`` and ``data/*.csv`` in ``target``;
     returns the report's final path."""
     sections = [_summary_section(outputs, config, seconds, cpu, workers, wall)]
     for o in outputs:
@@ -284,6 +275,4 @@ def _write(target: OutputSet, config: ReproduceConfig, outputs: Sequence[StudyOu
         s = config.robustness_seeds
         meta += f"; noise robustness: {s} noise realization{'s' if s != 1 else ''} per level and case (--seeds N)"
     html = render_report("jointid: direct and inverse identification of an elastomeric joint", meta, sections)
-    staged = target.staged("report.html")  # reserved before the studies ran (_reserve_report)
-    staged.write_text(html, encoding="utf-8")
-    return target.path("report.html")
+    return target.write_text("report.html", html)
