@@ -32,10 +32,11 @@ from .tasks import TestOutcome, TestTask, run_tasks
 
 __all__ = ["execute_tasks", "ExecutionCounts", "ProgressPrinter", "default_workers", "START_METHOD"]
 
-#: Start method of the pool's processes: ``forkserver`` (a clean server process forks each worker, with
-#: jointid's step-sine modules preloaded; safe where the caller runs threads). ``benchmarks/campaign.py``
-#: uses ``fork`` so that the workers' CPU time shows in the parent's ``RUSAGE_CHILDREN``.
-START_METHOD = "forkserver"
+#: Start method of the pool's processes: ``fork`` on Linux, as jointid's other process pools
+#: (:mod:`jointid.parallel`): a worker needs nothing of the caller's ``__main__``, so a plain script
+#: without an ``if __name__ == "__main__":`` guard works (``forkserver``/``spawn`` re-run such a script in
+#: every worker, which then dies); ``forkserver`` elsewhere, with jointid's step-sine modules preloaded.
+START_METHOD = "fork" if sys.platform.startswith("linux") else "forkserver"
 
 
 def default_workers() -> int:
