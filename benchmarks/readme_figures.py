@@ -12,7 +12,9 @@ code, on the built-in benchmark (Material A, joint at mid-span, Model 3 layout, 
 3. the virtual roving-hammer test (1 % response + 1 % force noise, 5 hits per node, H1 with
    coherence, seed 0): median error per term;
 4. the direct method on the built-in example step-sine test: E, eta, rho against the truth;
-5. the wall time of one default identification of the 901 lines.
+5. the wall time of one default identification of the 901 lines;
+6. with ``--reproduce``: the wall and CPU time of the main job, ``jointid reproduce`` (what
+   ``make run`` runs after the install), on this machine.
 
 The file starts with the command, the date and the commit, so a reader sees where the
 numbers came from. Not a test (it takes about a minute); the tests check the same
@@ -71,6 +73,26 @@ def _direct(result):
     return result.frequency_hz, result.stiffness
 
 
+def reproduce_timing() -> str:
+    """One line: wall and CPU seconds of ``jointid reproduce`` in a temporary directory (a child process)."""
+    import os
+    import resource
+    import shutil
+    import tempfile
+
+    exe = shutil.which("jointid") or os.path.join(os.path.dirname(sys.executable), "jointid")
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        subprocess.run([exe, "reproduce", "--out", tmp, "--quiet"], check=True)
+        wall = time.perf_counter() - t0
+        figures = len(list(Path(tmp, "figures").glob("*.png")))
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return (f"* `jointid reproduce` (the main job of `make run`, after the install): {wall:.0f} s wall, {cpu:.0f} s CPU "
+            f"on {os.cpu_count()} cores, {figures} figures.")
+
+
 def commit() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True).stdout.strip()
@@ -85,6 +107,7 @@ def pct(values) -> str:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=5, help="noise realizations per level (default 5)")
+    parser.add_argument("--reproduce", action="store_true", help="also time `jointid reproduce` (the main job)")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs" / "figures.md"))
     args = parser.parse_args(argv)
 
@@ -149,6 +172,9 @@ def main(argv=None) -> int:
         f"rho {fit.density_kg_m3:.5g} kg/m^3 (true {true.density:.5g}).")
     say(f"* One default identification of the {test.frf.frequency.hz.size} lines (0.5 % noise) took {seconds:.2f} s wall "
         "on this machine (in-process, after imports).")
+
+    if args.reproduce:
+        say(reproduce_timing())
 
     text = "\n".join(lines) + "\n"
     out = Path(args.out)

@@ -30,6 +30,8 @@ README = REPO / "README.md"
 NOT_RUN = {
     "make run": "sets up .venv and runs `jointid reproduce` (tested in test_reproduce_runner.py)",
     "make test": "sets up .venv and runs this suite",
+    "make test-blas": "runs the numerics tests under other OpenBLAS kernels (tests/run_blas_kernels.py, not from inside the suite)",
+    "make test-kernel": "runs the numerics tests under one other OpenBLAS kernel (CI runs it after make test)",
 }
 
 _FENCE = re.compile(r"^```(\w*)\s*$")
