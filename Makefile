@@ -5,6 +5,7 @@
 #   make test-blas    the numerically sensitive tests (marker "numerics") under other OpenBLAS kernels and
 #                     1 and 2 BLAS threads, one line per configuration; BLAS_TESTS=all: the whole suite
 #   make test-kernel  the "numerics" tests under one other kernel (KERNEL=Prescott; what CI runs)
+#   make readme-figures  the figures the README points to -> docs/figures.md (benchmarks/readme_figures.py)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -18,7 +19,7 @@ BLAS_TESTS ?= numerics
 # one BLAS thread per test worker: the workers use the cores, BLAS threads would only contend
 SERIAL_BLAS := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
-.PHONY: run test test-blas test-kernel setup clean
+.PHONY: run test test-blas test-kernel readme-figures setup clean
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -39,6 +40,9 @@ test-blas: setup
 
 test-kernel: setup
 	$(BIN)/python tests/run_blas_kernels.py --kernels $(KERNEL) --threads 1 --tests numerics -- -n $(WORKERS) --dist loadfile
+
+readme-figures: setup
+	$(BIN)/python benchmarks/readme_figures.py --reproduce
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache
