@@ -67,7 +67,7 @@ def test_split_of_a_virtual_hammer_test_matches_its_force_and_response_noise():
 
 def _dense_split(logq, logM, m, e, iterations=30):
     """The split's Levenberg-Marquardt written out: full Jacobian (F, m e, 2e - 1 + m), per-line solve; (fractions, cost)."""
-    from jointid.methods.frf_variance import RELATIVE_FLOOR
+    from jointid.methods.frf_variance import RELATIVE_FLOOR, _cholesky_solve
 
     F = logq.shape[0]
     q, M = np.exp(logq).reshape(F, m, e), np.exp(logM).reshape(F, m, e)
@@ -91,7 +91,11 @@ def _dense_split(logq, logM, m, e, iterations=30):
         J = np.concatenate([wa[:, :, None] * Sa, wb[:, :, None] * Ss, wb[:, :, None] * St], axis=2)
         JJ, g = np.einsum("fri,frj->fij", J, J), np.einsum("fri,fr->fi", J, logq - lmod)
         D = np.einsum("fkk->fk", JJ) + 1e-12
-        trial = theta + np.linalg.solve(JJ + lam[:, None, None] * D[:, :, None] * np.eye(JJ.shape[1]), g[..., None])[..., 0]
+        A = JJ + lam[:, None, None] * D[:, :, None] * np.eye(JJ.shape[1])
+        # lam falls to ~1e-17 after 30 improvements: A is then singular to round-off on lines whose cost is flat
+        # along some direction (LU raises LinAlgError there on some BLAS kernels); the module's Cholesky clamps such
+        # a pivot, and the reference solves with it too: what is compared is how the normal equations are formed
+        trial = theta + _cholesky_solve(A, g)
         trial[:, :e] = np.maximum(trial[:, :e], np.log(RELATIVE_FLOOR**2))
         ct = cost(trial)
         better = ct < c

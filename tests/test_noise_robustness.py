@@ -57,10 +57,19 @@ def test_cached_free_model_and_exact_frfs_match_the_pipeline(coarse):
     assert np.abs(frf.data - test.frf.data).max() < 1e-9 * np.abs(test.frf.data).max()
     assert np.array_equal(truth, test.truth) and frf.responses == test.frf.responses and frf.kind == "accelerance"
     noisy = add_noise(frf, 0.01, np.random.default_rng(3))
-    for options in (None, CouplingOptions(weighting="none", smoothing="none")):
-        via_cache = identify_joint_coupling(cached, noisy, study.joint.joint_dofs, options or coupling_options(study))
-        via_pipeline = identify(study, noisy, options)
-        assert np.abs(via_cache.stiffness - via_pipeline.stiffness).max() <= 1e-9 * np.abs(via_pipeline.stiffness).max()
+    # per line, unweighted: the two receptance paths' difference (< 1e-9 above, ~1e-13 measured) amplified by the
+    # per-line conditioning (<= ~1e4 here); the default's structured fit stops at a relative cost change of 1e-6
+    # (ftol), which moves its parameters by at most ~sqrt(2 ftol) = 1.4e-3 of their standard deviations: two runs from
+    # FRFs that differ in the last bits agree to that, not to the bits (they differ between BLAS kernels and threads)
+    raw = CouplingOptions(weighting="none", smoothing="none")
+    via_cache = identify_joint_coupling(cached, noisy, study.joint.joint_dofs, raw)
+    via_pipeline = identify(study, noisy, raw)
+    assert np.abs(via_cache.stiffness - via_pipeline.stiffness).max() <= 1e-9 * np.abs(via_pipeline.stiffness).max()
+    via_cache = identify_joint_coupling(cached, noisy, study.joint.joint_dofs, coupling_options(study))
+    via_pipeline = identify(study, noisy)
+    d = via_cache.stiffness - via_pipeline.stiffness
+    assert np.all(np.abs(d.real) <= 1.5e-3 * via_pipeline.std_real + 1e-12 * np.abs(via_pipeline.stiffness).max())
+    assert np.all(np.abs(d.imag) <= 1.5e-3 * via_pipeline.std_imag + 1e-12 * np.abs(via_pipeline.stiffness).max())
 
 
 def test_default_beats_hong_lee_and_raw_receptance_at_1_percent(coarse):
