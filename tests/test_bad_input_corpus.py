@@ -508,6 +508,12 @@ _add("options", "config_levels_type", _config('[noise_robustness]\nlevels = [0.0
      "jointid reproduce: error: {tmp}/c.toml: [noise_robustness].levels: expected a non-empty list of positive numbers")
 _add("options", "config_unknown_key", _config("[materials.A]\nshear_modulus = 1e6\n"), 2,
      "jointid reproduce: error: {tmp}/c.toml: [materials.A]: unknown key 'shear_modulus'")
+_add("options", "config_modulus_bounds", _config("[materials.A]\nelastic_modulus = 1e-300\n"), 2,
+     "jointid reproduce: error: {tmp}/c.toml: [materials.A].elastic_modulus: 1e-300 Pa is outside 1e3-1e13 Pa; give it in Pa")
+_add("options", "config_density_bounds", _config("[materials.B]\ndensity = 1e300\n"), 2,
+     "jointid reproduce: error: {tmp}/c.toml: [materials.B].density: 1e300 kg/m^3 is outside 1-1e5 kg/m^3")
+_add("options", "config_noise_level_bounds", _config("[noise_robustness]\nlevels = [0.01, 1e300]\n"), 2,
+     "jointid reproduce: error: {tmp}/c.toml: [noise_robustness].levels: entry 2 (1e300) is outside 0-1")
 
 # degenerate data: exit 0 with a finding that names the cause (no parameter determined, no warning)
 _add("findings", "update_on_jointed_frfs", lambda d, t: ["update", str(d / "beam.toml"), "--frf", str(d / "good.uff"), "--no-plots", "--out", str(t / "out")],

@@ -120,11 +120,12 @@ class ReproduceConfig:
         return (Dof(self.joint_node, "w"), Dof(self.joint_node, "theta"))
 
 
-def _number(positive: bool = True) -> Field:
-    """A positive (or non-negative) number; one message for a wrong type and a wrong sign."""
+def _number(positive: bool = True, unit: str = "", bounds: tuple[float, float] | None = None) -> Field:
+    """A positive (or non-negative) number; one message for a wrong type and a wrong sign; ``bounds``: the
+    physical range the study files use too (:mod:`jointid.schema`), checked when the config is read."""
     if positive:
-        return Field("number", check=schema.positive, expected="a positive number")
-    return Field("number", check=schema.nonneg, expected="a non-negative number")
+        return Field("number", check=schema.positive, expected="a positive number", unit=unit, bounds=bounds)
+    return Field("number", check=schema.nonneg, expected="a non-negative number", unit=unit, bounds=bounds)
 
 
 def _given(data: Mapping[str, Any], name: str, fields: Mapping[str, Field]) -> dict[str, Any]:
@@ -134,7 +135,9 @@ def _given(data: Mapping[str, Any], name: str, fields: Mapping[str, Field]) -> d
 
 
 _FREQUENCY = {k: _number() for k in ("start", "stop", "step")}  # start > 0: the free beam is singular at 0 Hz
-_MATERIAL = {"elastic_modulus": _number(), "loss_factor": _number(positive=False), "density": _number()}
+_MATERIAL = {"elastic_modulus": _number(unit="Pa", bounds=schema.MODULUS),
+             "loss_factor": _number(positive=False, bounds=schema.LOSS_FACTOR),
+             "density": _number(unit="kg/m^3", bounds=schema.DENSITY)}
 _NOISE = {k: _number(positive=False) for k in ("conditioning", "experiment")}
 _ACCELEROMETERS = {k: _number(positive=False) for k in ("mass", "rotary_inertia")}
 _DIRECT = {
@@ -243,8 +246,8 @@ def _robustness(section: Mapping[str, Any], layouts: Mapping[str, Layout], n_nod
     """The ``[noise_robustness]`` keys as ReproduceConfig changes."""
     names = ", ".join(layouts)
     fields = {
-        "levels": Field("number_list", check=lambda v: None if v else "empty",
-                        expected="a non-empty list of positive numbers (relative noise rms)"),
+        "levels": Field("number_list", check=lambda v: None if v and all(x > 0 for x in v) else "empty",
+                        expected="a non-empty list of positive numbers (relative noise rms)", bounds=(0.0, 1.0)),
         "seeds": Field("int", check=lambda v: None if v >= 1 else "out of range", expected="an integer >= 1"),
         "layouts": Field("str_list", check=lambda v: None if v and all(x in layouts for x in v) else "out of range",
                          expected=f"a non-empty list of layout names out of {names}"),
