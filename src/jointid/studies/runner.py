@@ -32,7 +32,7 @@ from typing import Callable, Sequence
 from .. import __version__
 from ..errors import JointIdError, StudyError
 from ..io.output_dir import OutputSet
-from ..parallel import TaskFailed, map_processes, process_count
+from ..parallel import TaskFailed, map_processes, process_count, single_threaded_blas
 from ..report.html import Section, Table, render_report
 from .common import SUMMARY_BAND_HZ, Progress, StudyOutput, png
 from .config import STUDY_NAMES, ReproduceConfig
@@ -218,7 +218,10 @@ def _run_studies(config: ReproduceConfig, only: Sequence[str] | None, quiet: boo
 
     t0 = time.perf_counter()
     try:
-        map_processes([(tasks[i][2], tasks[i][3]) for i in order], used, on_done)
+        # the combiners run here, in this process, as the tasks finish: on one BLAS thread as the tasks do, so the
+        # report's numbers are the same bits on 1 or N processes whatever OPENBLAS_NUM_THREADS says
+        with single_threaded_blas():
+            map_processes([(tasks[i][2], tasks[i][3]) for i in order], used, on_done)
     except TaskFailed as exc:
         name = owner[order[exc.index]]
         err = failed(name, exc, exc.kind, exc.message)
