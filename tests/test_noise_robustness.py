@@ -117,7 +117,8 @@ def test_noise_robustness_section_figures_and_data(tmp_path):
 
 @pytest.mark.parametrize("text, message", [
     ("[noise_robustness]\nseeds = 0\n", "[noise_robustness].seeds: expected an integer >= 1, got 0"),
-    ("[noise_robustness]\nlevels = [0.01, -0.1]\n", "[noise_robustness].levels: expected a positive number, got -0.1"),
+    ("[noise_robustness]\nlevels = [0.01, -0.1]\n", "[noise_robustness].levels: entry 2 (-0.1) is outside 0-1"),
+    ("[noise_robustness]\nlevels = [0.0]\n", "[noise_robustness].levels: expected a positive number, got 0.0"),
     ("[noise_robustness]\nlevels = []\n", "[noise_robustness].levels: expected a non-empty list of positive numbers (relative noise rms), got []"),
     ("[noise_robustness]\nlayouts = [\"model_9\"]\n", "[noise_robustness].layouts: expected a non-empty list of layout names out of model_1, model_2, model_3, got ['model_9']"),
     ("[noise_robustness]\njoint_nodes = [0]\n", "[noise_robustness].joint_nodes: expected a non-empty list of beam nodes 1..19, got [0]"),

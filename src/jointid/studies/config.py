@@ -246,7 +246,7 @@ def _robustness(section: Mapping[str, Any], layouts: Mapping[str, Layout], n_nod
     """The ``[noise_robustness]`` keys as ReproduceConfig changes."""
     names = ", ".join(layouts)
     fields = {
-        "levels": Field("number_list", check=lambda v: None if v and all(x > 0 for x in v) else "empty",
+        "levels": Field("number_list", check=lambda v: None if v else "empty",
                         expected="a non-empty list of positive numbers (relative noise rms)", bounds=(0.0, 1.0)),
         "seeds": Field("int", check=lambda v: None if v >= 1 else "out of range", expected="an integer >= 1"),
         "layouts": Field("str_list", check=lambda v: None if v and all(x in layouts for x in v) else "out of range",
