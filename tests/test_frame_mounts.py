@@ -167,7 +167,12 @@ def test_matrix_market_npz_and_op4_give_the_python_result(tmp_path, frame):
     )
     for key, study in studies.items():
         K = identify(study, read_measured(study, tmp_path / "sim" / "frf.uff")).stiffness
-        assert np.abs(K - python.stiffness).max() / np.abs(python.stiffness).max() < 1e-12, key
+        # the files hold the matrices exactly (binary doubles; .mtx with 17 digits), so this is the same computation
+        # on the same numbers: per line, equal within the round-off a BLAS kernel may add, n eps times the weighted
+        # design's condition number, relative to the line's largest term
+        scale = np.abs(python.stiffness).max(axis=(1, 2))
+        bound = 100 * np.finfo(float).eps * np.maximum(python.condition, 1.0) * scale
+        assert np.all(np.abs(K - python.stiffness).max(axis=(1, 2)) <= bound), key
     # exact data: every term reliable, zero cross terms included (term_scale), except the 10 Hz line (condition 7e9)
     assert python.reliable_terms[1:].all() and not python.reliable_terms[0].all()
 
