@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from jointid.physics.elastomer_joint import ElastomerJoint
-from jointid.methods.material_fit import complex_modulus_per_line, fit_material
+from jointid.methods.direct.material_fit import complex_modulus_per_line, fit_material
 from jointid.measurement.stepsine import process_stepsine
 from jointid.measurement.stepsine_synth import synthesize_stepsine
 

@@ -40,8 +40,8 @@ from jointid.benchmark import benchmark_beam
 from jointid.frequency import Frequency
 from jointid.benchmark import benchmark_study
 from jointid.frf import FRF
-from jointid.methods.coupling import identify_joint_coupling
-from jointid.methods.inverse import InverseOptions, identify_joint
+from jointid.methods.receptance.coupling import identify_joint_coupling
+from jointid.methods.hong_lee.inverse import InverseOptions, identify_joint
 from jointid.physics.joints import parametric_joint
 from jointid.physics.synthesis import synthesize_frf
 
@@ -183,7 +183,7 @@ def study_text(lines: int) -> str:
 LOOP_SCRIPT = """
 import numpy as np
 import pyuff
-from jointid.study import load_study
+from jointid.study.parse import load_study
 from jointid.frequency import Frequency
 from jointid.frf import FRF
 from jointid.dofs import Dof
@@ -205,7 +205,7 @@ np.savetxt({out!r}, np.column_stack([f, K.reshape(f.size, -1).real, K.reshape(f.
 
 def _with_coherence(uff: Path, out: Path) -> Path:
     """``uff`` with coherence records: the H1 coherence of 1e-4..2e-4 force noise per column and a response noise
-    floor per channel (the split's model, :mod:`jointid.methods.frf_variance`), scattered as from 10 averages."""
+    floor per channel (the split's model, :mod:`jointid.methods.receptance.frf_variance`), scattered as from 10 averages."""
     from jointid.io.uff import read_uff_frf, write_uff_frf
 
     frf = read_uff_frf(uff)
@@ -251,14 +251,14 @@ def process(lines: int, repeats: int, coherence: bool = False) -> None:
 PHASES = (
     ("read the UFF (read_measured)", "jointid.pipeline", "read_measured"),
     ("identification (pipeline.identify)", "jointid.pipeline", "identify"),
-    ("  column calibration", "jointid.methods.column_calibration", "estimate_column_calibration"),
-    ("  FRF variance", "jointid.methods.frf_variance", "frf_variance"),
-    ("  coherence split", "jointid.methods.frf_variance", "column_noise_fraction"),
-    ("  residual variance", "jointid.methods.column_calibration", "residual_variance"),
-    ("  per-line fit", "jointid.methods.coupling_lines", "coupling_per_line"),
-    ("  structured fit", "jointid.methods.structured_select", "structured_estimate"),
-    ("  smoothing", "jointid.methods.smoothing", "smooth_series"),
-    ("figure (result.plot)", "jointid.methods.coupling", "CouplingResult.plot"),
+    ("  column calibration", "jointid.methods.receptance.column_calibration", "estimate_column_calibration"),
+    ("  FRF variance", "jointid.methods.receptance.frf_variance", "frf_variance"),
+    ("  coherence split", "jointid.methods.receptance.frf_variance", "column_noise_fraction"),
+    ("  residual variance", "jointid.methods.receptance.column_calibration", "residual_variance"),
+    ("  per-line fit", "jointid.methods.receptance.coupling_lines", "coupling_per_line"),
+    ("  structured fit", "jointid.methods.receptance.structured_select", "structured_estimate"),
+    ("  smoothing", "jointid.methods.receptance.smoothing", "smooth_series"),
+    ("figure (result.plot)", "jointid.methods.receptance.coupling", "CouplingResult.plot"),
     ("PNG encoding (figure_png)", "jointid.plots.style", "figure_png"),
     ("CSV (OutputSet.write_csv)", "jointid.io.output_dir", "OutputSet.write_csv"),
     ("report.html", "jointid.report.identification", "identification_report"),

@@ -27,9 +27,9 @@ Steps, each timed (wall and cpu):
    shift-invert Lanczos), the residual moments of every DOF used (cached per DOF),
    the modal sum over the lines;
 2. **constrained FRFs** by Woodbury, ``H = Y[m,e] - Y[m,n] (Y[n,n] + Du^-1)^-1 Y[n,e]``;
-3. **identification** with :func:`jointid.methods.coupling.identify_joint_coupling`
+3. **identification** with :func:`jointid.methods.receptance.coupling.identify_joint_coupling`
    on all lines at once: 24 joint DOFs take the Kronecker path of
-   :func:`jointid.methods.coupling_lines.coupling_per_line` (the exact per-line
+   :func:`jointid.methods.receptance.coupling_lines.coupling_per_line` (the exact per-line
    path would need ~100 GB here); its error against the Du the FRFs were made with;
 4. **Kronecker vs exact path** on a few lines with noisy FRFs (0.1 % plus a floor per hit),
    where the exact per-line weighted fit also runs;
@@ -58,8 +58,8 @@ import scipy.sparse.linalg as spla
 from jointid.dofs import COMPONENTS, DofArray
 from jointid.frequency import Frequency
 from jointid.frf import FRF
-from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
-from jointid.methods.coupling_lines import coupling_per_line
+from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
+from jointid.methods.receptance.coupling_lines import coupling_per_line
 from jointid.physics.sparse_model import SparseModel
 
 E, G, RHO, ETA = 210e9, 81e9, 7850.0, 0.002  # steel; structural loss factor

@@ -27,8 +27,8 @@ import numpy as np
 
 from jointid.measurement.campaign_synth import DEFAULT_AMPLITUDES_M, CampaignTruth, synthesize_campaign
 from jointid.measurement.stepsine import process_stepsine, read_stepsine_csv
-from jointid.methods.amplitude_dependence import fit_kraus
-from jointid.methods.master_curve import TemperatureCurve, build_master_curve
+from jointid.methods.direct.amplitude_dependence import fit_kraus
+from jointid.methods.direct.master_curve import TemperatureCurve, build_master_curve
 
 
 def run(seed: int, noise: float, cpu: dict) -> dict:

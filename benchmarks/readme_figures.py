@@ -36,7 +36,7 @@ import numpy as np
 
 import jointid
 from jointid.frf import FRF
-from jointid.methods.inverse import InverseOptions
+from jointid.methods.hong_lee.inverse import InverseOptions
 
 TERMS = (("K_ww", 0, 0), ("K_wtheta", 0, 1), ("K_thetatheta", 1, 1))
 Z90 = 1.6448536269514722  # two-sided 90 % normal quantile
@@ -168,7 +168,7 @@ def main(argv=None) -> int:
 
     from jointid.measurement.stepsine import process_stepsine
     from jointid.measurement.stepsine_synth import EXAMPLE, example_stepsine
-    from jointid.methods.material_fit import fit_material
+    from jointid.methods.direct.material_fit import fit_material
     from jointid.physics.elastomer_material import MATERIALS
 
     true = MATERIALS[EXAMPLE["material"]]

@@ -1,4 +1,4 @@
-"""Calibration of the inverse method's ``reliable`` flag (see ``jointid.methods.inverse.Reliability``).
+"""Calibration of the inverse method's ``reliable`` flag (see ``jointid.methods.hong_lee.inverse.Reliability``).
 
 Benchmark beam with the cap on the beam, joint at node 10 (Materials A and B), layouts
 Models 1-3, 1% complex noise on every FRF value, 1-1000 Hz. Prints, per case, the
@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from jointid.methods.inverse import identify_joint
+from jointid.methods.hong_lee.inverse import identify_joint
 from jointid.physics.synthesis import synthesize_frf
-from jointid.studies.common import add_noise, material_joint, study_beam
-from jointid.studies.config import load_config
+from jointid.reproduce.common import add_noise, material_joint, study_beam
+from jointid.reproduce.config import load_config
 
 
 def main() -> None:

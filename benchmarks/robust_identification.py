@@ -18,7 +18,7 @@ run over processes.
 
 Medians of the relative error per line. The error, noise and coverage helpers are
 those of ``jointid reproduce``'s noise-robustness study
-(:mod:`jointid.studies.noise_robustness`). Not a test: run
+(:mod:`jointid.reproduce.noise_robustness`). Not a test: run
 ``python benchmarks/robust_identification.py [--seeds 50]``.
 """
 
@@ -31,10 +31,10 @@ import time
 import numpy as np
 
 from jointid.benchmark import benchmark_study
-from jointid.methods.inverse import InverseOptions
+from jointid.methods.hong_lee.inverse import InverseOptions
 from jointid.pipeline import experiment, identify, simulate
-from jointid.studies.common import add_noise
-from jointid.studies.noise_robustness import TERMS, term_errors, within_band
+from jointid.reproduce.common import add_noise
+from jointid.reproduce.noise_robustness import TERMS, term_errors, within_band
 
 
 def study(material: str, node: int, **experiment_settings):

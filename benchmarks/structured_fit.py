@@ -21,7 +21,7 @@ from threadpoolctl import threadpool_limits
 from jointid.benchmark import benchmark_study
 from jointid.frf import FRF
 from jointid.pipeline import experiment, identify, simulate
-from jointid.studies.noise_robustness import TERMS, term_errors, within_band
+from jointid.reproduce.noise_robustness import TERMS, term_errors, within_band
 
 
 def study(material: str, node: int, **beam):

@@ -9,7 +9,7 @@ import pytest
 from jointid.errors import DataError
 from jointid.measurement.campaign_synth import DEFAULT_AMPLITUDES_M, CampaignTruth, synthesize_campaign
 from jointid.measurement.stepsine import process_stepsine, read_stepsine_csv
-from jointid.methods.amplitude_dependence import (
+from jointid.methods.direct.amplitude_dependence import (
     fit_kraus,
     fit_kraus_loss,
     fit_preload,

@@ -9,7 +9,7 @@ import pytest
 from jointid.errors import DataError
 from jointid.measurement.campaign_synth import MANIFEST_COLUMNS, CampaignTruth, synthesize_campaign
 from jointid.measurement.stepsine import process_stepsine, read_stepsine_csv
-from jointid.methods.zener_fit import zener_modulus
+from jointid.methods.direct.zener_fit import zener_modulus
 
 TEMPS = (0.0, 30.0)
 AMPS = (2e-5, 2e-4)

@@ -165,7 +165,7 @@ def test_low_band_density_is_held_and_never_printed(tmp_path, main, capsys):
     assert d["complex_modulus"]["density_used_kg_m3"] == 1100.0
     assert abs(d["fit"]["parameters"]["elastic_modulus_pa"]["value"] / 15e6 - 1) < 0.005
     # the figure's legend marks the density as held; the lower panel is the loss factor (Re K21 > 0)
-    from jointid.methods.material_fit import fit_material
+    from jointid.methods.direct.material_fit import fit_material
     from jointid.measurement.stepsine import process_stepsine, read_stepsine_csv
     from jointid.plots.direct import plot_direct_stiffness
 

@@ -18,9 +18,9 @@ from jointid.cli.main import COMMANDS
 
 #: Top-level packages and jointid modules the parser must not import (they load with a command's ``run``).
 HEAVY = ("scipy", "matplotlib", "pyuff", "pyyeti", "pyarrow", "dask", "jointid.methods", "jointid.physics",
-         "jointid.measurement", "jointid.pipeline", "jointid.plots", "jointid.report", "jointid.studies.runner")
+         "jointid.measurement", "jointid.pipeline", "jointid.plots", "jointid.report", "jointid.reproduce.runner")
 #: Pure-Python modules under a heavy package that the parser may import (names for ``--help``).
-ALLOWED = ("jointid.methods", "jointid.methods.update_parameters")
+ALLOWED = ("jointid.methods", "jointid.methods.updating", "jointid.methods.updating.parameters")
 
 _PROBE = """
 import json, sys

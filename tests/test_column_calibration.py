@@ -8,9 +8,9 @@ import pytest
 from jointid.benchmark import benchmark_study
 from jointid.errors import IdentificationError
 from jointid.frf import FRF
-from jointid.methods.column_calibration import CALIBRATION_MIN_F, estimate_column_calibration, residual_variance
+from jointid.methods.receptance.column_calibration import CALIBRATION_MIN_F, estimate_column_calibration, residual_variance
 from jointid.physics.free_model import as_free_model
-from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
+from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
 from jointid.pipeline import free_model, simulate
 
 TERMS = [(0, 0), (0, 1), (1, 1)]
@@ -131,9 +131,9 @@ def _reference_calibration(hz, Ymn, Yne, change, H, variance, nb=16):
     """The estimate written term by term as in the module docstring (dense einsum sums over the lines): c, f_stat, Cx, cond(Nc)."""
     from scipy import stats
 
-    from jointid.methods.column_calibration import _hermitian_factor
-    from jointid.methods.coupling_lines import symmetric_parametrization, whitened_line_design
-    from jointid.methods.smoothing import _basis
+    from jointid.methods.receptance.column_calibration import _hermitian_factor
+    from jointid.methods.receptance.coupling_lines import symmetric_parametrization, whitened_line_design
+    from jointid.methods.receptance.smoothing import _basis
 
     F, m, n = Ymn.shape
     e = Yne.shape[2]
@@ -188,7 +188,7 @@ def test_the_batched_estimate_equals_the_sums_written_out(case):
     var = (0.003 * np.abs(H)) ** 2
     cal = estimate_column_calibration(hz, Ymn, Yne, Yme - H, H, var)
     c_ref, f_ref, p_ref, Cx_ref, cond, amplification = _reference_calibration(hz, Ymn, Yne, Yme - H, H, var)
-    from jointid.methods.smoothing import _basis
+    from jointid.methods.receptance.smoothing import _basis
 
     c = np.linalg.lstsq(_basis(hz, 16).toarray(), cal.delta, rcond=None)[0].T.reshape(-1)  # B has full column rank
     bound = 10 * hz.size * np.finfo(float).eps * cond

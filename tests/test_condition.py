@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from jointid.methods.condition import pencil_condition
+from jointid.methods.hong_lee.condition import pencil_condition
 
 
 def _pencil(seed=0, r=12, c=9):

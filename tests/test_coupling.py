@@ -9,8 +9,8 @@ from jointid.benchmark import benchmark_beam, benchmark_study
 from jointid.errors import IdentificationError
 from jointid.frequency import Frequency
 from jointid.frf import FRF
-from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
-from jointid.methods.inverse import InverseOptions
+from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
+from jointid.methods.hong_lee.inverse import InverseOptions
 from jointid.physics.joints import parametric_joint
 from jointid.physics.synthesis import synthesize_frf
 from jointid.pipeline import free_model, identify, simulate, true_joint
@@ -158,7 +158,7 @@ def test_unsymmetric_option_smooths_each_entry_on_its_own(noisy_case):
 
 def test_relinearization_is_a_gauss_newton_step():
     """Exact per-line data, linearized around the truth perturbed by 1e-3: the pseudo-observations are exact to second order."""
-    from jointid.methods.coupling_lines import coupling_per_line, relinearize
+    from jointid.methods.receptance.coupling_lines import coupling_per_line, relinearize
 
     freq = Frequency.from_range(50, 1000, 50)
     joint = _joint(10)

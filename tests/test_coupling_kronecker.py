@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from jointid.methods.coupling_lines import DENSE_PATH_BYTES, coupling_per_line, relinearize, uses_kronecker
+from jointid.methods.receptance.coupling_lines import DENSE_PATH_BYTES, coupling_per_line, relinearize, uses_kronecker
 
 
 def _case(seed=3, F=40):
@@ -106,7 +106,7 @@ def test_identify_joint_coupling_takes_the_kronecker_path_for_a_large_problem():
     from jointid.errors import IdentificationError
     from jointid.frequency import Frequency
     from jointid.frf import FRF
-    from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
+    from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
     from jointid.physics.sparse_model import SparseModel
 
     rng = np.random.default_rng(7)

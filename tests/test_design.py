@@ -13,8 +13,8 @@ from jointid.cli.design import verdict
 from jointid.cli.main import main
 from jointid.design import design_study, study_sensors, with_layout
 from jointid.frf import FRF
-from jointid.methods.coupling_lines import coupling_per_line
-from jointid.methods.design import LayoutPredictor
+from jointid.methods.receptance.coupling_lines import coupling_per_line
+from jointid.methods.design.layout import LayoutPredictor
 from jointid.physics.free_model import StructureModel
 from jointid.pipeline import coupling_options, free_model, identify, simulate, true_joint
 

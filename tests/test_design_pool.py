@@ -6,10 +6,10 @@ import dataclasses
 
 import numpy as np
 
-import jointid.methods.design as design_module
+import jointid.methods.design.layout as design_module
 from jointid.benchmark import benchmark_study
 from jointid.design import design_study
-from jointid.methods.design_pool import LayoutPool, pool_workers
+from jointid.methods.design.pool import LayoutPool, pool_workers
 
 
 def _square(x, y):

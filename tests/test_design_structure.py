@@ -13,11 +13,11 @@ from jointid.design import design_study, with_layout
 from jointid.dofs import Dof
 from jointid.errors import IdentificationError, StudyError
 from jointid.io.matrix_files import write_free_matrices
-from jointid.methods.coupling_lines import coupling_per_line
-from jointid.methods.design import LayoutPredictor, Sensors, design_layout
+from jointid.methods.receptance.coupling_lines import coupling_per_line
+from jointid.methods.design.layout import LayoutPredictor, Sensors, design_layout
 from jointid.physics import build_frame
 from jointid.pipeline_structure import simulate_structure, structure_model, true_joint_matrix
-from jointid.study import load_study
+from jointid.study.parse import load_study
 from test_frame_mounts import fixture_frame
 
 GOOD = (["1x", "1y", "2x", "2y", "2z", "4z"], ["2x", "2z", "4y"])  # near the mount (node 1), all three directions
@@ -209,7 +209,7 @@ def test_too_many_candidates_name_the_option(files, monkeypatch):
 def test_figure_of_a_6dof_mount_shows_the_diagonal_terms():
     from types import SimpleNamespace
 
-    from jointid.methods.design_predictor import term_names
+    from jointid.methods.design.predictor import term_names
     from jointid.plots.design import _shown_terms
 
     dofs = [Dof(1, c) for c in ("x", "y", "z", "rx", "ry", "rz")] + [Dof(3, c) for c in ("x", "y", "z")]

@@ -11,12 +11,12 @@ import scipy.sparse as sp
 
 from jointid.cli.main import main
 from jointid.io.matrix_files import write_dof_list, write_free_matrices
-from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
+from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
 from jointid.physics import FrameSection, Material, build_frame
 from jointid.physics.reduction import craig_bampton
 from jointid.physics.sparse_model import SparseModel
 from jointid.pipeline import identify, read_measured
-from jointid.study import load_study
+from jointid.study.parse import load_study
 from test_structure_study import MOUNT_A, MOUNT_B, _list, _matrix, _mount_truth, read_table
 
 STEEL = Material(210e9, 7850.0, loss_factor=0.002, poisson_ratio=0.3)
@@ -178,7 +178,7 @@ def test_matrix_market_npz_and_op4_give_the_python_result(tmp_path, frame):
 
 
 def test_term_scale_judges_zero_couplings_on_the_scale_of_their_dofs():
-    from jointid.methods.coupling import COUPLING_SCALE_FLOOR, term_scale
+    from jointid.methods.receptance.coupling import COUPLING_SCALE_FLOOR, term_scale
 
     K = np.array([[[4.0, 0.0], [0.0, 1.0]], [[4.0, 3.0 + 4.0j], [3.0 + 4.0j, -9.0]]])
     assert COUPLING_SCALE_FLOOR == 0.05

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from jointid.benchmark import benchmark_study
-from jointid.methods.frf_variance import SPLIT_MIN_FRACTION, column_noise_fraction, frf_variance
+from jointid.methods.receptance.frf_variance import SPLIT_MIN_FRACTION, column_noise_fraction, frf_variance
 from jointid.pipeline import experiment
 
 
@@ -67,7 +67,7 @@ def test_split_of_a_virtual_hammer_test_matches_its_force_and_response_noise():
 
 def _dense_split(logq, logM, m, e, iterations=30):
     """The split's Levenberg-Marquardt written out: full Jacobian (F, m e, 2e - 1 + m), per-line solve; (fractions, cost)."""
-    from jointid.methods.frf_variance import RELATIVE_FLOOR, _cholesky_solve
+    from jointid.methods.receptance.frf_variance import RELATIVE_FLOOR, _cholesky_solve
 
     F = logq.shape[0]
     q, M = np.exp(logq).reshape(F, m, e), np.exp(logM).reshape(F, m, e)
@@ -112,7 +112,7 @@ def test_the_structured_split_is_the_dense_levenberg_marquardt():
     directions the cost hardly determines, where they move a fraction by far less than the split's own error
     (a factor ~1.5, module docstring); bound: 1e-6 on fractions in [0, 1] (measured 1e-8).
     """
-    from jointid.methods.frf_variance import _split
+    from jointid.methods.receptance.frf_variance import _split
 
     rng = np.random.default_rng(0)
     F, m, e = 600, 7, 3

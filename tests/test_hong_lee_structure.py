@@ -11,7 +11,7 @@ from jointid.dofs import parse_dofs
 from jointid.errors import ModelError
 from jointid.frequency import Frequency
 from jointid.frf import FRF
-from jointid.methods.inverse import InverseOptions, identify_joint, rotation_scale
+from jointid.methods.hong_lee.inverse import InverseOptions, identify_joint, rotation_scale
 from jointid.physics.jointed_model import JointedModel
 from jointid.physics.mount import MountModel
 from jointid.physics.sparse_model import SparseModel

@@ -7,7 +7,7 @@ from jointid.benchmark import benchmark_beam
 from jointid.errors import IdentificationError
 from jointid.frequency import Frequency
 from jointid.frf import FRF
-from jointid.methods.inverse import InverseOptions, identify_joint
+from jointid.methods.hong_lee.inverse import InverseOptions, identify_joint
 from jointid.physics.joints import parametric_joint
 from jointid.physics.structure import Structure
 from jointid.physics.synthesis import synthesize_frf

@@ -13,8 +13,8 @@ Layers, bottom-up (a module may import its own layer and any lower one):
 2. ``measurement`` (impact and step-sine signal processing, virtual tests) and
    ``io.impact_files`` (the files of the impact records);
 3. ``methods`` (inverse, direct material fit, updating, design);
-4. the application: ``study``, ``study_sections``, ``study_structure``, ``study_edit``, ``benchmark``,
-   ``pipeline``, ``pipeline_structure``, ``models``, ``design``, ``hits``, ``studies``, ``report`` and ``plots``;
+4. the application: ``study``, ``benchmark``,
+   ``pipeline``, ``pipeline_structure``, ``models``, ``design``, ``hits``, ``reproduce``, ``report`` and ``plots``;
 5. ``cli``; the package ``jointid/__init__.py`` re-exports every layer by name (lazily,
    no import statement), so it is the top.
 
@@ -49,16 +49,13 @@ RANKS = {
     "io.impact_files": 2,
     "methods": 3,
     "study": 4,
-    "study_sections": 4,
-    "study_edit": 4,
     "benchmark": 4,
     "pipeline": 4,
     "pipeline_structure": 4,
     "models": 4,
-    "study_structure": 4,
     "design": 4,
     "hits": 4,
-    "studies": 4,
+    "reproduce": 4,
     "report": 4,
     "plots": 4,
     "campaign": 4,
@@ -162,24 +159,24 @@ def test_checker_sees_lazy_relative_and_plot_imports(tmp_path, monkeypatch):
     monkeypatch.setitem(globals(), "SRC", tmp_path / "jointid")
     src = tmp_path / "jointid" / "physics"
     src.mkdir(parents=True)
-    (tmp_path / "jointid" / "studies").mkdir()
+    (tmp_path / "jointid" / "reproduce").mkdir()
     (src / "x.py").write_text(
         "from ..dofs import Dof\n"
-        "def f():\n    from ..methods.inverse import identify_joint\n"
+        "def f():\n    from ..methods.hong_lee.inverse import identify_joint\n"
         "class A:\n    def plot(self):\n        from ..plots.frf import plot_frf\n"
-        "    def table(self):\n        from .. import studies\n"
+        "    def table(self):\n        from .. import reproduce\n"
         "from .. import __version__\n"
     )
     assert imports("jointid.physics.x", src / "x.py") == [
         (1, "jointid.dofs", None),
-        (3, "jointid.methods.inverse", "f"),
+        (3, "jointid.methods.hong_lee.inverse", "f"),
         (6, "jointid.plots.frf", "plot"),
-        (8, "jointid.studies", "table"),
+        (8, "jointid.reproduce", "table"),
         (9, "jointid:__version__", None),
     ]
     assert violations("jointid.physics.x", src / "x.py") == [
-        "jointid/physics/x.py:3: jointid.physics.x (layer 1) imports jointid.methods.inverse (layer 3)",
-        "jointid/physics/x.py:8: jointid.physics.x (layer 1) imports jointid.studies (layer 4)",
+        "jointid/physics/x.py:3: jointid.physics.x (layer 1) imports jointid.methods.hong_lee.inverse (layer 3)",
+        "jointid/physics/x.py:8: jointid.physics.x (layer 1) imports jointid.reproduce (layer 4)",
     ]
 
 

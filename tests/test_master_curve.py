@@ -10,9 +10,9 @@ import pytest
 from jointid.errors import DataError
 from jointid.measurement.campaign_synth import DEFAULT_FREQUENCIES_HZ, CampaignTruth, synthesize_campaign
 from jointid.measurement.stepsine import process_stepsine, read_stepsine_csv
-from jointid.methods.master_curve import TemperatureCurve, build_master_curve
-from jointid.methods.shift_estimation import estimate_pair_shift
-from jointid.methods.shift_laws import (
+from jointid.methods.direct.master_curve import TemperatureCurve, build_master_curve
+from jointid.methods.direct.shift_estimation import estimate_pair_shift
+from jointid.methods.direct.shift_laws import (
     arrhenius_log10_shift,
     fit_arrhenius,
     fit_wlf,

@@ -9,7 +9,7 @@ import pytest
 from jointid.errors import DataError
 from jointid.methods.fit_statistics import correlation_matrix, jacobian_covariance, propagate_covariance
 from jointid.physics.elastomer_joint import MATERIALS, ElastomerJoint
-from jointid.methods.material_fit import (
+from jointid.methods.direct.material_fit import (
     complex_modulus_per_line,
     fit_material,
     fit_zener,

@@ -8,7 +8,7 @@ from jointid.errors import ModelError, StudyError
 from jointid.physics.elastomer_joint import ElastomerJoint
 from jointid.physics.elastomer_material import MATERIALS, ElastomerMaterial
 from jointid.physics.elements import Material
-from jointid.studies.config import load_config
+from jointid.reproduce.config import load_config
 
 
 def test_elastomer_material_is_a_material_with_its_short_names():

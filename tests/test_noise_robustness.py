@@ -7,12 +7,12 @@ import pytest
 
 from jointid.cli.main import main
 from jointid.errors import StudyError
-from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
+from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
 from jointid.pipeline import coupling_options, free_model, identify, simulate, true_joint
-from jointid.studies import noise_robustness as nr
-from jointid.studies.common import add_noise
-from jointid.studies.config import load_config
-from jointid.studies.runner import parse_only
+from jointid.reproduce import noise_robustness as nr
+from jointid.reproduce.common import add_noise
+from jointid.reproduce.config import load_config
+from jointid.reproduce.runner import parse_only
 
 
 def _config(tmp_path, text):

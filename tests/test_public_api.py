@@ -36,7 +36,7 @@ def _run(code: str) -> dict:
 
 
 def test_subpackages_found():
-    assert {"jointid.physics", "jointid.measurement", "jointid.methods", "jointid.io", "jointid.plots", "jointid.studies",
+    assert {"jointid.physics", "jointid.measurement", "jointid.methods", "jointid.io", "jointid.plots", "jointid.reproduce",
             "jointid.report", "jointid.cli"} <= set(PACKAGES)
 
 
@@ -63,7 +63,7 @@ def test_no_export_shadows_a_submodule(name):
 
 def test_top_level_is_the_defining_object():
     from jointid.io.frf_files import read_frf
-    from jointid.methods.inverse import identify_joint
+    from jointid.methods.hong_lee.inverse import identify_joint
     from jointid.physics.modes import natural_modes
     from jointid.pipeline import identify
 

@@ -6,7 +6,7 @@ import pytest
 from jointid.errors import ModelError
 from jointid.frequency import Frequency
 from jointid.frf import FRF
-from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
+from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
 from jointid.physics import FrameSection, Material, build_frame
 from jointid.physics.reduction import craig_bampton
 from jointid.physics.sparse_model import SparseModel

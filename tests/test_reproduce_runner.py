@@ -9,9 +9,9 @@ import pytest
 
 from jointid.cli.main import main
 from jointid.errors import StudyError
-from jointid.studies import runner
-from jointid.studies.common import StudyOutput
-from jointid.studies.config import load_config
+from jointid.reproduce import runner
+from jointid.reproduce.common import StudyOutput
+from jointid.reproduce.config import load_config
 from jointid.report.html import Table
 
 

@@ -7,7 +7,7 @@ import pytest
 from jointid import schema
 from jointid.errors import StudyError
 from jointid.schema import Field, section, table, typed
-from jointid.studies.config import load_config
+from jointid.reproduce.config import load_config
 
 
 def test_section_types_defaults_and_messages():

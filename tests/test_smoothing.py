@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from jointid.methods import smoothing
+from jointid.methods.receptance import smoothing
 from jointid.parallel import single_threaded_blas
-from jointid.methods.smoothing import _LOG_LAMBDA, _basis, _posterior_variance, smooth_series
+from jointid.methods.receptance.smoothing import _LOG_LAMBDA, _basis, _posterior_variance, smooth_series
 
 
 def _reference(x, y, variance, n_basis=None):

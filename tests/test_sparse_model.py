@@ -7,7 +7,7 @@ import scipy.sparse as sp
 from jointid.benchmark import benchmark_beam
 from jointid.errors import DofError, ModelError
 from jointid.frequency import Frequency
-from jointid.methods.coupling import identify_joint_coupling
+from jointid.methods.receptance.coupling import identify_joint_coupling
 from jointid.physics.free_model import FreeModel, StructureModel
 from jointid.physics.joints import parametric_joint
 from jointid.physics.sparse_model import SparseModel

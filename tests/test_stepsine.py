@@ -173,7 +173,7 @@ def test_clipped_force_blocks_are_flagged_and_never_fitted():
     from dataclasses import replace
 
     from jointid.measurement.stepsine_synth import example_stepsine
-    from jointid.methods.material_fit import fit_material
+    from jointid.methods.direct.material_fit import fit_material
     from jointid.physics.elastomer_joint import MATERIALS
 
     blocks = list(example_stepsine())[:24]  # 25-600 Hz

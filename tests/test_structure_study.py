@@ -14,7 +14,7 @@ from jointid.cli.main import main
 from jointid.dofs import Dof
 from jointid.errors import StudyError
 from jointid.physics.mount import MountModel
-from jointid.study import load_study
+from jointid.study.parse import load_study
 from structure_model import labels, write_model
 
 
@@ -309,7 +309,7 @@ def test_woodbury_constrained_receptance_matches_a_dense_solve_with_a_singular_j
 
 
 def test_term_names_never_collide_and_split_per_joint():
-    from jointid.methods.inverse import dof_term_labels, stiffness_columns
+    from jointid.methods.hong_lee.inverse import dof_term_labels, stiffness_columns
     from jointid.frequency import Frequency
 
     one = [Dof(7, c) for c in ("x", "y", "rz")]

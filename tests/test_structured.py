@@ -11,10 +11,10 @@ import pytest
 
 from jointid.benchmark import benchmark_study
 from jointid.frf import FRF
-from jointid.methods.coupling import CouplingOptions, identify_joint_coupling
-from jointid.methods.inverse import InverseOptions
-from jointid.methods.structured_model import StructuredModel, structured_stiffness
-from jointid.methods.structured_select import model_average
+from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
+from jointid.methods.hong_lee.inverse import InverseOptions
+from jointid.methods.receptance.structured_model import StructuredModel, structured_stiffness
+from jointid.methods.receptance.structured_select import model_average
 from jointid.physics.joints import parametric_joint
 from jointid.physics.synthesis import synthesize_frf
 from jointid.pipeline import experiment, free_model, identify, simulate
@@ -219,7 +219,7 @@ def test_a_model_whose_parameters_the_data_do_not_determine_is_left_out_of_the_a
 @pytest.mark.parametrize("order, with_common", [((0, 1, False), False), ((2, 4, True), True), ((1, 1, True), False)])
 def test_whitened_fit_jacobian_matches_finite_differences(order, with_common):
     """The fit's factored Jacobian (one map per line applied to fixed matrices) is the derivative of its residual."""
-    from jointid.methods.structured_fit import _Problem
+    from jointid.methods.receptance.structured_fit import _Problem
 
     rng = np.random.default_rng(4)
     F, n = 23, 2

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from jointid.cli.main import main
-from jointid.studies import accelerometers, conditioning, direct_characterization, model_error, verification, virtual_experiment
-from jointid.studies.config import load_config
+from jointid.reproduce import accelerometers, conditioning, direct_characterization, model_error, verification, virtual_experiment
+from jointid.reproduce.config import load_config
 
 
 @pytest.fixture(scope="module")

@@ -15,8 +15,8 @@ from jointid.frequency import Frequency
 from jointid.frf import FRF
 from jointid.io.uff import write_uff_frf
 from jointid.physics.synthesis import synthesize_frf
-from jointid.study import load_study, parse_study
-from jointid.study_edit import replace_study_values
+from jointid.study.parse import load_study, parse_study
+from jointid.study.edit import replace_study_values
 
 E0, RHO0, ETA0 = 69e9, 2700.0, 0.006
 TRUE = {"elastic_modulus": E0 * 1.02, "density": RHO0 * 0.99, "loss_factor": ETA0 * 0.7}
@@ -264,9 +264,9 @@ def test_replace_study_values_refuses_what_it_cannot_edit_in_place():
 
 
 def test_model_error_study_shows_errors_before_and_after_updating(tmp_path):
-    from jointid.studies import model_error
-    from jointid.studies.common import material_joint, study_beam, terms_of
-    from jointid.studies.config import load_config
+    from jointid.reproduce import model_error
+    from jointid.reproduce.common import material_joint, study_beam, terms_of
+    from jointid.reproduce.config import load_config
 
     cfg_file = tmp_path / "coarse.toml"
     cfg_file.write_text("[frequency]\nstart = 5.0\nstop = 1000.0\nstep = 2.0\n")
@@ -327,7 +327,7 @@ def test_a_free_free_test_of_the_structure_gives_no_finding(chain):
 
 def test_noise_level_is_the_median_misfit_of_white_noise_and_ignores_a_smooth_misfit():
     from jointid.frequency import Frequency
-    from jointid.methods.update_check import NOISE_FACTOR, judge_update_fit, noise_level
+    from jointid.methods.updating.check import NOISE_FACTOR, judge_update_fit, noise_level
 
     rng = np.random.default_rng(4)
     F, s = 4000, 0.01
@@ -367,7 +367,7 @@ def test_update_on_a_structure_study_given_its_jointed_frfs_reports_a_finding(tm
 
 def test_resonances_left_misaligned_are_a_finding_even_when_the_misfit_is_small():
     from jointid.frequency import Frequency
-    from jointid.methods.update_check import MAX_FREQUENCY_SHIFT, judge_update_fit
+    from jointid.methods.updating.check import MAX_FREQUENCY_SHIFT, judge_update_fit
 
     f = np.arange(5.0, 1000.0, 0.5)
     modes = np.array([150.0, 410.0, 800.0])

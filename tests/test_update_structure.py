@@ -16,13 +16,13 @@ import scipy.sparse as sp
 from jointid.cli.main import main
 from jointid.frequency import Frequency
 from jointid.io.matrix_files import write_free_matrices
-from jointid.methods.updating import UpdateOptions
-from jointid.methods.updating_structure import ScaledMatrixFamily
+from jointid.methods.updating.fit import UpdateOptions
+from jointid.methods.updating.scaled_matrices import ScaledMatrixFamily
 from jointid.physics import build_frame
 from jointid.physics.sparse_model import SparseModel
 from jointid.pipeline import identify, read_measured, update
 from jointid.pipeline_structure import simulate_free_structure, structure_model
-from jointid.study import load_study
+from jointid.study.parse import load_study
 from test_frame_mounts import COMP, EXCITED, OBSERVED, TRUTH_A, TRUTH_B, _grounded_joints, fixture_frame
 from test_structure_study import _list, _matrix, _mount_truth, read_table
 

@@ -12,7 +12,7 @@ imported on first use (``import jointid`` itself loads neither numpy nor matplot
 
 Layers, bottom-up (a lower one never imports a higher one): labels and axes
 (:class:`Dof`, :class:`Frequency`, :class:`FRF`, errors) -> :mod:`jointid.physics` ->
-:mod:`jointid.measurement` -> :mod:`jointid.methods` -> :mod:`jointid.studies` and :mod:`jointid.report` ->
+:mod:`jointid.measurement` -> :mod:`jointid.methods` -> :mod:`jointid.reproduce` and :mod:`jointid.report` ->
 :mod:`jointid.cli`; :mod:`jointid.io` holds the file formats of those objects,
 :mod:`jointid.plots` their figures, and ``study``, ``pipeline``, ``hits`` translate study
 and hit files into API calls. Each subpackage re-exports its own main API the same way;
@@ -53,11 +53,11 @@ __getattr__, __dir__, __all__ = attach(
         ".measurement.impact": ("estimate_frfs", "ImpactRecord", "ImpactOptions", "ImpactFRF"),
         ".measurement.virtual_hammer": ("simulate_hits", "HammerSettings"),
         # methods: inverse, direct
-        ".methods.inverse": ("identify_joint", "InverseOptions", "InverseResult"),
-        ".methods.coupling": ("identify_joint_coupling", "CouplingOptions", "CouplingResult"),
-        ".methods.material_fit": ("fit_material", "MaterialFit", "static_estimate", "fit_zener"),
-        ".methods.master_curve": ("build_master_curve", "MasterCurve", "TemperatureCurve"),
-        ".methods.amplitude_dependence": ("fit_kraus", "KrausFit"),
+        ".methods.hong_lee.inverse": ("identify_joint", "InverseOptions", "InverseResult"),
+        ".methods.receptance.coupling": ("identify_joint_coupling", "CouplingOptions", "CouplingResult"),
+        ".methods.direct.material_fit": ("fit_material", "MaterialFit", "static_estimate", "fit_zener"),
+        ".methods.direct.master_curve": ("build_master_curve", "MasterCurve", "TemperatureCurve"),
+        ".methods.direct.amplitude_dependence": ("fit_kraus", "KrausFit"),
         # files
         ".io.frf_files": ("read_frf", "write_frf"),
         ".io.output_dir": ("OutputSet",),
@@ -67,8 +67,8 @@ __getattr__, __dir__, __all__ = attach(
         ".pipeline": ("simulate", "identify", "experiment", "VirtualTest", "free_model", "true_joint"),
         ".hits": ("frf_from_hits", "read_hits", "HitsFRF"),
         # the reproduce studies
-        ".studies.runner": ("run_reproduce",),
-        ".studies.config": ("load_config",),
+        ".reproduce.runner": ("run_reproduce",),
+        ".reproduce.config": ("load_config",),
         # test campaigns: many tests in one run
         ".campaign.driver": ("run_campaign", "CampaignOptions"),
         ".campaign.manifest": ("read_manifest",),
@@ -79,7 +79,7 @@ __getattr__, __dir__, __all__ = attach(
         "methods",
         "io",
         "plots",
-        "studies",
+        "reproduce",
         "campaign",
         "report",
         "cli",

@@ -1,7 +1,7 @@
 """From a study to a test design: where to measure and hit (the API behind ``jointid design``).
 
 Like :mod:`jointid.pipeline`, it only translates study settings into a call of
-:func:`jointid.methods.design.design_layout`: the free beam meshed for
+:func:`jointid.methods.design.layout.design_layout`: the free beam meshed for
 convergence (:func:`jointid.pipeline.free_model`, without the sensors, which
 the design adds per layout), the study's ``[joint.model]`` as the expected joint,
 the ``[accelerometers]`` (on the observed nodes when the study has them exactly
@@ -27,9 +27,9 @@ import numpy as np
 from .dofs import Dof, pack_dof_keys, parse_dof
 from .errors import DofError, StudyError
 from .frequency import Frequency
-from .methods.design import LayoutDesign, Scenario, Sensors, design_layout
+from .methods.design.layout import LayoutDesign, Scenario, Sensors, design_layout
 from .pipeline import coupling_options, free_model, true_joint
-from .study import Study
+from .study.parse import Study
 
 __all__ = [
     "design_study", "design_structure_study", "structure_candidates", "study_sensors", "with_layout", "design_band",
@@ -113,9 +113,9 @@ def design_study(
         Lines of the search grid.
     monte_carlo : int
         Seeds of the final Monte Carlo check of the best layouts with the study's identification
-        options (0: none; see :mod:`jointid.methods.design_check`).
+        options (0: none; see :mod:`jointid.methods.design.check`).
     progress : callable, optional
-        Called with one line after each step of the search (see :func:`~jointid.methods.design.design_layout`).
+        Called with one line after each step of the search (see :func:`~jointid.methods.design.layout.design_layout`).
 
     Returns
     -------

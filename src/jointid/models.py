@@ -1,6 +1,6 @@
 """The study-to-model translation, in one place: a validated study's free model, true joints and test article.
 
-Every command and study that needs a model of a :class:`~jointid.study.Study`
+Every command and study that needs a model of a :class:`~jointid.study.parse.Study`
 gets it here (:mod:`jointid.pipeline` and :mod:`jointid.pipeline_structure`
 re-export these functions under their old names):
 
@@ -20,7 +20,7 @@ Each true joint is a :class:`~jointid.physics.structure.ComplexStiffness`
 (``joint(f_hz)`` -> (F, k, k) complex, on ``joint.dofs``); a structure study's
 elastomer joint (``type = "elastomer"``) is
 :func:`jointid.physics.elastomer_mount.elastomer_mount` on its ``axes``.
-The paper studies' configuration (:mod:`jointid.studies.config`, not a study
+The paper studies' configuration (:mod:`jointid.reproduce.config`, not a study
 file) has its own translation in :func:`config_elastomer_joint` and
 :func:`config_beam`.
 """
@@ -33,7 +33,7 @@ import numpy as np
 
 from .errors import ModelError, StudyError
 from .physics.structure import ComplexStiffness, Structure
-from .study import Study
+from .study.parse import Study
 
 __all__ = [
     "free_model", "structure_model", "true_joint", "true_joints", "structure_joint", "true_joint_matrix",
@@ -100,7 +100,7 @@ def true_joint(study: Study) -> ComplexStiffness:
 
 
 def structure_joint(joint, source: str = "<study>") -> ComplexStiffness:
-    """One ``[[joint]]`` (:class:`~jointid.study_structure.NamedJoint`) as a ComplexStiffness on ``joint.joint_dofs``.
+    """One ``[[joint]]`` (:class:`~jointid.study.structures.NamedJoint`) as a ComplexStiffness on ``joint.joint_dofs``.
 
     ``type = "mount"``: :class:`~jointid.physics.mount.MountModel`; ``type = "elastomer"``:
     :func:`~jointid.physics.elastomer_mount.elastomer_mount` (grounded: k x k, zero off its
@@ -112,7 +112,7 @@ def structure_joint(joint, source: str = "<study>") -> ComplexStiffness:
         No ``[joint.model]``, a mount that is not passive, or an elastomer the FE model refuses
         (one line starting with ``source``).
     """
-    from .study_structure import ElastomerSpec
+    from .study.structures import ElastomerSpec
 
     spec = joint.model
     try:

@@ -1,4 +1,4 @@
-"""From a validated :class:`~jointid.study.Study` to models, virtual tests and identifications.
+"""From a validated :class:`~jointid.study.parse.Study` to models, virtual tests and identifications.
 
 These functions are the API behind ``jointid simulate`` and ``jointid identify``;
 they only translate study settings into calls of :mod:`jointid.physics` and
@@ -17,12 +17,12 @@ import numpy as np
 from .errors import DataError
 from .frequency import Frequency
 from .frf import FRF
-from .methods.coupling import CouplingOptions, CouplingResult, identify_joint_coupling
-from .methods.inverse import InverseOptions, InverseResult, check_layout, identify_joint
+from .methods.receptance.coupling import CouplingOptions, CouplingResult, identify_joint_coupling
+from .methods.hong_lee.inverse import InverseOptions, InverseResult, check_layout, identify_joint
 from .models import constrained_model, free_model, true_joint  # the study-to-model translation (re-exported)
 from .physics.structure import Structure
 from .physics.synthesis import synthesize_frf
-from .study import Study
+from .study.parse import Study
 
 __all__ = [
     "free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "read_measured", "identify",
@@ -183,9 +183,9 @@ def identify(
     """Identify the study's joint from measured FRFs, over the study's ``start..stop`` band.
 
     The method is ``[identification].method`` unless ``options`` says otherwise:
-    "receptance" (default; :func:`~jointid.methods.coupling.identify_joint_coupling`
+    "receptance" (default; :func:`~jointid.methods.receptance.coupling.identify_joint_coupling`
     with the free beam meshed for convergence) or "hong-lee"
-    (:func:`~jointid.methods.inverse.identify_joint` on the beam's grid nodes: its
+    (:func:`~jointid.methods.hong_lee.inverse.identify_joint` on the beam's grid nodes: its
     estimation step solves for every unobserved DOF, so a refined mesh would
     multiply its cost; ``[beam].elements_per_segment`` refines it explicitly).
 
@@ -475,13 +475,13 @@ def free_beam_parameters(study: Study):
 def update(study: Study, measured: FRF, options=None):
     """Update the study's free beam (and sensors) from free-free FRFs over the study's band.
 
-    See :func:`jointid.methods.updating.update_free_model`; the lines of
+    See :func:`jointid.methods.updating.fit.update_free_model`; the lines of
     ``measured`` in ``[frequency] start..stop`` (above 0 Hz) are used on the
-    data's own grid. Returns its :class:`~jointid.methods.updating.UpdateResult`.
+    data's own grid. Returns its :class:`~jointid.methods.updating.fit.UpdateResult`.
     A ``[structure]`` study fits its stiffness and mass scales and loss factor
     (:func:`jointid.pipeline_structure.update_structure`).
     """
-    from .methods.updating import update_free_model
+    from .methods.updating.fit import update_free_model
 
     if study.is_structure:
         from .pipeline_structure import update_structure

@@ -1,7 +1,7 @@
 """From a ``[structure]`` study to virtual tests and identifications of several joints at once.
 
 The general path behind ``jointid simulate`` / ``jointid identify`` for studies
-whose free structure comes from matrix files (:mod:`jointid.study_structure`);
+whose free structure comes from matrix files (:mod:`jointid.study.structures`);
 :mod:`jointid.pipeline` dispatches here. The free model is a
 :class:`~jointid.physics.sparse_model.SparseModel`; only its receptance on the
 observed, joint and excited DOFs (m, n, e) is ever computed.
@@ -19,10 +19,10 @@ over lines; ``Du`` may be singular). The same test article serves the virtual
 roving-hammer experiment (:func:`jointid.pipeline.experiment`).
 
 **Identification**: all joints at once,
-:func:`~jointid.methods.coupling.identify_joint_coupling` with the joint DOFs of
+:func:`~jointid.methods.receptance.coupling.identify_joint_coupling` with the joint DOFs of
 every joint concatenated (a full symmetric ``Du``: the terms between joints are
 estimated too, and should vanish); the result is split into one
-:class:`~jointid.methods.coupling.CouplingResult` per joint
+:class:`~jointid.methods.receptance.coupling.CouplingResult` per joint
 (:func:`split_joints`), and :func:`cross_joint_ratio` reports how large the
 terms between joints came out relative to the joints' own terms (a diagnostic
 of model error or of a joint the study does not list).
@@ -30,8 +30,8 @@ of model error or of a joint the study does not list).
 **Model updating** (:func:`update_structure`, behind ``jointid update``): the
 free structure's ``stiffness_scale``, ``mass_scale`` and ``loss_factor`` fitted
 to free-free FRFs (no joints) on the observed x excited DOFs, by
-:func:`jointid.methods.updating.update_free_model` on
-:class:`jointid.methods.updating_structure.ScaledMatrixFamily` (one modal
+:func:`jointid.methods.updating.fit.update_free_model` on
+:class:`jointid.methods.updating.scaled_matrices.ScaledMatrixFamily` (one modal
 basis for the whole fit: exact scaling law).
 """
 
@@ -44,9 +44,9 @@ import numpy as np
 from .errors import StudyError
 from .frequency import Frequency
 from .frf import FRF
-from .methods.coupling import identify_joint_coupling
+from .methods.receptance.coupling import identify_joint_coupling
 from .models import constrained_model, structure_model, true_joint_matrix, true_joints  # re-exported
-from .study import Study
+from .study.parse import Study
 
 __all__ = [
     "structure_model", "true_joints", "true_joint_matrix", "constrained_structure", "simulate_structure",
@@ -117,8 +117,8 @@ def identify_structure(study: Study, measured: FRF, options=None):
     Split the result per joint with :func:`split_joints`.
 
     The method is ``[identification].method`` unless ``options`` says otherwise: the
-    receptance method (:class:`~jointid.methods.coupling.CouplingOptions`, any model size) or the plain Hong &
-    Lee method (:class:`~jointid.methods.inverse.InverseOptions`) on the dense model,
+    receptance method (:class:`~jointid.methods.receptance.coupling.CouplingOptions`, any model size) or the plain Hong &
+    Lee method (:class:`~jointid.methods.hong_lee.inverse.InverseOptions`) on the dense model,
     for models of at most :data:`~jointid.physics.sparse_model.DENSE_STRUCTURE_MAX_DOFS`
     DOFs (it solves with ``Do[nbar, mbar]`` on every line).
 
@@ -130,7 +130,7 @@ def identify_structure(study: Study, measured: FRF, options=None):
         Hong & Lee on a model too large for it (one line).
     """
     from .errors import ModelError
-    from .methods.inverse import InverseOptions, identify_joint
+    from .methods.hong_lee.inverse import InverseOptions, identify_joint
     from .pipeline import coupling_options, inverse_options, study_frfs
 
     data = study_frfs(study, measured)
@@ -230,8 +230,8 @@ def update_structure(study: Study, measured: FRF, options=None):
     of ``alpha K (1 + j eta) - w^2 beta M`` (any subset, ``options.parameters``;
     default all three) to the observed x excited FRFs of ``measured`` in
     ``[frequency] start..stop`` (above 0 Hz, on the data's own lines): see
-    :func:`jointid.methods.updating.update_free_model` and
-    :mod:`jointid.methods.updating_structure`.
+    :func:`jointid.methods.updating.fit.update_free_model` and
+    :mod:`jointid.methods.updating.scaled_matrices`.
 
     Returns
     -------
@@ -244,10 +244,10 @@ def update_structure(study: Study, measured: FRF, options=None):
     DataError
         The file lacks one of the study's DOFs; the fit did not converge.
     """
-    from .methods.updating import (
+    from .methods.updating.fit import (
         DEFAULT_STRUCTURE_PARAMETERS, STRUCTURE_PARAMETERS, UpdateOptions, check_parameter_names, update_free_model,
     )
-    from .methods.updating_structure import ScaledMatrixFamily
+    from .methods.updating.scaled_matrices import ScaledMatrixFamily
     from .pipeline import study_frfs
 
     options = options or UpdateOptions(parameters=DEFAULT_STRUCTURE_PARAMETERS)

@@ -4,8 +4,8 @@ A table's schema maps each key to a :class:`Field` (kind, required or default, u
 check); :func:`section` checks a parsed table against it and returns every key's typed
 value (or default), :func:`typed` one value. Every complaint is one
 :class:`~jointid.errors.StudyError` line naming the table and key, e.g.
-``[beam].nodes: expected an integer, got 19.5``. Used by :mod:`jointid.study` (study
-files) and :mod:`jointid.studies.config` (``jointid reproduce --config``).
+``[beam].nodes: expected an integer, got 19.5``. Used by :mod:`jointid.study.parse` (study
+files) and :mod:`jointid.reproduce.config` (``jointid reproduce --config``).
 
 Kinds: ``"number"`` (int or float, finite, returned as float), ``"int"``, ``"bool"``,
 ``"str"``, ``"int_list"``, ``"str_list"``, ``"number_list"`` (lists: entries of that

@@ -2,19 +2,19 @@
 
 Per specimen, from its ``direct`` tests that were processed:
 
-* **Master curve** (:func:`jointid.methods.master_curve.build_master_curve`): one
+* **Master curve** (:func:`jointid.methods.direct.master_curve.build_master_curve`): one
   temperature curve per tested temperature, at the specimen's *reference condition*:
   the (amplitude, preload) pair tested at the most temperatures (ties: the smallest
   amplitude, the linear regime; then the smallest preload). Only the lines that reached
   the commanded amplitude (``amplitude_ok``) are used; repeated tests at one
   temperature are merged by the master-curve builder. The reference temperature is the
   one asked for, else the tested temperature nearest the median of those tested.
-* **Amplitude dependence** (:func:`jointid.methods.amplitude_dependence.fit_kraus`): at
+* **Amplitude dependence** (:func:`jointid.methods.direct.amplitude_dependence.fit_kraus`): at
   each temperature, preload and test frequency tested at >= 4 amplitudes, the storage
   stiffness against the *achieved* amplitude (commanded x ``amplitude_ratio``), and the
   loss stiffness K'' with the Kraus loss law sharing its ``Ac`` and ``m``
-  (:func:`~jointid.methods.amplitude_dependence.fit_kraus_loss`).
-* **Preload dependence** (:func:`~jointid.methods.amplitude_dependence.fit_preload`): at
+  (:func:`~jointid.methods.direct.amplitude_dependence.fit_kraus_loss`).
+* **Preload dependence** (:func:`~jointid.methods.direct.amplitude_dependence.fit_preload`): at
   each temperature, amplitude and frequency tested at >= 3 preloads, a straight line
   ``K'(P)``.
 
@@ -50,7 +50,7 @@ class SpecimenAnalysis:
     reference_amplitude_m, reference_preload_n : float
         The reference condition of the master curve (NaN without one).
     master_curve : MasterCurve or None
-        :class:`jointid.methods.master_curve.MasterCurve`, None when not built.
+        :class:`jointid.methods.direct.master_curve.MasterCurve`, None when not built.
     kraus : list of dict
         One per (temperature, preload, frequency): keys ``temperature_c``, ``preload_n``,
         ``frequency_hz``, ``amplitude_m`` (A,), ``storage_n_m`` (A,), ``loss_n_m`` (A,), ``fit`` (KrausFit),
@@ -84,7 +84,7 @@ def reference_condition(tests) -> tuple[float, float]:
 
 
 def _master_curve(specimen, tests, outcomes, reference_temperature_c, vertical_shift, findings):
-    from ..methods.master_curve import TemperatureCurve, build_master_curve
+    from ..methods.direct.master_curve import TemperatureCurve, build_master_curve
 
     amp, pre = reference_condition(tests)
     curves = []
@@ -123,7 +123,7 @@ def _storage_by_line(t, outcome, achieved: bool):
 
 
 def _kraus(specimen, tests, outcomes, findings):
-    from ..methods.amplitude_dependence import fit_kraus, fit_kraus_loss
+    from ..methods.direct.amplitude_dependence import fit_kraus, fit_kraus_loss
 
     groups = defaultdict(list)
     for t in tests:
@@ -158,7 +158,7 @@ def _kraus(specimen, tests, outcomes, findings):
 
 
 def _preload(specimen, tests, outcomes, findings):
-    from ..methods.amplitude_dependence import fit_preload
+    from ..methods.direct.amplitude_dependence import fit_preload
 
     groups = defaultdict(list)
     for t in tests:

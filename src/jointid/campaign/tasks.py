@@ -198,9 +198,9 @@ def _direct(task: TestTask) -> tuple[dict, dict]:
 
 
 def _identify(task: TestTask) -> tuple[dict, dict]:
-    from ..methods.inverse import dof_term_labels
+    from ..methods.hong_lee.inverse import dof_term_labels
     from ..pipeline import identify, read_measured
-    from ..study import load_study
+    from ..study.parse import load_study
 
     study = load_study(task.study)
     result = identify(study, read_measured(study, task.file))

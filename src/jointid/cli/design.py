@@ -29,7 +29,7 @@ def add_parser(sub) -> None:
         "Writes DIR/design.json (chosen and current layout, median predicted relative error per term and scenario) "
         "and DIR/design.png (per-term predicted relative error vs frequency, both layouts); prints a progress line per "
         "step of the search, then per term the chosen and current layout's figures and which is better. "
-        "See jointid.methods.design.",
+        "See jointid.methods.design.layout.",
     )
     add_study_argument(p, required=False)
     add_out_argument(p)

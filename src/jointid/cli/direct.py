@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, out: OutputSet) -> int:
     """Compute and stage the outputs of ``jointid direct`` in ``out``."""
     from ..physics.elastomer_joint import ElastomerJoint
-    from ..methods.material_fit import complex_modulus_per_line, fit_material, fit_zener, static_estimate
+    from ..methods.direct.material_fit import complex_modulus_per_line, fit_material, fit_zener, static_estimate
     from ..measurement.stepsine import process_stepsine, read_stepsine_csv
 
     blocks = read_stepsine_csv(args.data, columns=_pairs(args.column, "column", False), scale=_pairs(args.scale, "scale", True))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..studies.config import STUDY_NAMES, load_config
+from ..reproduce.config import STUDY_NAMES, load_config
 from .common import add_out_argument
 
 __all__ = ["add_parser", "run"]
@@ -33,7 +33,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..studies.runner import parse_only, run_reproduce
+    from ..reproduce.runner import parse_only, run_reproduce
 
     only = parse_only(args.only)
     config = load_config(args.config, seed=args.seed, seeds=args.seeds)

@@ -11,11 +11,11 @@ from pathlib import Path
 from ..errors import StudyError
 from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
-from ..methods.update_parameters import (
+from ..methods.updating.parameters import (
     DEFAULT_MAX_EVALUATIONS, DEFAULT_PARAMETERS, DEFAULT_STRUCTURE_PARAMETERS, PARAMETERS, STRUCTURE_PARAMETERS,
     check_parameter_names,
 )
-from ..study_edit import replace_study_values
+from ..study.edit import replace_study_values
 from .common import add_out_argument, add_study_argument, study_from_args
 
 __all__ = ["add_parser", "run", "parse_parameters", "structure_paths_for"]
@@ -85,7 +85,7 @@ def structure_paths_for(study, directory: Path) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..methods.updating import UpdateOptions
+    from ..methods.updating.fit import UpdateOptions
     from ..pipeline import read_free_measured, update
 
     if args.max_evaluations < 1:

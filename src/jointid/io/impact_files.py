@@ -160,7 +160,7 @@ def write_impact_csv(path: str | Path, records: Sequence[ImpactRecord]) -> Path:
     records : sequence of ImpactRecord
         One per excited node, all with the same response DOFs.
     """
-    from ..io.tables import write_csv
+    from .tables import write_csv
 
     records = [records] if isinstance(records, ImpactRecord) else list(records)
     labels = [str(d) for d in records[0].response_dofs]

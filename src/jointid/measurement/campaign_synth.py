@@ -5,7 +5,7 @@ combines three laws:
 
 * a fractional-derivative Zener stiffness at the reference temperature
   ``Tref``, ``K(f_r) = (K0 + Kinf (j 2 pi f_r tau)^alpha) / (1 + (j 2 pi f_r tau)^alpha)``
-  (the same form as :func:`jointid.methods.zener_fit.zener_modulus`, which
+  (the same form as :func:`jointid.methods.direct.zener_fit.zener_modulus`, which
   this lower layer cannot import);
 * time-temperature superposition with a WLF shift,
   ``log10 aT = -c1 (T - Tref) / (c2 + T - Tref)``: a test at temperature ``T``

@@ -2,7 +2,7 @@
 
 What :func:`screen_measured`, :func:`check_visibility`, :func:`floor_exact_zeros`
 and :func:`noise_level_unknown` check, in the order the receptance method
-(:func:`jointid.methods.coupling.identify_joint_coupling`) applies them:
+(:func:`jointid.methods.receptance.coupling.identify_joint_coupling`) applies them:
 
 1. **Dead acquisition**: every measured value zero, or the FRFs' median
    magnitude outside ``1e-8 .. 1e8`` times the free model's (e.g. all ~1e-300:
@@ -26,7 +26,7 @@ and :func:`noise_level_unknown` check, in the order the receptance method
 5. **Unknown noise level** (:func:`noise_level_unknown`): coherence identically 1
    (one average per excitation, or noise-free data) says nothing about the noise;
    the caller then measures the variance from the residuals of the per-line fit
-   (:func:`jointid.methods.column_calibration.residual_variance`) and says so.
+   (:func:`jointid.methods.receptance.column_calibration.residual_variance`) and says so.
 """
 
 from __future__ import annotations

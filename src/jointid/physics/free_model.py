@@ -1,6 +1,6 @@
 """The free structure's receptance on any DOFs: the seam between models and identification methods.
 
-The receptance-coupling identification (:mod:`jointid.methods.coupling`) needs
+The receptance-coupling identification (:mod:`jointid.methods.receptance.coupling`) needs
 the free (unconstrained) structure's receptance ``Y = Do^-1`` only on the
 observed, joint and excited DOFs, never ``Do`` itself. Anything that can give
 ``receptance(frequency, rows, cols)`` can feed it: an FE structure (here), a

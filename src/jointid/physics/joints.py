@@ -62,7 +62,7 @@ def parametric_joint(
 
 
 def joint_from_spec(joint) -> ComplexStiffness:
-    """The true joint of a study's ``[joint]`` / ``[joint.model]`` section (:class:`~jointid.study.JointSpec`)."""
+    """The true joint of a study's ``[joint]`` / ``[joint.model]`` section (:class:`~jointid.study.parse.JointSpec`)."""
     model = joint.model
     if model is None:
         raise StudyError("the study has no [joint.model] section: add one to simulate the joint")

@@ -266,7 +266,7 @@ class SparseModel:
         What the plain Hong & Lee method needs: it solves with ``Do[nbar, mbar]``,
         N - |n| rows, on every line. Node coordinates are not known from matrix
         files: every node is put at x = 0 (the rotation scale then comes from the
-        stiffness, :func:`jointid.methods.inverse.rotation_scale`).
+        stiffness, :func:`jointid.methods.hong_lee.inverse.rotation_scale`).
 
         Raises
         ------

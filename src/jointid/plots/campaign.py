@@ -59,7 +59,7 @@ def plot_master_fit(master, *, axes=None, points: int = 200):
     Parameters
     ----------
     master : MasterCurve
-        :class:`jointid.methods.master_curve.MasterCurve` (``shifted()``, ``stiffness(f)``, ``to_dict()``).
+        :class:`jointid.methods.direct.master_curve.MasterCurve` (``shifted()``, ``stiffness(f)``, ``to_dict()``).
     axes : pair of Axes, optional
     points : int
         Points of the fitted curve.

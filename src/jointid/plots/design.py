@@ -34,7 +34,7 @@ def _shown_terms(design) -> list[int]:
 
 
 def plot_layout_design(design, axes=None):
-    """Plot a :class:`~jointid.methods.design.LayoutDesign`.
+    """Plot a :class:`~jointid.methods.design.layout.LayoutDesign`.
 
     One panel per term (more than :data:`MAX_PANELS`: the weighted ones, then only the
     diagonal ones; ``design.json`` has every term): the predicted relative error of the default identification

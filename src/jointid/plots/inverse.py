@@ -13,7 +13,7 @@ TERM_UNITS = {("w", "w"): "N/m", ("w", "theta"): "N/rad", ("theta", "w"): "N*m/m
 
 
 def plot_identification(result, truth: np.ndarray | None = None):
-    """Plot an :class:`~jointid.methods.inverse.InverseResult`.
+    """Plot an :class:`~jointid.methods.hong_lee.inverse.InverseResult`.
 
     A joint of more than 3 DOFs (a 3-D mount) gets the compact figure of
     :func:`jointid.plots.joint_matrix.plot_joint_terms`. Up to 3 DOFs: one
@@ -33,7 +33,7 @@ def plot_identification(result, truth: np.ndarray | None = None):
     -------
     Figure
     """
-    from ..methods.inverse import dof_term_labels, term_unit
+    from ..methods.hong_lee.inverse import dof_term_labels, term_unit
     from .joint_stiffness import draw_loss_or_phase
     from .nvh_axes import robust_log_limits, set_frequency_axis
 

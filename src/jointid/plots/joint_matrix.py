@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..methods.inverse import dof_term_labels, term_unit
+from ..methods.hong_lee.inverse import dof_term_labels, term_unit
 from .nvh_axes import loss_or_phase, magnitude_band, robust_log_limits, set_frequency_axis
 from .style import new_figure
 
@@ -90,7 +90,7 @@ def plot_joint_terms(result, truth: np.ndarray | None = None, couplings: int = 4
     -------
     Figure
     """
-    from ..methods.coupling import Z90
+    from ..methods.receptance.coupling import Z90
 
     f = result.frequency.hz
     K = result.stiffness

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..methods.coupling import Z90 as _Z90
-from ..methods.inverse import dof_term_labels, term_unit
+from ..methods.receptance.coupling import Z90 as _Z90
+from ..methods.hong_lee.inverse import dof_term_labels, term_unit
 from .nvh_axes import loss_or_phase, loss_or_phase_std, magnitude_band, robust_limits, robust_log_limits, set_frequency_axis
 from .style import new_figure
 
@@ -76,7 +76,7 @@ def draw_loss_or_phase(ax, f, k, std_real=None, std_imag=None, truth=None, bad=N
 
 
 def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
-    """Plot a :class:`~jointid.methods.coupling.CouplingResult` as an NVH engineer reads it.
+    """Plot a :class:`~jointid.methods.receptance.coupling.CouplingResult` as an NVH engineer reads it.
 
     A joint of more than 3 DOFs (a 3-D mount) gets the compact figure of
     :func:`jointid.plots.joint_matrix.plot_joint_terms` instead. Up to 3 DOFs

@@ -1,0 +1,13 @@
+"""Test design: where to measure and hit, from the predicted covariance of the default estimator.
+
+* :mod:`.layout` -- ``design_layout``, ``LayoutDesign``, ``Sensors``;
+* :mod:`.predictor` -- ``LayoutPredictor`` (+ :mod:`.estimator`, :mod:`.check`, :mod:`.pool`).
+"""
+
+from ..._lazy import attach
+
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {".layout": ("design_layout", "LayoutDesign", "LayoutPredictor", "Sensors")},
+    submodules=("layout", "predictor", "estimator", "check", "pool"),
+)

@@ -1,0 +1,22 @@
+"""The receptance-coupling estimator (the default inverse method) and its parts.
+
+* :mod:`.coupling` -- ``identify_joint_coupling``, ``CouplingOptions``, ``CouplingResult``;
+* :mod:`.coupling_lines` -- the weighted per-line least squares;
+* :mod:`.column_calibration` -- force-calibration error per excitation column;
+* :mod:`.frf_variance` -- the FRF variance model (coherence, relative, none);
+* :mod:`.smoothing` -- P-spline smoothing over frequency;
+* :mod:`.structured_model`, :mod:`.structured_fit`, :mod:`.structured_select` -- the structured joint model.
+"""
+
+from ..._lazy import attach
+
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        ".coupling": ("identify_joint_coupling", "CouplingOptions", "CouplingResult"),
+        ".coupling_lines": ("coupling_per_line", "LineEstimates"),
+        ".smoothing": ("smooth_series", "SmoothedSeries"),
+    },
+    submodules=("coupling", "coupling_lines", "column_calibration", "frf_variance", "smoothing",
+                "structured_model", "structured_fit", "structured_select"),
+)
