@@ -204,7 +204,7 @@ def test_coherence_identically_one_says_the_noise_level_is_unknown(hammer):
     notes = [f for f in result.findings() if f.startswith("the coherence is identically 1")]
     assert len(notes) == 1 and "noise level is unknown" in notes[0]
     # few reliable values far off (measured: 1.5 % of them > 30 % of the term's scale on this seed, 5.7 % on seed 4)
-    from jointid.methods.receptance.coupling import term_scale
+    from jointid.methods.estimate import term_scale
 
     off = np.abs(result.stiffness - ex.truth) / term_scale(ex.truth)
     assert np.mean(off[result.reliable_terms] > 0.3) < 0.1

@@ -178,7 +178,7 @@ def test_matrix_market_npz_and_op4_give_the_python_result(tmp_path, frame):
 
 
 def test_term_scale_judges_zero_couplings_on_the_scale_of_their_dofs():
-    from jointid.methods.receptance.coupling import COUPLING_SCALE_FLOOR, term_scale
+    from jointid.methods.estimate import COUPLING_SCALE_FLOOR, term_scale
 
     K = np.array([[[4.0, 0.0], [0.0, 1.0]], [[4.0, 3.0 + 4.0j], [3.0 + 4.0j, -9.0]]])
     assert COUPLING_SCALE_FLOOR == 0.05

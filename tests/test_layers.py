@@ -6,7 +6,7 @@ import is still a dependency), resolved to an absolute ``jointid.*`` name and ra
 
 Layers, bottom-up (a module may import its own layer and any lower one):
 
-0. labels, axes and helpers: ``dofs``, ``frequency``, ``frf``, ``errors``, ``_lazy``,
+0. labels, axes and helpers: ``dofs``, ``frequency``, ``frf``, ``terms``, ``errors``, ``_lazy``,
    ``parallel``, and the file formats of those objects in ``io`` (UFF, CSV, matrices,
    atomic writes, output directories);
 1. ``physics`` (elements, structures, the elastomer joint FE model, modes, synthesis);
@@ -43,6 +43,7 @@ RANKS = {
     "_lazy": 0,
     "parallel": 0,
     "schema": 0,
+    "terms": 0,
     "io": 0,
     "physics": 1,
     "measurement": 2,

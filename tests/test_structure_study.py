@@ -309,7 +309,7 @@ def test_woodbury_constrained_receptance_matches_a_dense_solve_with_a_singular_j
 
 
 def test_term_names_never_collide_and_split_per_joint():
-    from jointid.methods.hong_lee.inverse import dof_term_labels, stiffness_columns
+    from jointid.terms import dof_term_labels, stiffness_columns
     from jointid.frequency import Frequency
 
     one = [Dof(7, c) for c in ("x", "y", "rz")]

@@ -198,7 +198,7 @@ def _direct(task: TestTask) -> tuple[dict, dict]:
 
 
 def _identify(task: TestTask) -> tuple[dict, dict]:
-    from ..methods.hong_lee.inverse import dof_term_labels
+    from ..terms import dof_term_labels
     from ..pipeline import identify, read_measured
     from ..study.parse import load_study
 

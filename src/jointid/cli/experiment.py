@@ -32,7 +32,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
-    from ..methods.hong_lee.inverse import stiffness_columns
+    from ..terms import stiffness_columns
     from ..pipeline import experiment
     from .identify import identification_lines, identify_file, output_files, truth_error_lines, truth_errors
     from .simulate import write_true_joints

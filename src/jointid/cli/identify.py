@@ -40,7 +40,7 @@ def add_parser(sub) -> None:
 
 def _terms(result) -> dict:
     """Per term: median magnitude and loss factor (and, for the receptance method, reliability and smoothing)."""
-    from ..methods.hong_lee.inverse import dof_term_labels
+    from ..terms import dof_term_labels
 
     terms = {}
     labels = dof_term_labels(result.joint_dofs)
@@ -82,7 +82,7 @@ def summary(result, study, source: Path) -> dict:
         "reliable_fraction": float(np.mean(result.reliable)),
     }
     if study.is_structure:
-        from ..methods.hong_lee.inverse import dof_term_labels, term_unit
+        from ..terms import dof_term_labels, term_unit
         from ..pipeline_structure import cross_joint_ratio, split_joints
 
         out["joints"] = {}
@@ -198,7 +198,7 @@ def truth_errors(study, result, truth) -> dict:
     a structure study of several joints, ``<joint>_K_i_i`` with each joint's
     own labels (as in its ``joint_stiffness_<joint>.csv``).
     """
-    from ..methods.hong_lee.inverse import dof_term_labels
+    from ..terms import dof_term_labels
 
     n = len(result.joint_dofs)
     diag = np.arange(n)

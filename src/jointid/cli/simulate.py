@@ -54,7 +54,7 @@ def _noisy(frf, noise: float, seed: int):
 
 def write_true_joints(out, study, frequency, truth) -> list:
     """One ``true_joint[_<name>].csv`` per ``[[joint]]`` of a structure study (its block of ``truth``); returns the paths."""
-    from ..methods.hong_lee.inverse import stiffness_columns
+    from ..terms import stiffness_columns
 
     written, i = [], 0
     for joint in study.joints:
@@ -99,7 +99,7 @@ def _run_structure(args: argparse.Namespace, study) -> int:
 
 def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
-    from ..methods.hong_lee.inverse import stiffness_columns
+    from ..terms import stiffness_columns
     from ..pipeline import simulate, simulate_free, true_beam_study
 
     if not args.noise >= 0 or args.noise != args.noise or args.noise == float("inf"):

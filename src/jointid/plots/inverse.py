@@ -33,7 +33,7 @@ def plot_identification(result, truth: np.ndarray | None = None):
     -------
     Figure
     """
-    from ..methods.hong_lee.inverse import dof_term_labels, term_unit
+    from ..terms import dof_term_labels, term_unit
     from .joint_stiffness import draw_loss_or_phase
     from .nvh_axes import robust_log_limits, set_frequency_axis
 

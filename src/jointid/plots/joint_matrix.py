@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..methods.hong_lee.inverse import dof_term_labels, term_unit
+from ..terms import dof_term_labels, term_unit
 from .nvh_axes import loss_or_phase, magnitude_band, robust_log_limits, set_frequency_axis
 from .style import new_figure
 

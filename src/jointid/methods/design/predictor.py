@@ -21,7 +21,7 @@ from ...frequency import Frequency
 from ...physics.free_model import as_free_model
 from ..receptance.coupling_lines import symmetric_parametrization
 from .estimator import SmootherPrediction, common_variance
-from ..hong_lee.inverse import dof_term_labels
+from ...terms import dof_term_labels
 from ..receptance.smoothing import MAX_BASIS
 
 __all__ = [

@@ -63,7 +63,7 @@ the L-curve (biased: it shrinks ``Du`` where ``H*[n, e]`` is ill-conditioned).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 
@@ -74,6 +74,7 @@ from ...frf import FRF
 from ...physics.modes import DENSE_EIGEN_LIMIT, natural_modes
 from ...parallel import map_chunks
 from ...physics.structure import Structure
+from ..estimate import JointEstimate
 from .condition import pencil_condition
 from .estimation import EstimationLayout, estimate_qr, estimate_svd
 
@@ -84,10 +85,6 @@ __all__ = [
     "identify_joint",
     "rotation_scale",
     "check_layout",
-    "joint_term",
-    "stiffness_columns",
-    "dof_term_labels",
-    "term_unit",
 ]
 
 _CHUNK_LINES = 250
@@ -164,8 +161,12 @@ class InverseOptions:
 
 
 @dataclass(frozen=True, eq=False)
-class InverseResult:
-    """Identified joint stiffness, estimated FRFs and per-line diagnostics.
+class InverseResult(JointEstimate):
+    """The Hong & Lee method's :class:`~jointid.methods.estimate.JointEstimate`: K per line, estimated FRFs, condition numbers.
+
+    The method gives no per-term uncertainty (``std_real``/``std_imag`` are NaN); its
+    reliability flag is per line (condition numbers and identifiability, :class:`Reliability`)
+    and applies to every term of that line.
 
     Attributes
     ----------
@@ -182,7 +183,8 @@ class InverseResult:
         Condition numbers (scaled coordinates) of ``Do[nbar, mbar]``, ``H*[n, e]``, ``H*[m, e]``.
     identifiability : ndarray, shape (F, |n|)
         ``|Du_ii| |Ho_ii|``.
-    reliable : ndarray of bool, shape (F,)
+    reliable_lines : ndarray of bool, shape (F,)
+        The per-line flag (:class:`Reliability`); ``reliable_terms`` broadcasts it to every term.
     regularization_lambda : ndarray, shape (F,)
         Tikhonov lambda per line (scaled units; 0 without regularization).
     options : InverseOptions
@@ -190,28 +192,63 @@ class InverseResult:
         Certified relative error bound of ``cond_A`` (0 where it came from an SVD of that line).
     """
 
-    frequency: Frequency
-    joint_dofs: tuple[Dof, ...]
-    stiffness: np.ndarray
     estimated: FRF
     cond_A: np.ndarray
     cond_B: np.ndarray
     cond_H: np.ndarray
     identifiability: np.ndarray
-    reliable: np.ndarray
+    reliable_lines: np.ndarray
     regularization_lambda: np.ndarray
     options: InverseOptions
     cond_A_bound: np.ndarray
 
-    def term(self, i: str, j: str) -> np.ndarray:
-        """Stiffness term ``K_ij`` (directions ``"w"``/``"theta"``) vs frequency, shape (F,)."""
-        return joint_term(self.stiffness, self.joint_dofs, i, j)
+    method: ClassVar[str] = "hong-lee"
+
+    @property
+    def std_real(self) -> np.ndarray:
+        """NaN, shape (F, n, n): the method gives no per-term uncertainty."""
+        return np.full(self.stiffness.shape, np.nan)
+
+    std_imag = std_real
+
+    @property
+    def reliable_terms(self) -> np.ndarray:
+        """The per-line flag on every term, shape (F, n, n)."""
+        n = len(self.joint_dofs)
+        return np.broadcast_to(self.reliable_lines[:, None, None], (self.reliable_lines.size, n, n))
+
+    def describe_estimator(self) -> str:
+        """One line: the paper's two steps per line and what the flag means."""
+        return ("Hong & Lee per line (estimation step, then identification step); no per-term uncertainty: a line is "
+                "flagged by its condition numbers and the joint's identifiability")
+
+    def findings(self) -> list[str]:
+        """The method's one caveat: its flag is per line, not a predicted error per term."""
+        return [
+            "the Hong & Lee method gives no per-term uncertainty: its flag is per line (cond_A, cond_B, identifiability) "
+            "and does not say how far a term may be off; use method = \"receptance\" for per-term bands"
+        ]
+
+    def options_summary(self) -> dict:
+        """JSON-ready: symmetric, regularization, estimation, cond_rtol."""
+        o = self.options
+        return {"symmetric": o.symmetric, "regularization": o.regularization, "estimation": o.estimation, "cond_rtol": o.cond_rtol}
+
+    def diagnostics(self) -> dict:
+        """JSON-ready: the largest condition numbers (and cond_A's certified error bound) and the flag's thresholds."""
+        return {
+            "max_cond_A": float(np.max(self.cond_A)),
+            "max_cond_A_relative_error_bound": float(np.max(self.cond_A_bound)),
+            "max_cond_B": float(np.max(self.cond_B)),
+            "max_cond_H": float(np.max(self.cond_H)),
+            "reliability_thresholds": vars(self.options.reliability),
+        }
 
     def subset(self, indices) -> "InverseResult":
         """The result on a subset of the joint DOFs (one of several joints identified together).
 
         ``stiffness`` and ``identifiability`` are cut to the ``indices``; the per-line
-        diagnostics (condition numbers, ``reliable``) and the estimated FRFs are those
+        diagnostics (condition numbers, ``reliable_lines``) and the estimated FRFs are those
         of the joint estimate.
         """
         idx = np.asarray(list(indices), dtype=int)
@@ -220,57 +257,20 @@ class InverseResult:
             stiffness=self.stiffness[:, idx[:, None], idx[None, :]], identifiability=self.identifiability[:, idx],
         )
 
-    def columns(self) -> dict[str, np.ndarray]:
-        """Table columns: ``frequency_hz``, ``K_{i}_{j}_real/imag`` per ordered pair, ``cond_*``, ``reliable``."""
-        return stiffness_columns(self.frequency, self.joint_dofs, self.stiffness) | {
-            "cond_A": self.cond_A,
-            "cond_B": self.cond_B,
-            "cond_H": self.cond_H,
-            "reliable": self.reliable,
-        }
+    def extra_columns(self) -> dict[str, np.ndarray]:
+        """``cond_A``, ``cond_B``, ``cond_H`` per line."""
+        return {"cond_A": self.cond_A, "cond_B": self.cond_B, "cond_H": self.cond_H}
 
-    def plot(self, truth: np.ndarray | None = None):
-        """Magnitude (log), loss factor and condition numbers vs frequency; returns a Figure."""
+    def plot(self, truth: np.ndarray | None = None, axes=None):
+        """Magnitude (log), loss factor and condition numbers vs frequency; returns a Figure.
+
+        With ``axes`` (2, n_terms): the joint-stiffness figure of every estimate instead.
+        """
+        if axes is not None:
+            return JointEstimate.plot(self, truth=truth, axes=axes)
         from ...plots.inverse import plot_identification
 
         return plot_identification(self, truth=truth)
-
-
-def dof_term_labels(joint_dofs: Sequence[Dof]) -> list[str]:
-    """The label of each joint DOF in term names: its direction when all are on one node, else its full label.
-
-    ``["w", "theta"]`` for the beam's joint, ``["x", ..., "rz"]`` for a 3-D joint on
-    one node (``K_x_ry``), ``["101x", ..., "201x"]`` for a joint on several nodes
-    (``K_101x_201x``), so that names never collide.
-    """
-    if len({d.node for d in joint_dofs}) <= 1:
-        return [d.direction for d in joint_dofs]
-    return [str(d) for d in joint_dofs]
-
-
-def term_unit(di: Dof, dj: Dof) -> str:
-    """SI unit of the stiffness term ``K_ij`` (force at ``di`` per displacement at ``dj``), e.g. ``"N/rad"``."""
-    return f"{di.force_unit}/{dj.unit}"
-
-
-def joint_term(stiffness: np.ndarray, joint_dofs: Sequence[Dof], i: str, j: str) -> np.ndarray:
-    """Term ``K_ij`` of ``stiffness`` (F, n, n) by term label (``"w"``, ``"theta"``, ``"x"`` or ``"101x"``; see :func:`dof_term_labels`), shape (F,)."""
-    labels = dof_term_labels(joint_dofs)
-    try:
-        return stiffness[:, labels.index(i), labels.index(j)]
-    except ValueError:
-        raise IdentificationError(f"joint term K_{i}_{j} was not identified (joint DOFs: {labels})") from None
-
-
-def stiffness_columns(frequency: Frequency, joint_dofs: Sequence[Dof], stiffness: np.ndarray) -> dict[str, np.ndarray]:
-    """``frequency_hz`` then ``K_{i}_{j}_real``, ``K_{i}_{j}_imag`` for every ordered pair of joint DOFs (labels: :func:`dof_term_labels`)."""
-    cols: dict[str, np.ndarray] = {"frequency_hz": frequency.hz}
-    labels = dof_term_labels(joint_dofs)
-    for a, la in enumerate(labels):
-        for b, lb in enumerate(labels):
-            cols[f"K_{la}_{lb}_real"] = stiffness[:, a, b].real
-            cols[f"K_{la}_{lb}_imag"] = stiffness[:, a, b].imag
-    return cols
 
 
 def check_layout(n_joint: int, observed: Sequence, excited: Sequence) -> None:

@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 
@@ -69,18 +69,18 @@ from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_c
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
 from ..frf_screening import check_visibility, floor_exact_zeros, noise_level_unknown, screen_measured
 from .frf_variance import RELATIVE_FLOOR, WEIGHTINGS, column_noise_fraction, frf_variance
-from ..hong_lee.inverse import check_layout, dof_term_labels, joint_term, stiffness_columns
+from ..estimate import JointEstimate, term_scale
+from ..hong_lee.inverse import check_layout
+from ...terms import dof_term_labels, term_names
 from .smoothing import smooth_series
 from .structured_select import MAX_CHI2_PER_DOF, STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
 
-__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "term_scale", "COUPLING_SCALE_FLOOR", "SMOOTHINGS", "AUTO_STRUCTURED_MAX_DOFS", "STRUCTURED_MIN_LINES"]
+__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "SMOOTHINGS", "AUTO_STRUCTURED_MAX_DOFS", "STRUCTURED_MIN_LINES"]
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
 #: Weighted designs above this condition number make a line unreliable.
 MAX_CONDITION = 1e8
-#: Off-diagonal terms are judged against at least this fraction of ``sqrt(|K_ii K_jj|)`` (see :func:`term_scale`).
-COUPLING_SCALE_FLOOR = 0.05
 #: Gauss-Newton steps: per-line estimates relinearized around the smoothed estimate, smoothed again.
 RELINEARIZATIONS = 2
 #: A median column calibration error above this (relative) is reported as a units or sensitivity problem.
@@ -151,8 +151,8 @@ class CouplingOptions:
 
 
 @dataclass(frozen=True, eq=False)
-class CouplingResult:
-    """Identified joint stiffness with per-term uncertainty and reliability.
+class CouplingResult(JointEstimate):
+    """The receptance estimator's :class:`~jointid.methods.estimate.JointEstimate`: per-term uncertainty and reliability.
 
     Attributes
     ----------
@@ -191,9 +191,6 @@ class CouplingResult:
         What the data screening found (:mod:`jointid.methods.frf_screening`): channels left out, an unknown noise level.
     """
 
-    frequency: Frequency
-    joint_dofs: tuple[Dof, ...]
-    stiffness: np.ndarray
     std_real: np.ndarray
     std_imag: np.ndarray
     per_line: np.ndarray
@@ -211,7 +208,7 @@ class CouplingResult:
     estimator_note: str = ""
     data_notes: tuple[str, ...] = ()
 
-    method = "receptance"
+    method: ClassVar[str] = "receptance"
 
     @property
     def estimator(self) -> str:
@@ -232,6 +229,11 @@ class CouplingResult:
     def estimator_summary(self) -> dict:
         """JSON-ready: ``estimator``, ``description`` and, when fitted, the structured model's diagnostics."""
         out = {"estimator": self.estimator, "description": self.describe_estimator()}
+        out.update(self._structured_summary())
+        return out
+
+    def _structured_summary(self) -> dict:
+        out = {}
         st = self.structured
         if st is not None:
             out["structured"] = {
@@ -244,39 +246,20 @@ class CouplingResult:
             }
         return out
 
-    @property
-    def reliable(self) -> np.ndarray:
-        """Lines on which every term is reliable, shape (F,)."""
-        return self.reliable_terms.all(axis=(1, 2))
-
-    @property
-    def relative_std(self) -> np.ndarray:
-        """Predicted relative standard deviation ``sqrt(var Re + var Im) / scale``, shape (F, n, n) (scale: :func:`term_scale`)."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.hypot(self.std_real, self.std_imag) / term_scale(self.stiffness)
-
-    def term_names(self) -> list[tuple[int, int, str]]:
-        """``(i, j, "K_{i}_{j}")`` for every ordered pair of joint DOFs (labels: :func:`~jointid.methods.hong_lee.inverse.dof_term_labels`)."""
-        return _term_names(self.joint_dofs)
-
-    def term(self, i: str, j: str) -> np.ndarray:
-        """Stiffness term ``K_ij`` vs frequency, shape (F,); ``i``, ``j`` directions (``"w"``, ``"x"``) or, for a joint on several nodes, labels (``"101x"``)."""
-        return joint_term(self.stiffness, self.joint_dofs, i, j)
-
     def subset(self, indices) -> "CouplingResult":
         """The result on a subset of the joint DOFs (e.g. one of several joints identified together).
 
         Every (F, n, n) array is cut to the ``indices`` block and ``passive`` to
         those diagonal terms; per-line diagnostics (condition, residual scale,
         calibration) are those of the joint estimate. Term names follow the
-        subset's own DOFs (:func:`~jointid.methods.hong_lee.inverse.dof_term_labels`).
+        subset's own DOFs (:func:`~jointid.terms.dof_term_labels`).
         """
         idx = np.asarray(list(indices), dtype=int)
         blk = np.ix_(np.arange(self.stiffness.shape[0]), idx, idx)
         dofs = tuple(self.joint_dofs[i] for i in idx)
         old = {(a, b): name for a, b, name in self.term_names()}
         edf = {}
-        for a, b, name in _term_names(dofs):
+        for a, b, name in term_names(dofs):
             key = old[(int(idx[a]), int(idx[b]))]
             if key in self.smoothing_edf:
                 edf[name] = self.smoothing_edf[key]
@@ -287,16 +270,20 @@ class CouplingResult:
             self.data_notes,
         )
 
-    def columns(self) -> dict[str, np.ndarray]:
-        """Table columns: stiffness, ``_real_std``/``_imag_std`` and ``reliable_{i}_{j}`` per term, ``reliable``."""
-        cols = stiffness_columns(self.frequency, self.joint_dofs, self.stiffness)
-        for a, b, name in self.term_names():
-            cols[f"{name}_real_std"] = self.std_real[:, a, b]
-            cols[f"{name}_imag_std"] = self.std_imag[:, a, b]
-        for a, b, name in self.term_names():
-            cols[f"reliable_{name[2:]}"] = self.reliable_terms[:, a, b]
-        cols["reliable"] = self.reliable
-        return cols
+    def options_summary(self) -> dict:
+        """JSON-ready: symmetric, smoothing, weighting (the variance model used), averages, max_relative_std, calibration."""
+        o = self.options
+        return {"symmetric": o.symmetric, "smoothing": o.smoothing, "weighting": self.weighting, "averages": o.averages,
+                "max_relative_std": o.max_relative_std, "calibration": o.calibration}
+
+    def diagnostics(self) -> dict:
+        """JSON-ready: the estimator that made the result (structured model's orders), largest condition, residual scale."""
+        return {
+            "estimator": self.estimator_summary(),
+            "max_condition": float(np.max(self.condition)),
+            "median_residual_scale": float(np.nanmedian(self.residual_scale)) if np.isfinite(self.residual_scale).any() else None,
+            "smoothing_edf": {k: (None if v is None else float(v)) for k, v in self.smoothing_edf.items()},
+        }
 
     def findings(self) -> list[str]:
         """One line per term that the FRFs cannot determine on some lines, naming the bands and the predicted error."""
@@ -334,17 +321,6 @@ class CouplingResult:
             err = f"predicted error {100 * median:.0f} %" if np.isfinite(median) else "no uncertainty: the layout has no redundancy"
             out.append(f"{name}: not identifiable from these FRFs {where} ({err}, {100 * bad.mean():.0f} % of lines)")
         return out
-
-    def plot(self, truth: np.ndarray | None = None):
-        """Each term's magnitude with its 90 % band, and loss factor (or phase); returns a Figure."""
-        from ...plots.joint_stiffness import plot_joint_stiffness
-
-        return plot_joint_stiffness(self, truth=truth)
-
-
-def _term_names(joint_dofs) -> list[tuple[int, int, str]]:
-    labels = dof_term_labels(joint_dofs)
-    return [(a, b, f"K_{la}_{lb}") for a, la in enumerate(labels) for b, lb in enumerate(labels)]
 
 
 def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: CouplingOptions | None = None) -> CouplingResult:
@@ -485,22 +461,6 @@ def _exact(lines) -> bool:
     n = lines.stiffness.shape[1]
     return all(_median_relative_std(lines.variance[:, a, b], lines.stiffness[:, a, b]) <= SMOOTH_MIN_RELATIVE_STD
                for a in range(n) for b in range(a, n))
-
-
-def term_scale(K: np.ndarray) -> np.ndarray:
-    """The scale a term's uncertainty is judged against, shape (F, n, n), same units as ``K``.
-
-    ``|K_ij|``, but for an off-diagonal term at least ``COUPLING_SCALE_FLOOR sqrt(|K_ii K_jj|)``:
-    a coupling that is truly (near) zero -- an absent cross term of a mount, a term between
-    two joints -- is then judged by how well it is known on the scale of its two DOFs, not
-    flagged "not identifiable" for being zero. (The benchmark beam's K_w_theta is >= 0.14
-    of that scale, so its flags do not change.)
-    """
-    d = np.abs(np.diagonal(K, axis1=-2, axis2=-1))
-    floor = COUPLING_SCALE_FLOOR * np.sqrt(d[..., :, None] * d[..., None, :])
-    n = K.shape[-1]
-    floor[..., np.arange(n), np.arange(n)] = 0.0
-    return np.maximum(np.abs(K), floor)
 
 
 def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False, data_notes=()) -> CouplingResult:
