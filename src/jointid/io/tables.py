@@ -25,11 +25,24 @@ def _fmt(v) -> str:
     return str(v)
 
 
+def _column_text(col: np.ndarray) -> list[str] | None:
+    """The CSV fields of a numeric column in bulk (as :func:`_fmt` writes each value); None for other dtypes."""
+    if col.dtype == np.bool_:
+        return np.where(col, "1", "0").tolist()
+    if col.dtype.kind in "iu":
+        return list(map(str, col.tolist()))
+    if col.dtype.kind == "f":
+        return list(map(repr, col.astype(float).tolist()))  # repr of a Python float: shortest round-trip text
+    return None
+
+
 def format_csv(columns: Mapping[str, Sequence]) -> str:
     """The CSV text of equal-length ``columns`` (name -> values), header row first.
 
     Floats are written with full precision (``repr``), booleans as ``1``/``0`` (numbers every
     CSV reader parses: ``numpy.genfromtxt`` reads ``true``/``false`` as NaN, which is truthy).
+    Numeric columns are formatted a column at a time, other columns a field at a time with the
+    ``csv`` module's quoting.
     """
     names = list(columns)
     cols = [np.asarray(columns[k]) for k in names]
@@ -39,6 +52,12 @@ def format_csv(columns: Mapping[str, Sequence]) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(names)
+    text = [_column_text(c) if c.ndim == 1 else None for c in cols]
+    if all(t is not None for t in text):
+        if cols and len(cols[0]):
+            buf.write("\n".join(map(",".join, zip(*text))))
+            buf.write("\n")
+        return buf.getvalue()
     for row in zip(*cols):
         w.writerow([_fmt(v) for v in row])
     return buf.getvalue()

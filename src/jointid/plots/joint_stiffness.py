@@ -7,6 +7,7 @@ import numpy as np
 from ..methods.receptance.coupling import Z90 as _Z90
 from ..terms import dof_term_labels, term_unit
 from .nvh_axes import loss_or_phase, loss_or_phase_std, magnitude_band, robust_limits, robust_log_limits, set_frequency_axis
+from .fast_axes import fixed_margins, place_legend, plain_log_ticks
 from .style import new_figure
 
 __all__ = ["plot_joint_stiffness", "draw_term_magnitude", "draw_loss_or_phase"]
@@ -110,8 +111,10 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
         return plot_joint_terms(result, truth=truth)
     labels = dof_term_labels(dofs)
     terms = [(i, j) for i in range(len(dofs)) for j in range(i, len(dofs))]
-    if axes is None:
-        fig, axes = new_figure(2, len(terms), figsize=(4.6 * len(terms) + 0.6, 7.0), height_ratios=[1.6, 1])
+    own = axes is None
+    if own:  # fixed margins, no layout engine: the figure of 20 000 lines draws in a fraction of the time
+        fig, axes = new_figure(2, len(terms), figsize=(4.6 * len(terms) + 0.6, 7.0), height_ratios=[1.6, 1], sharex=False, layout=None)
+        fixed_margins(fig, left=0.8, right=0.15, bottom=0.55, top=0.6, wspace=0.9, hspace=0.45)
     else:
         fig = np.asarray(axes).flat[0].figure
     axes = np.asarray(axes).reshape(2, len(terms))
@@ -124,13 +127,11 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
         ax, ax_l = axes[:, c]
         draw_term_magnitude(ax, f, k, sr, si, per_line=result.per_line[:, i, j], truth=t, bad=bad,
                             unit=term_unit(dofs[i], dofs[j]), name=name)
-        ax.set_title(f"{name} ({100 * (~bad).mean():.0f} % of lines reliable)")
-        ax.legend(fontsize="x-small", loc="best")
+        ax.set_title(f"{name} ({100 * (~bad).mean():.0f} % of lines reliable)", y=1.0)  # y given: no search for top tick labels
         if i == j:
             kind = draw_loss_or_phase(ax_l, f, k, sr, si, truth=t, bad=bad)
             ax_l.set_title(f"{name}: " + ("loss factor Im K / Re K" if kind == "loss factor" else
-                           "phase (Re K crosses 0: no loss factor there)"), fontsize="small")
-            ax_l.legend(fontsize="x-small", loc="best")
+                           "phase (Re K crosses 0: no loss factor there)"), fontsize="small", y=1.0)
         elif not error_panel_drawn:
             _draw_predicted_errors(ax_l, result, labels)
             error_panel_drawn = True
@@ -138,6 +139,12 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
             ax_l.axis("off")
         for a in (ax, ax_l):
             set_frequency_axis(a, f, label=a is ax_l)
+            if a.axison:
+                if a.get_yscale() == "log":
+                    plain_log_ticks(a.yaxis)
+                place_legend(a, ncol=2 if a is ax_l and i != j else 1)
+        if own:
+            ax.tick_params(labelbottom=False)  # the frequency is labelled under the bottom row
     fig.suptitle(f"joint stiffness ({result.method}, estimator: {result.estimator}, weighting: {result.weighting}); "
                  "shaded: term unreliable")
     return fig
@@ -156,6 +163,5 @@ def _draw_predicted_errors(ax, result, labels) -> None:
     if finite.size:
         ax.set_ylim(max(np.percentile(finite, 1) / 2, 1e-6), max(np.percentile(finite, 99) * 2, 2 * result.options.max_relative_std))
     ax.set_ylabel("predicted relative error (1 sigma)")
-    ax.set_title("predicted error of each term; above the threshold: unreliable", fontsize="small")
+    ax.set_title("predicted error of each term; above the threshold: unreliable", fontsize="small", y=1.0)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="x-small", loc="best", ncol=2)

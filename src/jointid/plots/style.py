@@ -12,15 +12,20 @@ from ..io.atomic import atomic_path
 __all__ = ["new_figure", "save_figure", "figure_png"]
 
 
-def new_figure(rows: int = 1, cols: int = 1, height_ratios=None, figsize=(8.0, 6.0), sharex: bool = True):
+def new_figure(rows: int = 1, cols: int = 1, height_ratios=None, figsize=(8.0, 6.0), sharex: bool = True,
+               layout: str | None = "constrained"):
     """A Figure with a grid of axes (no pyplot, safe in threads and headless runs).
+
+    ``layout``: matplotlib's layout engine (``"constrained"``), or None for
+    margins set by the caller (:func:`jointid.plots.fast_axes.fixed_margins`):
+    the constrained layout measures every tick label before the figure is drawn.
 
     Returns
     -------
     fig : Figure
     axes : ndarray of Axes, shape (rows, cols) squeezed
     """
-    fig = Figure(figsize=figsize, layout="constrained")
+    fig = Figure(figsize=figsize, layout=layout)
     axes = fig.subplots(rows, cols, sharex=sharex, squeeze=False, gridspec_kw={"height_ratios": height_ratios} if height_ratios else None)
     return fig, axes.squeeze() if axes.size > 1 else axes[0, 0]
 

@@ -253,9 +253,15 @@ def _bands(theta, cov, hz, model: StructuredModel):
     SS = S[:, None] * S[None, :]
     Dp, Jp = structured_stiffness(theta, hz, model, jacobian=True)
     JD = Jp * SS[None, :, :, None]
-    var_re = np.einsum("fijp,pq,fijq->fij", JD.real, cov, JD.real, optimize=True)
-    var_im = np.einsum("fijp,pq,fijq->fij", JD.imag, cov, JD.imag, optimize=True)
+    P = cov.shape[0]
+    var_re = _quadratic_form(np.ascontiguousarray(JD.real).reshape(-1, P), cov).reshape(Dp.shape)
+    var_im = _quadratic_form(np.ascontiguousarray(JD.imag).reshape(-1, P), cov).reshape(Dp.shape)
     return Dp * SS, np.sqrt(np.maximum(var_re, 0.0)), np.sqrt(np.maximum(var_im, 0.0))
+
+
+def _quadratic_form(J: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """``j_m^T cov j_m`` of every row ``j_m`` of ``J`` (M, P): one (M, P) x (P, P) product and a row sum."""
+    return np.einsum("mp,mp->m", J @ cov, J)
 
 
 def _smoothed_curves(hz, lines):

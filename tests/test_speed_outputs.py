@@ -1,0 +1,70 @@
+"""The fast paths of the identify outputs give what the plain paths give: CSV text, legend place, tick labels, bands."""
+
+import csv
+import io
+
+import numpy as np
+import pytest
+
+from jointid.io.tables import _fmt, format_csv
+
+
+def _plain_csv(columns) -> str:
+    """The CSV text a field at a time (the reference of the bulk path)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(list(columns))
+    for row in zip(*[np.asarray(c) for c in columns.values()]):
+        w.writerow([_fmt(v) for v in row])
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("columns", [
+    {"f": np.linspace(5, 1000, 7), "k": np.array([0.1, -0.0, np.nan, np.inf, -np.inf, 1e-300, 1.7976931348623157e308]),
+     "n": np.arange(7), "u": np.arange(7, dtype=np.uint8), "ok": np.arange(7) % 2 == 0, "s": np.float32([0.1] * 7)},
+    {"name": ["a,b", 'q"t', "plain"], "x": [1.5, 2.0, 3.0]},  # text columns: the csv module's quoting
+    {"a": []},
+    {},
+])
+def test_bulk_csv_text_equals_the_per_field_text(columns):
+    assert format_csv(columns) == _plain_csv(columns)
+
+
+def test_bulk_csv_keeps_full_precision_and_bools_as_numbers():
+    x = np.random.default_rng(0).standard_normal(1000) * 1e5
+    text = format_csv({"x": x, "ok": x > 0})
+    back = np.genfromtxt(io.StringIO(text), delimiter=",", names=True)
+    assert np.array_equal(back["x"], x)  # shortest round-trip text: the same doubles
+    assert np.array_equal(back["ok"], (x > 0).astype(float))
+
+
+def test_legend_goes_where_the_data_are_not():
+    from jointid.plots.fast_axes import place_legend
+    from jointid.plots.style import new_figure
+
+    fig, ax = new_figure(1, 1, layout=None)
+    f = np.linspace(0.0, 1.0, 20000)
+    ax.plot(f, 0.85 + 0.15 * np.sin(40 * f), ".", label="dense dots along the top")
+    ax.plot(f, 0.95 + 0 * f, label="a line along the top")
+    ax.set_ylim(0, 1)
+    leg = place_legend(ax)
+    assert leg._loc not in (1, 2, 9)  # upper right, upper left, upper center: over the data
+
+
+def test_plain_log_tick_labels():
+    from jointid.plots.fast_axes import plain_number
+
+    assert [plain_number(v) for v in (1e5, 2e-4, 20.0, 0.5, 1e-3, 1e6, 3e4)] == ["1e5", "2e-4", "20", "0.5", "0.001", "1e6", "30000"]
+
+
+def test_band_quadratic_form_within_its_rounding_bound():
+    from jointid.methods.receptance.structured_fit import _quadratic_form
+
+    rng = np.random.default_rng(1)
+    J = rng.standard_normal((500, 12))
+    A = rng.standard_normal((12, 12))
+    cov = A @ A.T
+    ref = np.array([j @ cov @ j for j in J])
+    # each value is a sum of P^2 products: within 2 P eps of sum |j| |cov| |j| (Higham 2002, sec. 3.1)
+    bound = 2 * 12 * np.finfo(float).eps * np.einsum("mp,pq,mq->m", np.abs(J), np.abs(cov), np.abs(J))
+    assert np.all(np.abs(_quadratic_form(J, cov) - ref) <= bound)
