@@ -30,6 +30,8 @@ import time
 
 import numpy as np
 
+from jointid.dofs import Dof
+
 from jointid.benchmark import benchmark_study
 from jointid.methods.hong_lee.inverse import InverseOptions
 from jointid.pipeline import experiment, identify, simulate
@@ -39,8 +41,8 @@ from jointid.reproduce.noise_robustness import TERMS, term_errors, within_band
 
 def study(material: str, node: int, **experiment_settings):
     st = benchmark_study()
-    joint = dataclasses.replace(st.joint, node=node, model=dataclasses.replace(st.joint.model, parameters={"material": material}))
-    st = dataclasses.replace(st, joint=joint, frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0))
+    joint = dataclasses.replace(st.joint, dofs=tuple(Dof(node, d.direction) for d in st.joint.dofs), model=dataclasses.replace(st.joint.model, parameters={"material": material}))
+    st = dataclasses.replace(st, joints=(joint,), frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0))
     if experiment_settings:
         st = dataclasses.replace(st, experiment=dataclasses.replace(st.experiment, **experiment_settings))
     return st

@@ -16,6 +16,8 @@ import dataclasses
 import time
 
 import numpy as np
+
+from jointid.dofs import Dof
 from threadpoolctl import threadpool_limits
 
 from jointid.benchmark import benchmark_study
@@ -26,9 +28,9 @@ from jointid.reproduce.noise_robustness import TERMS, term_errors, within_band
 
 def study(material: str, node: int, **beam):
     st = benchmark_study()
-    joint = dataclasses.replace(st.joint, node=node, model=dataclasses.replace(st.joint.model, parameters={"material": material}))
-    st = dataclasses.replace(st, joint=joint, frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0))
-    return dataclasses.replace(st, beam=dataclasses.replace(st.beam, **beam)) if beam else st
+    joint = dataclasses.replace(st.joint, dofs=tuple(Dof(node, d.direction) for d in st.joint.dofs), model=dataclasses.replace(st.joint.model, parameters={"material": material}))
+    st = dataclasses.replace(st, joints=(joint,), frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0))
+    return dataclasses.replace(st, structure=dataclasses.replace(st.beam, **beam)) if beam else st
 
 
 def noisy(frf, level, seed):
@@ -45,7 +47,7 @@ def scenarios():
     yield "Material B, node 10, 1 % noise (seed 3)", st, noisy(test.frf, 0.01, 3), test.truth
     fine = study("B", 1, elements_per_segment=16)
     tf = simulate(fine)
-    coarse = dataclasses.replace(fine, beam=dataclasses.replace(fine.beam, elements_per_segment=None))
+    coarse = dataclasses.replace(fine, structure=dataclasses.replace(fine.beam, elements_per_segment=None))
     yield "finer-mesh FRFs, Material B, node 1, 1 % noise (seed 5)", coarse, noisy(tf.frf, 0.01, 5), tf.truth
     for seed in (0, 1):
         sb = study("B", 1)

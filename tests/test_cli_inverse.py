@@ -93,7 +93,7 @@ def test_identify_noisy_frfs_reports_the_structured_estimator(tmp_path, capsys):
     out = capsys.readouterr().out.splitlines()
     line = next(x for x in out if x.startswith("estimator: "))
     assert line.startswith("estimator: structured joint model (") and "Akaike-weighted average of" in line
-    est = json.loads((tmp_path / "id" / "summary.json").read_text())["estimator"]
+    est = json.loads((tmp_path / "id" / "summary.json").read_text())["diagnostics"]["estimator"]
     assert est["estimator"] == "structured" and est["structured"]["accepted"]
     assert 0.7 < est["structured"]["chi2_per_dof"] < 1.5
     assert abs(sum(est["structured"]["akaike_weights"].values()) - 1.0) < 1e-9

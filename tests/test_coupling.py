@@ -3,6 +3,8 @@
 import dataclasses
 
 import numpy as np
+
+from jointid.dofs import Dof
 import pytest
 
 from jointid.benchmark import benchmark_beam, benchmark_study
@@ -37,9 +39,9 @@ def test_exact_recovery(node, observed):
 
 def _study(material="A", node=10, **beam):
     st = benchmark_study()
-    joint = dataclasses.replace(st.joint, node=node, model=dataclasses.replace(st.joint.model, parameters={"material": material}))
-    st = dataclasses.replace(st, joint=joint, frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0, step=2.0))
-    return dataclasses.replace(st, beam=dataclasses.replace(st.beam, **beam)) if beam else st
+    joint = dataclasses.replace(st.joint, dofs=tuple(Dof(node, d.direction) for d in st.joint.dofs), model=dataclasses.replace(st.joint.model, parameters={"material": material}))
+    st = dataclasses.replace(st, joints=(joint,), frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0, step=2.0))
+    return dataclasses.replace(st, structure=dataclasses.replace(st.beam, **beam)) if beam else st
 
 
 def _errors(K, truth):
@@ -53,7 +55,7 @@ def test_data_from_a_finer_mesh_converge_with_the_automatic_refinement(material)
     test = simulate(fine)
     errors = {}
     for r in (1, None):
-        st = dataclasses.replace(fine, beam=dataclasses.replace(fine.beam, elements_per_segment=r))
+        st = dataclasses.replace(fine, structure=dataclasses.replace(fine.beam, elements_per_segment=r))
         res = identify(st, test.frf)
         errors[r] = _errors(res.stiffness, test.truth)
     assert st.beam.mesh_refinement(1000.0) == 8

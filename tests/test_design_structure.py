@@ -16,7 +16,9 @@ from jointid.io.matrix_files import write_free_matrices
 from jointid.methods.receptance.coupling_lines import coupling_per_line
 from jointid.methods.design.layout import LayoutPredictor, Sensors, design_layout
 from jointid.physics import build_frame
-from jointid.pipeline_structure import simulate_structure, structure_model, true_joint_matrix
+from jointid.models import true_joint_matrix
+from jointid.pipeline import free_model
+from jointid.pipeline import simulate as simulate_structure
 from jointid.study.parse import load_study
 from test_frame_mounts import fixture_frame
 
@@ -87,7 +89,7 @@ def test_predictor_on_dofs_is_the_identifications_covariance_of_the_structure(fi
     moved = with_layout(st, obs, exc)
     assert moved.measurement.observed == (Dof(1, "y"), Dof(3, "x"), Dof(4, "z"), Dof(5, "x"))
     f = st.grid[st.grid.hz > 0]
-    free = structure_model(st)
+    free = free_model(st)
     pred = LayoutPredictor(free, lambda hz: true_joint_matrix(st, hz), st.joint_dofs, f, obs + exc, 0.01,
                            blocks=[("mount", 3)])
     H = simulate_structure(moved, f).frf.to("receptance").data
@@ -175,7 +177,7 @@ def test_design_layout_keeps_beam_nodes_as_ints_and_refuses_bad_labels(files):
     st = load_study(_study(files, GOOD, name="labels.toml"))
     f = st.grid[st.grid.hz > 0]
     with pytest.raises(IdentificationError) as err:
-        design_layout(structure_model(st), lambda hz: true_joint_matrix(st, hz), st.joint_dofs, f, ["1x", "1q"], 3, 3)
+        design_layout(free_model(st), lambda hz: true_joint_matrix(st, hz), st.joint_dofs, f, ["1x", "1q"], 3, 3)
     assert str(err.value) == ("candidates: cannot read a DOF from '1q'; write it as '<node><direction>', e.g. '10w', "
                               "'10theta', '101z', '101rx' or '1995001s'")
 

@@ -14,7 +14,7 @@ Layers, bottom-up (a module may import its own layer and any lower one):
    ``io.impact_files`` (the files of the impact records);
 3. ``methods`` (inverse, direct material fit, updating, design);
 4. the application: ``study``, ``benchmark``,
-   ``pipeline``, ``pipeline_structure``, ``models``, ``design``, ``hits``, ``reproduce``, ``report`` and ``plots``;
+   ``pipeline``, ``models``, ``design``, ``hits``, ``reproduce``, ``report`` and ``plots``;
 5. ``cli``; the package ``jointid/__init__.py`` re-exports every layer by name (lazily,
    no import statement), so it is the top.
 
@@ -52,7 +52,6 @@ RANKS = {
     "study": 4,
     "benchmark": 4,
     "pipeline": 4,
-    "pipeline_structure": 4,
     "models": 4,
     "design": 4,
     "hits": 4,

@@ -206,21 +206,18 @@ def test_cli_simulate_identify_recovers_the_elastomer_joint_exactly(tmp_path):
 
 
 def test_models_is_the_one_translation(tmp_path):
-    """pipeline / pipeline_structure keep their names, and they are the models functions."""
+    """pipeline re-exports the models functions; the same ones serve a [beam] and a [structure] study."""
     import jointid.pipeline as pl
-    import jointid.pipeline_structure as ps
     from jointid import models
 
     assert pl.free_model is models.free_model and pl.true_joint is models.true_joint and pl.constrained_model is models.constrained_model
-    assert ps.structure_model is models.structure_model and ps.true_joints is models.true_joints
     frame = load_study(frame_study(tmp_path))
     assert isinstance(free_model(frame), SparseModel)
     assert [j.name for j in true_joints(frame)] == ["bush"]
     assert type(constrained_model(frame)).__name__ == "JointedModel"
     beam = load_study(beam_study(tmp_path))
     assert len(true_joints(beam)) == 1 and true_joints(beam)[0].dofs == beam.joint.joint_dofs
-    with pytest.raises(StudyError, match="use true_joints"):
-        true_joint(frame)
+    assert true_joint(frame).name == "bush"  # a study of one joint, whatever its free structure
 
 
 def test_cli_recovers_an_elastomer_joint_between_two_parts(tmp_path):

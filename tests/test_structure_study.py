@@ -257,8 +257,8 @@ def test_structure_study_errors_are_one_exact_line(tmp_path):
     assert _error(tmp_path, lambda t: t.replace('["1x", "1ry", 2e4]', '["1x", "2ry", 2e4]')) == (
         "[[joint]] 'front' [joint.model].couplings: DOF 2ry is not one of the joint's dofs (1x, 1y, 1z, 1rx, 1ry, 1rz)"
     )
-    assert _error(tmp_path, lambda t: t.replace('[measurement]', '[accelerometers]\nmass = 0.01\n[measurement]')) == (
-        "[accelerometers] applies to [beam] studies only; put sensor masses or model changes into the [structure] matrices"
+    assert _error(tmp_path, lambda t: t.replace('[measurement]', '[accelerometers]\nmass = 0.01\nnodes = [99]\n[measurement]')) == (
+        "[accelerometers].nodes: node 99 has no DOF in the structure (model_dofs.csv)"
     )
 
 
@@ -280,8 +280,8 @@ def test_not_positive_definite_mount_and_beam_only_commands(tmp_path, capsys):
                           "is not positive definite (smallest eigenvalue")
     assert main(["modes", str(p), "--out", str(tmp_path / "u")]) == 2
     assert capsys.readouterr().err.strip() == (
-        f"jointid modes: error: {p}: `jointid modes` needs a [beam] study; a [structure] study works with "
-        "`jointid simulate`, `jointid identify`, `jointid experiment`, `jointid update` and `jointid design`"
+        f"jointid modes: error: {p}: `jointid modes` needs a [beam] study; the modes of a [structure] come with its FRFs "
+        "(`jointid simulate --free`)"
     )
 
 
@@ -353,10 +353,11 @@ def test_single_joint_table_in_a_structure_study_is_one_joint(tmp_path):
     p.write_text(p.read_text().replace("[[joint]]", "[joint]"))
     study = load_study(p)
     assert [j.name for j in study.joints] == ["link"] and len(study.joint_dofs) == 12
-    assert study.beam is None and study.joint is None and study.is_structure
+    assert study.beam is None and len(study.joints) == 1 and study.joint.name == "link"
     assert study.measurement.observed_dofs[:3] == (Dof(1, "x"), Dof(1, "y"), Dof(1, "z"))
-    mount = study.joints[0].mount()
-    K = mount([100.0])[0]
+    from jointid.models import true_joint
+
+    K = true_joint(study)([100.0])[0]
     assert K.shape == (12, 12) and K[0, 4] == pytest.approx(1.3 * (1 + 0.12j) * 2e4)  # growth 0.3 at the reference frequency
 
 

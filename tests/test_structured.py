@@ -7,6 +7,8 @@ import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
+
+from jointid.dofs import Dof
 import pytest
 
 from jointid.benchmark import benchmark_study
@@ -24,9 +26,9 @@ TERMS = [(0, 0), (0, 1), (1, 1)]
 
 def _study(material="A", node=10, **beam):
     st = benchmark_study()
-    joint = dataclasses.replace(st.joint, node=node, model=dataclasses.replace(st.joint.model, parameters={"material": material}))
-    st = dataclasses.replace(st, joint=joint, frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0))
-    return dataclasses.replace(st, beam=dataclasses.replace(st.beam, **beam)) if beam else st
+    joint = dataclasses.replace(st.joint, dofs=tuple(Dof(node, d.direction) for d in st.joint.dofs), model=dataclasses.replace(st.joint.model, parameters={"material": material}))
+    st = dataclasses.replace(st, joints=(joint,), frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0))
+    return dataclasses.replace(st, structure=dataclasses.replace(st.beam, **beam)) if beam else st
 
 
 def _errors(K, truth):
@@ -99,7 +101,7 @@ def test_data_from_a_finer_mesh_with_noise_every_term_beats_hong_lee_and_meets_t
     """FRFs of the beam meshed 16 elements per segment, 1 % noise, identified on the automatic mesh (8) at the beam end."""
     fine = _study("B", node=1, elements_per_segment=16)
     test = simulate(fine)
-    st = dataclasses.replace(fine, beam=dataclasses.replace(fine.beam, elements_per_segment=None))
+    st = dataclasses.replace(fine, structure=dataclasses.replace(fine.beam, elements_per_segment=None))
     measured = _noisy(test.frf, 0.01, seed=5)
     new = identify(st, measured)
     plain = identify(st, measured, InverseOptions())

@@ -90,7 +90,7 @@ def test_update_recovers_beam_from_noisy_free_free_test_within_two_std(chain):
     assert 0.009 < report["residual"]["after"] < 0.011
     corr = np.array(report["correlation"]["matrix"], dtype=float)
     assert corr.shape == (3, 3) and np.allclose(np.diag(corr), 1.0)
-    truth = json.loads((chain / "sim" / "true_beam.json").read_text())
+    truth = json.loads((chain / "sim" / "true_structure.json").read_text())
     assert truth["elements_per_segment"] == 16 and truth["density"] == TRUE["density"]
 
 
@@ -105,7 +105,7 @@ def test_updated_study_keeps_the_text_and_carries_the_values(chain):
     for name, p in report["parameters"].items():
         assert getattr(updated.beam, name) == p["value"]
     original = load_study(chain / "study.toml")
-    assert replace(updated, beam=original.beam, source=original.source) == original
+    assert replace(updated, structure=original.beam, source=original.source) == original
     assert (chain / "upd" / "update.png").stat().st_size > 10_000
 
 
@@ -138,8 +138,8 @@ def _constrained_test(study, frequency, noise, seed):
 def test_identification_with_updated_model_is_as_good_as_with_the_exact_model(chain):
     study = load_study(chain / "study.toml")
     updated = load_study(chain / "upd" / "updated_study.toml")
-    true = pipeline.true_beam_study(study)
-    exact = replace(study, beam=replace(true.beam, elements_per_segment=None), truth=None)  # true values, model mesh
+    true = pipeline.true_study(study)
+    exact = replace(study, structure=replace(true.beam, elements_per_segment=None), truth=None)  # true values, model mesh
     f = Frequency.from_range(5.0, 1000.0, 4.0)
     noisy, truth = _constrained_test(true, f, 0.01, seed=3)
     exact_frf, _ = _constrained_test(true, f, 0.0, seed=3)
@@ -310,7 +310,7 @@ def test_simulate_free_with_truth_from_another_study(tmp_path, capsys):
     other = tmp_path / "other.toml"
     other.write_text(STUDY.replace("elastic_modulus = 69e9     # Pa, nominal", "elastic_modulus = 71e9").split("[truth]")[0])
     assert main(["simulate", str(study), "--free", "--truth", str(other), "--out", str(tmp_path / "sim")]) == 0
-    truth = json.loads((tmp_path / "sim" / "true_beam.json").read_text())
+    truth = json.loads((tmp_path / "sim" / "true_structure.json").read_text())
     assert truth["elastic_modulus"] == 71e9 and truth["density"] == RHO0 and truth["noise"] == 0.0
     other.write_text(STUDY.replace("nodes = 19", "nodes = 21"))
     assert main(["simulate", str(study), "--free", "--truth", str(other), "--out", str(tmp_path / "sim2")]) == 2

@@ -21,7 +21,8 @@ from jointid.methods.updating.scaled_matrices import ScaledMatrixFamily
 from jointid.physics import build_frame
 from jointid.physics.sparse_model import SparseModel
 from jointid.pipeline import identify, read_measured, update
-from jointid.pipeline_structure import simulate_free_structure, structure_model
+from jointid.pipeline import free_model
+from jointid.pipeline import simulate_free as simulate_free_structure
 from jointid.study.parse import load_study
 from test_frame_mounts import COMP, EXCITED, OBSERVED, TRUTH_A, TRUTH_B, _grounded_joints, fixture_frame
 from test_structure_study import _list, _matrix, _mount_truth, read_table
@@ -81,7 +82,7 @@ def _relative_errors(result):
 
 def test_structure_scales_build_the_scaled_model(frame_dir):
     d, frame = frame_dir
-    model = structure_model(load_study(d / "truth.toml"))
+    model = free_model(load_study(d / "truth.toml"))
     assert abs(model.stiffness - 1.03 * sp.csc_array(frame.stiffness)).max() == 0.0
     assert abs(model.mass - 0.98 * sp.csc_array(frame.mass)).max() == 0.0
     assert model.loss_factor == 0.003

@@ -9,7 +9,7 @@ there, so they move with a new layout; otherwise fixed where the study puts them
 ``[identification].model_accelerometers`` and ``symmetric``, and the band
 ``[frequency] start..stop`` on the study's grid.
 
-A ``[structure]`` study (:func:`design_structure_study`): the candidates are DOFs
+A ``[structure]`` study (:func:`_design_on_dofs`): the candidates are DOFs
 (default every translational DOF of the nodes the study observes or excites), the
 free model its :class:`~jointid.physics.sparse_model.SparseModel`, the expected joint
 the block-diagonal assembly of every ``[[joint]]``'s ``[joint.model]`` and the
@@ -24,15 +24,16 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .dofs import Dof, pack_dof_keys, parse_dof
+from .dofs import Dof, DofArray, pack_dof_keys, parse_dof
 from .errors import DofError, StudyError
 from .frequency import Frequency
 from .methods.design.layout import LayoutDesign, Scenario, Sensors, design_layout
+from .models import true_joints
 from .pipeline import coupling_options, free_model, true_joint
 from .study.parse import Study
 
 __all__ = [
-    "design_study", "design_structure_study", "structure_candidates", "study_sensors", "with_layout", "design_band",
+    "design_study", "dof_candidates", "study_sensors", "with_layout", "design_band",
     "hammer_noise", "MAX_CANDIDATES",
 ]
 
@@ -56,7 +57,7 @@ def with_layout(study: Study, observed: Sequence, excited: Sequence) -> Study:
     ``[structure]`` study. A ``[measurement.points]`` map is kept only if it still names every node.
     """
     m = study.measurement
-    if study.is_structure:
+    if study.beam is None:  # layouts of DOF labels (the beam's shorthand: nodes, transverse w)
         try:
             observed, excited = tuple(parse_dof(d) for d in observed), tuple(parse_dof(d) for d in excited)
         except DofError as exc:
@@ -102,7 +103,7 @@ def design_study(
         K and L (default: as many as the study's ``[measurement]``).
     candidates : sequence of int, optional
         Beam nodes that may be observed or excited (default: every node 1..N); for a
-        ``[structure]`` study DOF labels (see :func:`design_structure_study`).
+        ``[structure]`` study DOF labels (see :func:`dof_candidates`).
     noise : float
         Relative 1-sigma FRF noise (0.01 = 1 %).
     weights : mapping, optional
@@ -129,8 +130,8 @@ def design_study(
     IdentificationError
         K or L out of range, an unknown term weight.
     """
-    if study.is_structure:
-        return design_structure_study(
+    if study.beam is None:  # candidates are DOFs (the beam's shorthand: nodes, with its sensor model)
+        return _design_on_dofs(
             study, observed, excited, candidates=candidates, noise=noise, weights=weights, band_hz=band_hz,
             search_lines=search_lines, monte_carlo=monte_carlo, progress=progress,
         )
@@ -186,8 +187,8 @@ def hammer_noise(study: Study, noise: float) -> float:
     return float(x.response_noise / math.sqrt(max(1, x.averages) * lines))
 
 
-def structure_candidates(study: Study, candidates: Sequence | None = None) -> tuple[Dof, ...]:
-    """The candidate DOFs of a ``[structure]`` study's design, checked against the model.
+def dof_candidates(study: Study, candidates: Sequence | None = None) -> tuple[Dof, ...]:
+    """The candidate DOFs of a design on DOF labels (any free structure but the beam shorthand), checked against the model.
 
     Default: every translational DOF (x, y, z) the model has at the nodes that
     ``[measurement]`` observes or excites. Given: DOF labels (``"12x"``) or
@@ -199,7 +200,8 @@ def structure_candidates(study: Study, candidates: Sequence | None = None) -> tu
         A label that is not a DOF, a DOF not in the structure, none, or more than
         :data:`MAX_CANDIDATES` (one line each).
     """
-    dof_array = study.structure.dof_array
+    dofs = free_model(study, with_accelerometers=False).dofs
+    dof_array = DofArray.from_dofs(dofs)
     if candidates is None:
         m = study.measurement
         nodes = sorted({d.node for d in m.observed_dofs + m.excited_dofs})
@@ -209,7 +211,7 @@ def structure_candidates(study: Study, candidates: Sequence | None = None) -> tu
     else:
         try:
             cands = tuple(dict.fromkeys(parse_dof(c) for c in candidates))
-            dof_array.indices(cands, f"structure ({study.structure.dofs})")
+            dof_array.indices(cands, study.structure.describe())
         except DofError as exc:
             raise StudyError(f"candidates: {exc}") from None
     if not cands:
@@ -222,18 +224,18 @@ def structure_candidates(study: Study, candidates: Sequence | None = None) -> tu
     return cands
 
 
-def design_structure_study(
+def _design_on_dofs(
     study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence | None = None,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
     search_lines: int = 300, monte_carlo: int = 0, progress=None,
 ) -> LayoutDesign:
-    """Choose observed and excited DOFs of a ``[structure]`` study for the best-determined joints.
+    """Choose observed and excited DOFs (of any free structure) for the best-determined joints.
 
     As :func:`design_study` (which dispatches here), with: candidates from
-    :func:`structure_candidates`; the free model the study's
+    :func:`dof_candidates`; the free model the study's
     :class:`~jointid.physics.sparse_model.SparseModel`; the expected joint the
     block-diagonal assembly of every ``[[joint]]``'s ``[joint.model]``
-    (:func:`~jointid.pipeline_structure.true_joint_matrix`, joint DOFs
+    (:func:`~jointid.models.true_joint_matrix`, joint DOFs
     ``study.joint_dofs``); the criterion over each joint's own terms (with several
     joints named ``"<joint>:K_x_ry"``; a weight without the prefix sets that term of
     every joint); no accelerometers (a structure's sensors are in its matrices). The
@@ -248,17 +250,16 @@ def design_structure_study(
     Raises
     ------
     StudyError
-        A joint without ``[joint.model]``, a bad candidate (see :func:`structure_candidates`), an empty band.
+        A joint without ``[joint.model]``, a bad candidate (see :func:`dof_candidates`), an empty band.
     """
     from .physics.jointed_model import assemble_joints
-    from .pipeline_structure import structure_model, true_joints
 
     for j in study.joints:
         if j.model is None:
             raise StudyError(
                 f"{study.source}: [[joint]] {j.name!r} has no [joint.model] table; a design needs the expected stiffness of every joint"
             )
-    cands = structure_candidates(study, candidates)
+    cands = dof_candidates(study, candidates)
     joints = true_joints(study)
     m = study.measurement
     spec = study.identification
@@ -267,7 +268,7 @@ def design_structure_study(
     else:
         scenarios = _beam_scenarios(study, noise)
     return design_layout(
-        structure_model(study),
+        free_model(study, with_accelerometers=False),
         lambda f_hz: assemble_joints(joints, f_hz),
         study.joint_dofs,
         design_band(study, band_hz),

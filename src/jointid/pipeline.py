@@ -1,10 +1,13 @@
-"""From a validated :class:`~jointid.study.parse.Study` to models, virtual tests and identifications.
+"""From a validated :class:`~jointid.study.Study` to virtual tests, identifications and model updates: one pipeline.
 
-These functions are the API behind ``jointid simulate`` and ``jointid identify``;
-they only translate study settings into calls of :mod:`jointid.physics` and
-:mod:`jointid.methods`. The models of a study (free model, true joints, test
-article) come from :mod:`jointid.models`; ``free_model``, ``true_joint`` and
-``constrained_model`` are re-exported here.
+These functions are the API behind ``jointid simulate``, ``identify``, ``experiment`` and
+``update``. They take a study of any free structure (the ``[beam]`` factory, matrix files, ...)
+and any number of joints; the models come from :mod:`jointid.models` (``free_model``,
+``true_joint``, ``constrained_model`` are re-exported here), what differs between free
+structures is asked of the study's structure spec (the free-structure protocol of
+:mod:`jointid.study.structures`), and the estimator is chosen by name
+(:mod:`jointid.methods.estimate`). All joints of a study are identified together (one ``Du``
+on every joint DOF); :func:`split_joints` gives one result per joint.
 """
 
 from __future__ import annotations
@@ -14,20 +17,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import DataError
+from .errors import DataError, StudyError
 from .frequency import Frequency
 from .frf import FRF
-from .methods.receptance.coupling import CouplingOptions, CouplingResult, identify_joint_coupling
-from .methods.hong_lee.inverse import InverseOptions, InverseResult, check_layout, identify_joint
-from .models import constrained_model, free_model, true_joint  # the study-to-model translation (re-exported)
-from .physics.structure import Structure
-from .physics.synthesis import synthesize_frf
-from .study.parse import Study
+from .methods.estimate import JointEstimate, estimate_joint
+from .methods.hong_lee.inverse import InverseOptions, check_layout
+from .methods.receptance.coupling import CouplingOptions
+from .models import constrained_model, free_model, true_joint, true_joint_matrix  # the study-to-model translation (re-exported)
+from .physics.synthesis import model_frf
+from .study import Study
 
 __all__ = [
     "free_model", "true_joint", "constrained_model", "VirtualTest", "simulate", "read_measured", "identify",
     "inverse_options", "ExperimentResult", "experiment", "virtual_hits", "coupling_options",
-    "true_beam_study", "simulate_free", "read_free_measured", "free_beam_parameters", "update", "study_frfs",
+    "true_study", "simulate_free", "read_free_measured", "update", "study_frfs", "split_joints", "cross_joint_ratio",
 ]
 
 
@@ -55,28 +58,29 @@ class VirtualTest:
 
 
 def simulate(study: Study, frequency: Frequency | None = None) -> VirtualTest:
-    """Synthesize the constrained beam's accelerances at the study's coordinates (a virtual test).
+    """Synthesize the test article's accelerances at the study's coordinates (a virtual test).
+
+    The test article is the free structure with its ``[accelerometers]`` (if any) and every
+    true joint (:func:`jointid.models.constrained_model`).
 
     Parameters
     ----------
     study : Study
-        Needs ``[joint.model]``; ``[accelerometers]`` (if present) load the test article.
+        Every joint needs ``[joint.model]``.
     frequency : Frequency, optional
-        Default: the study's ``[frequency]`` grid.
+        Default: the study's ``[frequency]`` grid (a model coupled by Woodbury drops a 0 Hz line:
+        :func:`jointid.physics.synthesis.model_frf`).
 
-    A ``[structure]`` study goes to :func:`jointid.pipeline_structure.simulate_structure`.
+    Returns
+    -------
+    VirtualTest
+        ``frf`` accelerance ``(m/s^2)/N`` (rotations rad/s^2, per N*m), ``truth`` (F, n, n) on every joint DOF.
     """
-    if study.is_structure:
-        from .pipeline_structure import simulate_structure
-
-        return simulate_structure(study, frequency)
     frequency = frequency or study.grid
-    joint = true_joint(study)
-    article = free_model(study, with_accelerometers=True).with_joint(joint)
-    frf = synthesize_frf(
-        article, frequency, study.measurement.observed_dofs, study.measurement.excited_dofs, kind="accelerance"
-    )
-    return VirtualTest(frf, joint(frequency.hz), joint.dofs)
+    article = constrained_model(study)
+    m = study.measurement
+    frf = model_frf(article, frequency, m.observed_dofs, m.excited_dofs, kind="accelerance")
+    return VirtualTest(frf, true_joint_matrix(study, frf.frequency.hz), study.joint_dofs)
 
 
 def inverse_options(study: Study) -> InverseOptions:
@@ -104,10 +108,8 @@ def coupling_options(study: Study) -> CouplingOptions:
     """
     spec = study.identification
     smoothing = spec.smoothing
-    several = study.is_structure and len(study.joints) > 1
+    several = len(study.joints) > 1
     if several and smoothing == "structured":
-        from .errors import StudyError
-
         raise StudyError(
             f"{study.source}: [identification].smoothing = \"structured\" fits the model of one joint of one material, and this "
             f"study identifies {len(study.joints)} joints together: use \"auto\" or \"gcv\"")
@@ -124,37 +126,23 @@ def coupling_options(study: Study) -> CouplingOptions:
 def read_measured(study: Study, path: str | os.PathLike) -> FRF:
     """Read a measured FRF file as the study describes it: only the FRFs the study uses, in SI.
 
-    ``[measurement].points`` maps the file's point ids to beam nodes and
-    ``[measurement].axis`` names the file's direction that is ``w`` (see
-    :func:`jointid.io.frf_files.read_frf`). Only the observed x excited FRFs
-    (and their coherence, when the file has it, in ``FRF.coherence``) are
-    read; every other record is skipped. ``FRF.notes`` says in one line each
-    what was converted to SI and what was skipped.
+    ``[measurement].points`` maps the file's point ids to model nodes; how the file's
+    directions map to the model's DOFs is the free structure's (a beam: ``[measurement].axis``
+    is the file's direction that is ``w``; matrix files: UFF direction codes 1-6 are x..rz,
+    negative ones flipped; see :func:`jointid.io.frf_files.read_frf`). Only the observed x
+    excited FRFs (and their coherence, when the file has it) are read; ``FRF.notes`` says in one
+    line each what was converted to SI and what was skipped.
 
     Raises
     ------
     DataError
         A record the study needs cannot be read (naming the file and the record).
-
-    A ``[structure]`` study reads 3-D directions
-    (:func:`jointid.pipeline_structure.read_measured_structure`).
     """
     from .io.frf_files import read_frf
 
-    if study.is_structure:
-        from .pipeline_structure import read_measured_structure
-
-        return read_measured_structure(study, path)
     m = study.measurement
-    return read_frf(
-        path,
-        n_nodes=study.beam.nodes,
-        points=m.point_map,
-        axis=m.axis,
-        responses=m.observed_dofs,
-        references=m.excited_dofs,
-        coherence=True,
-    )
+    return read_frf(path, points=m.point_map, responses=m.observed_dofs, references=m.excited_dofs, coherence=True,
+                    **study.structure.frf_reading(m))
 
 
 def study_frfs(study: Study, measured: FRF) -> FRF:
@@ -177,21 +165,19 @@ def study_frfs(study: Study, measured: FRF) -> FRF:
     return measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
 
 
-def identify(
-    study: Study, measured: FRF, options: InverseOptions | CouplingOptions | None = None
-) -> InverseResult | CouplingResult:
-    """Identify the study's joint from measured FRFs, over the study's ``start..stop`` band.
+def identify(study: Study, measured: FRF, options: InverseOptions | CouplingOptions | None = None) -> JointEstimate:
+    """Identify every joint of the study from measured FRFs, over the study's ``start..stop`` band.
 
-    The method is ``[identification].method`` unless ``options`` says otherwise:
-    "receptance" (default; :func:`~jointid.methods.receptance.coupling.identify_joint_coupling`
-    with the free beam meshed for convergence) or "hong-lee"
-    (:func:`~jointid.methods.hong_lee.inverse.identify_joint` on the beam's grid nodes: its
-    estimation step solves for every unobserved DOF, so a refined mesh would
-    multiply its cost; ``[beam].elements_per_segment`` refines it explicitly).
+    The estimator is ``[identification].method`` unless ``options`` says otherwise
+    (:class:`~jointid.methods.receptance.coupling.CouplingOptions`: "receptance",
+    :class:`~jointid.methods.hong_lee.inverse.InverseOptions`: "hong-lee"); it is run by
+    :func:`jointid.methods.estimate.estimate_joint` on the free model (the receptance method:
+    meshed for convergence; Hong & Lee: the structure's dense model, ``dense_model``, since its
+    estimation step solves for every unobserved DOF).
 
-    The lines of ``measured`` inside ``[frequency] start..stop`` are used on the
-    data's own grid (``step`` is ignored). Responses/references are reordered to
-    the study's observed/excited coordinates; extra ones in the file are ignored.
+    The lines of ``measured`` inside ``[frequency] start..stop`` (above 0 Hz) are used on the
+    data's own grid (``step`` is ignored). Responses/references are reordered to the study's
+    observed/excited coordinates; extra ones in the file are ignored.
 
     Raises
     ------
@@ -199,22 +185,51 @@ def identify(
         If the file lacks one of the study's coordinates or has no line in the band.
     IdentificationError
         If the layout has too few coordinates.
-
-    A ``[structure]`` study identifies all its joints at once
-    (:func:`jointid.pipeline_structure.identify_structure`; Hong & Lee on models of
-    at most 500 DOFs).
+    StudyError
+        Hong & Lee on a model too large to be dense.
     """
-    if study.is_structure:
-        from .pipeline_structure import identify_structure
-
-        return identify_structure(study, measured, options)
     m = study.measurement
-    check_layout(len(study.joint.dofs), m.observed, m.excited)
+    check_layout(len(study.joint_dofs), m.observed_dofs, m.excited_dofs)
     data = study_frfs(study, measured)
-    if isinstance(options, CouplingOptions) or (options is None and study.identification.method == "receptance"):
-        return identify_joint_coupling(free_model(study), data, study.joint.joint_dofs, options or coupling_options(study))
-    refined = study.beam.elements_per_segment is not None
-    return identify_joint(free_model(study, refined=refined), data, study.joint.joint_dofs, options or inverse_options(study))
+    if options is None:
+        method = study.identification.method
+        options = coupling_options(study) if method == "receptance" else inverse_options(study)
+    method = "receptance" if isinstance(options, CouplingOptions) else "hong-lee"
+    if method == "receptance":
+        free = free_model(study)
+    else:
+        try:
+            free = study.structure.dense_model(study.frequency.stop)
+        except StudyError as exc:
+            raise StudyError(f"{study.source}: {exc}") from None
+        acc = study.accelerometers
+        if study.identification.model_accelerometers and acc is not None:
+            free = free.with_masses(acc.nodes, acc.mass, acc.rotary_inertia)
+    return estimate_joint(free, data, study.joint_dofs, method, options)
+
+
+def split_joints(study: Study, result: JointEstimate) -> dict:
+    """One result per joint (name -> its block of ``result``), in study order."""
+    out, i = {}, 0
+    for joint in study.joints:
+        k = len(joint.joint_dofs)
+        out[joint.name] = result.subset(range(i, i + k)) if len(study.joints) > 1 else result
+        i += k
+    return out
+
+
+def cross_joint_ratio(study: Study, stiffness: np.ndarray) -> float:
+    """Largest ``|K_ij|`` between DOFs of different joints over the largest within-joint ``|K_ij|`` (all lines).
+
+    0 for a single joint. The true ``Du`` is block diagonal, so on exact data this is
+    round-off; a large value points to model error or a joint missing from the study.
+    """
+    owner = np.concatenate([np.full(len(j.joint_dofs), a) for a, j in enumerate(study.joints)])
+    cross = owner[:, None] != owner[None, :]
+    if not cross.any():
+        return 0.0
+    mag = np.abs(stiffness)
+    return float(mag[:, cross].max() / mag[:, ~cross].max())
 
 
 @dataclass(frozen=True, eq=False)
@@ -280,11 +295,7 @@ def experiment(study: Study, seed: int | None = None, *, periodic: bool = False)
     records, options = virtual_hits(study, seed, periodic=periodic)
     impact = estimate_frfs(records, options)
     frf = impact.to_frf("h1")
-    if study.is_structure:
-        from .models import true_joint_matrix
-
-        return ExperimentResult(impact, frf, true_joint_matrix(study, frf.frequency.hz))
-    return ExperimentResult(impact, frf, true_joint(study)(frf.frequency.hz))
+    return ExperimentResult(impact, frf, true_joint_matrix(study, frf.frequency.hz))
 
 
 def virtual_hits(study: Study, seed: int | None = None, *, periodic: bool = False):
@@ -331,55 +342,45 @@ def virtual_hits(study: Study, seed: int | None = None, *, periodic: bool = Fals
 
 
 # --------------------------------------------------------------------------- free-free test and model updating
-def true_beam_study(study: Study, truth: Study | None = None) -> Study:
-    """``study`` with its beam replaced by the true one: ``[truth]`` applied, or ``truth``'s beam.
+def true_study(study: Study, truth: Study | None = None) -> Study:
+    """``study`` with its free structure replaced by the true one: ``[truth]`` applied, or ``truth``'s structure.
 
     Parameters
     ----------
     truth : Study, optional
-        Another study whose ``[beam]`` (with its own ``[truth]`` applied) is the
-        true beam; it must have the same number of grid nodes. Default: the
-        study's ``[beam]`` with its ``[truth]`` overrides.
+        Another study whose free structure (with its own ``[truth]`` applied) is the true one;
+        it must be of the same kind with the same nodes/DOFs. Default: the study's structure
+        with its ``[truth]`` overrides.
 
     Raises
     ------
     StudyError
-        ``truth`` is a ``[structure]`` study, or has a different number of beam nodes.
+        ``truth``'s structure cannot stand for this study's (one line saying why).
     """
     from dataclasses import replace
 
-    from .errors import StudyError
-
     if truth is None:
         return study.true_study()
-    if truth.is_structure:
-        raise StudyError(
-            f"{truth.source}: --truth needs a [beam] study (the true beam of {study.source}); "
-            "this one is a [structure] study"
-        )
-    beam = truth.true_study().beam
-    if beam.nodes != study.beam.nodes:
-        raise StudyError(
-            f"{truth.source}: [beam].nodes = {beam.nodes} differs from the {study.beam.nodes} of {study.source}; "
-            "the true beam needs the same grid of nodes"
-        )
-    return replace(study, beam=beam, truth=None)
+    structure = truth.true_study().structure
+    why = study.structure.compatible(structure, study.source)
+    if why is not None:
+        raise StudyError(f"{truth.source}: {why}")
+    return replace(study, structure=structure, truth=None)
 
 
 def simulate_free(
     study: Study, frequency: Frequency | None = None, noise: float = 0.0, seed: int = 0, truth: Study | None = None
 ) -> FRF:
-    """A virtual free-free test: accelerances of the free true beam with its accelerometers (no joint).
+    """A virtual free-free test: accelerances of the true free structure with its accelerometers (no joint).
 
-    The structure is the study's beam with the ``[truth]`` overrides (or
-    ``truth``'s beam, see :func:`true_beam_study`), meshed by the true study's
-    ``elements_per_segment`` (or automatically), carrying the ``[accelerometers]``
-    as the test article does; FRFs at the study's observed x excited coordinates.
+    The structure is the study's with the ``[truth]`` overrides (or ``truth``'s, see
+    :func:`true_study`), carrying the ``[accelerometers]`` as the test article does; FRFs at
+    the study's observed x excited coordinates.
 
     Parameters
     ----------
     frequency : Frequency, optional
-        Default: the study's grid (a 0 Hz line is dropped: a free beam has no receptance there).
+        Default: the study's grid (a 0 Hz line is dropped: a free structure has no receptance there).
     noise : float
         Relative rms of complex Gaussian noise on every value, ``H (1 + noise n)``
         with ``n`` circular, ``E|n|^2 = 1`` (0: exact).
@@ -389,7 +390,7 @@ def simulate_free(
     Returns
     -------
     FRF
-        Accelerance, (m/s^2)/N, shape (F, |m|, |e|).
+        Accelerance, (m/s^2)/N (rotations rad/s^2, per N*m), shape (F, |m|, |e|).
     """
     if not (np.isfinite(noise) and noise >= 0):
         raise DataError(f"noise must be a relative rms >= 0, got {noise!r}")
@@ -397,13 +398,14 @@ def simulate_free(
     if frequency.hz[0] <= 0:
         frequency = frequency[frequency.hz > 0]
     from .physics.banded_receptance import receptance_banded
+    from .physics.structure import Structure
 
-    true = true_beam_study(study, truth)
-    article = free_model(true, with_accelerometers=True)
+    article = free_model(true_study(study, truth), with_accelerometers=True)
     m = study.measurement
-    Y = receptance_banded(article, frequency, m.observed_dofs, m.excited_dofs)  # exact to ~1e-8, fast on fine meshes
+    # a banded beam: exact to ~1e-8 and fast on fine meshes
+    Y = receptance_banded(article, frequency, m.observed_dofs, m.excited_dofs) if isinstance(article, Structure) else None
     if Y is None:
-        frf = synthesize_frf(article, frequency, m.observed_dofs, m.excited_dofs, kind="accelerance")
+        frf = model_frf(article, frequency, m.observed_dofs, m.excited_dofs, kind="accelerance")
     else:
         frf = FRF(frequency, Y, m.observed_dofs, m.excited_dofs, "receptance").to("accelerance")
     if noise > 0:
@@ -415,79 +417,46 @@ def simulate_free(
 
 
 def read_free_measured(study: Study, path: str | os.PathLike) -> FRF:
-    """Read a free-free FRF file: every FRF between the beam's grid nodes (any subset), in SI, with coherence.
+    """Read a free-free FRF file in SI, with coherence: every FRF between the structure's nodes (any subset) in the
+    file's directions as the structure maps them (:func:`read_measured`; no selection of rows and columns).
 
-    ``[measurement].points`` and ``.axis`` apply as in :func:`read_measured`;
-    a record at a node outside the beam is an error naming the file and record.
-    A ``[structure]`` study reads its observed x excited DOFs
-    (:func:`jointid.pipeline_structure.read_free_measured_structure`).
+    Raises
+    ------
+    DataError
+        A record at a node outside the structure, or one that cannot be read (naming the file and record).
     """
     from .io.frf_files import read_frf
 
-    if study.is_structure:
-        from .pipeline_structure import read_free_measured_structure
-
-        return read_free_measured_structure(study, path)
-
     m = study.measurement
-    return read_frf(path, n_nodes=study.beam.nodes, points=m.point_map, axis=m.axis, coherence=True)
-
-
-def free_beam_parameters(study: Study):
-    """The study's free beam with its accelerometers as a parameterized model for updating.
-
-    Returns
-    -------
-    build : callable
-        ``build(values) -> Structure``: the beam meshed with the study's
-        refinement at ``[frequency].stop`` (fixed, so the model is smooth in the
-        parameters), ``values`` replacing ``[beam]`` keys (``elastic_modulus``,
-        ``density``, ``loss_factor``, ``shear_coefficient``) and
-        ``accelerometers.mass`` / ``accelerometers.rotary_inertia``.
-    initial : dict
-        The study's value of each of those keys (the accelerometer ones only
-        with an ``[accelerometers]`` section).
-    """
-    from dataclasses import replace
-
-    beam = study.beam
-    r = beam.mesh_refinement(study.frequency.stop)
-    beam_keys = ("elastic_modulus", "density", "loss_factor", "shear_coefficient")
-    initial = {k: float(getattr(beam, k)) for k in beam_keys}
-    acc = study.accelerometers
-    if acc is not None:
-        initial["accelerometers.mass"] = acc.mass
-        initial["accelerometers.rotary_inertia"] = acc.rotary_inertia
-
-    def build(values) -> Structure:
-        spec = replace(beam, elements_per_segment=r, **{k: values[k] for k in beam_keys if k in values})
-        s = spec.structure()
-        if acc is not None:
-            s = s.with_masses(
-                acc.nodes, values.get("accelerometers.mass", acc.mass),
-                values.get("accelerometers.rotary_inertia", acc.rotary_inertia),
-            )
-        return s
-
-    return build, initial
+    return read_frf(path, points=m.point_map, coherence=True, **study.structure.frf_reading(m))
 
 
 def update(study: Study, measured: FRF, options=None):
-    """Update the study's free beam (and sensors) from free-free FRFs over the study's band.
+    """Update the study's free structure (and sensors) from free-free FRFs over the study's band.
 
-    See :func:`jointid.methods.updating.fit.update_free_model`; the lines of
-    ``measured`` in ``[frequency] start..stop`` (above 0 Hz) are used on the
-    data's own grid. Returns its :class:`~jointid.methods.updating.fit.UpdateResult`.
-    A ``[structure]`` study fits its stiffness and mass scales and loss factor
-    (:func:`jointid.pipeline_structure.update_structure`).
+    See :func:`jointid.methods.updating.fit.update_free_model`; the free structure gives the
+    parameterized model (``update_model``: a beam's E, density, loss factor, shear coefficient
+    and sensor masses; matrix files' stiffness and mass scales and loss factor). The lines of
+    ``measured`` in ``[frequency] start..stop`` (above 0 Hz) are used on the data's own grid.
+
+    Returns
+    -------
+    UpdateResult
+
+    Raises
+    ------
+    ModelError
+        A parameter the free structure does not have (one line naming the allowed ones).
     """
-    from .methods.updating.fit import update_free_model
+    from .methods.updating.fit import UpdateOptions, check_parameter_names, update_free_model
 
-    if study.is_structure:
-        from .pipeline_structure import update_structure
-
-        return update_structure(study, measured, options)
-
+    known, default = study.structure.update_parameter_names()
+    options = options or UpdateOptions(parameters=default)
+    kind = "" if study.beam is not None else f"a [{study.structure.study_table}] study: "  # the beam's names are the default ones
+    check_parameter_names(options.parameters, known=known, prefix=f"{study.source}: {kind}")
+    try:
+        model, initial, _, _ = study.structure.update_model(study.accelerometers, study.frequency.stop)
+    except StudyError as exc:
+        raise StudyError(f"{study.source}: {exc}") from None
     data = measured.band(max(study.frequency.start, 1e-6), study.frequency.stop)
-    build, initial = free_beam_parameters(study)
-    return update_free_model(build, initial, data, options)
+    return update_free_model(model, initial, data, options)

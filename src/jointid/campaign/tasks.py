@@ -198,35 +198,28 @@ def _direct(task: TestTask) -> tuple[dict, dict]:
 
 
 def _identify(task: TestTask) -> tuple[dict, dict]:
-    from ..terms import dof_term_labels
-    from ..pipeline import identify, read_measured
+    from ..pipeline import identify, read_measured, split_joints
     from ..study.parse import load_study
 
     study = load_study(task.study)
     result = identify(study, read_measured(study, task.file))
     f = result.frequency.hz
-    parts = {"": result}
-    if study.is_structure and len(study.joints) > 1:
-        from ..pipeline_structure import split_joints
-
-        parts = {f"{name}:": part for name, part in split_joints(study, result).items()}
+    several = len(study.joints) > 1
     chunks = []
-    for prefix, part in parts.items():
-        labels = dof_term_labels(part.joint_dofs)
-        has_std = hasattr(part, "std_real")
-        for a, la in enumerate(labels):
-            for b, lb in enumerate(labels):
-                c = _stiffness_lines(f"{prefix}K_{la}_{lb}", f, part.stiffness[:, a, b],
-                                     part.std_real[:, a, b] if has_std else None, part.std_imag[:, a, b] if has_std else None)
-                rel = part.reliable_terms[:, a, b] if hasattr(part, "reliable_terms") else part.reliable
-                c["reliable"] = np.asarray(rel, dtype=bool)
-                chunks.append(c)
+    for name, part in split_joints(study, result).items():
+        prefix = f"{name}:" if several else ""
+        std = part.has_uncertainty  # no std: empty, never 0
+        for a, b, term in part.term_names():
+            c = _stiffness_lines(f"{prefix}{term}", f, part.stiffness[:, a, b],
+                                 part.std_real[:, a, b] if std else None, part.std_imag[:, a, b] if std else None)
+            c["reliable"] = np.asarray(part.reliable_terms[:, a, b], dtype=bool)
+            chunks.append(c)
     lines = {k: np.concatenate([c[k] for c in chunks]) for k in chunks[0]}
     params = {
         "lines": int(f.size),
         "frequency_min_hz": float(f[0]),
         "frequency_max_hz": float(f[-1]),
-        "method": str(getattr(result, "method", "hong-lee")),
+        "method": result.method,
         "reliable_fraction": float(np.mean(result.reliable)),
     }
     return lines, params

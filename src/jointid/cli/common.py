@@ -15,7 +15,7 @@ from ..benchmark import benchmark_study_path
 from ..errors import StudyError
 from ..study.parse import Study, load_study
 
-__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "OUT_HELP", "STRUCTURE_COMMANDS"]
+__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "OUT_HELP"]
 
 #: Help text of ``--out DIR``.
 OUT_HELP = (
@@ -35,26 +35,16 @@ def add_study_argument(p: argparse.ArgumentParser, required: bool = True) -> Non
         )
 
 
-#: Subcommands that take a ``[structure]`` study (the others need a ``[beam]`` study).
-STRUCTURE_COMMANDS = ("simulate", "identify", "experiment", "update", "design")
-
 
 def study_from_args(args: argparse.Namespace) -> Study:
-    """Load and validate the study named on the command line (or the benchmark).
+    """Load and validate the study named on the command line (or the built-in benchmark).
 
     Raises
     ------
     StudyError
-        A ``[structure]`` study given to a subcommand not in :data:`STRUCTURE_COMMANDS`.
+        The study file is missing or invalid (one line naming the key).
     """
-    study = load_study(args.study if args.study else benchmark_study_path())
-    command = getattr(args, "command", None)
-    if study.is_structure and command is not None and command not in STRUCTURE_COMMANDS:
-        raise StudyError(
-            f"{study.source}: `jointid {command}` needs a [beam] study; a [structure] study works with "
-            + ", ".join(f"`jointid {c}`" for c in STRUCTURE_COMMANDS[:-1]) + f" and `jointid {STRUCTURE_COMMANDS[-1]}`"
-        )
-    return study
+    return load_study(args.study if args.study else benchmark_study_path())
 
 
 def add_out_argument(p: argparse.ArgumentParser) -> None:

@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     from ..design import design_study
 
     study = study_from_args(args)
-    parse = parse_dof_labels if study.is_structure else parse_nodes
+    parse = parse_nodes if study.beam is not None else parse_dof_labels  # the beam shorthand: nodes
     candidates = parse(args.candidates) if args.candidates is not None else None
     weights = parse_weights(args.weights) if args.weights is not None else None
     if not (math.isfinite(args.noise) and args.noise > 0):

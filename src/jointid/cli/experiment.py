@@ -32,7 +32,6 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
-    from ..terms import stiffness_columns
     from ..pipeline import experiment
     from .identify import identification_lines, identify_file, output_files, truth_error_lines, truth_errors
     from .simulate import write_true_joints
@@ -45,17 +44,14 @@ def run(args: argparse.Namespace) -> int:
         for r in result.impact.rejected:
             print(f"rejected: {r.reason}")
         uff = out.write_file("frf.uff", lambda p: write_uff_frf(p, result.frf, kind="accelerance", coherence=result.coherence))
-        if study.is_structure:
-            write_true_joints(out, study, result.frf.frequency, result.truth)
-        else:
-            out.write_csv("true_joint.csv", stiffness_columns(result.frf.frequency, study.joint.joint_dofs, result.truth))
+        write_true_joints(out, study, result.frf.frequency, result.truth)
         # exactly `jointid identify STUDY --frf DIR/frf.uff`: the same reader (FRFs and coherence), the same identification
         identified, _ = identify_file(study, out.staged("frf.uff"), out, plots=not args.no_plots, truth=result.truth, shown=uff)
         f = identified.frequency.hz
         truth = result.truth[np.isin(result.frf.frequency.hz, f)]
         errors = truth_errors(study, identified, truth)
         columns = {"frequency_hz": f}
-        if not study.is_structure:
+        if identified.joint_dofs[0].direction in ("w", "x", "y", "z"):  # the first term a translation: the paper's figures
             k, t = identified.stiffness[:, 0, 0], truth[:, 0, 0]
             columns.update({
                 "translational_magnitude_error": np.abs(np.abs(k) / np.abs(t) - 1),

@@ -139,9 +139,8 @@ def mapping_from_args(args: argparse.Namespace) -> tuple[dict[int, int] | None, 
 
     study = load_study(args.study)
     m = study.measurement
-    axis = None if study.is_structure else m.axis
-    n_nodes = args.n_nodes if study.is_structure else (args.n_nodes or study.beam.nodes)
-    return m.point_map, axis, n_nodes
+    reading = study.structure.frf_reading(m)  # how the free structure's DOFs are named in files
+    return m.point_map, reading.get("axis"), args.n_nodes or reading.get("n_nodes")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -38,102 +38,63 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _terms(result) -> dict:
-    """Per term: median magnitude and loss factor (and, for the receptance method, reliability and smoothing)."""
-    from ..terms import dof_term_labels
-
-    terms = {}
-    labels = dof_term_labels(result.joint_dofs)
-    for a, la in enumerate(labels):
-        for b, lb in enumerate(labels):
-            k = result.stiffness[:, a, b]
-            stiff = k.real > 0  # Im/Re is a loss factor only where the storage part is positive
-            terms[f"K_{la}_{lb}"] = {
-                "median_magnitude": float(np.median(np.abs(k))),
-                "median_loss_factor": float(np.median(k.imag[stiff] / k.real[stiff])) if stiff.any() else None,
-                "lines_with_positive_storage": int(stiff.sum()),
-            }
-    if getattr(result, "method", "hong-lee") == "receptance":
-        rel = result.relative_std
-        for a, b, name in result.term_names():
-            terms[name]["reliable_fraction"] = float(np.mean(result.reliable_terms[:, a, b]))
-            terms[name]["median_predicted_relative_std"] = float(np.nanmedian(rel[:, a, b])) if np.isfinite(rel[:, a, b]).any() else None
-            terms[name]["smoothing_edf"] = result.smoothing_edf.get(name, result.smoothing_edf.get(f"K_{name.split('_', 2)[2]}_{name.split('_')[1]}"))
-    return terms
-
-
 def stiffness_file(study, name: str) -> str:
     """The CSV of a joint: ``joint_stiffness.csv`` for a study with one joint, else ``joint_stiffness_<name>.csv``."""
-    return "joint_stiffness.csv" if not study.is_structure or len(study.joints) == 1 else f"joint_stiffness_{name}.csv"
+    return "joint_stiffness.csv" if len(study.joints) == 1 else f"joint_stiffness_{name}.csv"
 
 
 def summary(result, study, source: Path) -> dict:
-    """JSON-ready summary of an identification."""
-    f = result.frequency.hz
+    """JSON-ready summary of an identification: the study's layout, then per joint the estimate's own summary.
+
+    Every estimator's result is a :class:`~jointid.methods.estimate.JointEstimate`; its
+    :meth:`~jointid.methods.estimate.JointEstimate.to_json` gives the per-term figures, units,
+    estimator, options, diagnostics and findings.
+    """
+    from ..pipeline import cross_joint_ratio, split_joints
+
+    whole = result.to_json()
     out = {
         "study": study.source,
         "frf_file": str(source),
-        "method": getattr(result, "method", "hong-lee"),
-        "joint_dofs": [str(d) for d in result.joint_dofs],
+        "method": whole["method"],
+        "free_structure": study.structure.describe(),
+        "joint_dofs": whole["joint_dofs"],
         "observed": [str(d) for d in study.measurement.observed_dofs],
         "excited": [str(d) for d in study.measurement.excited_dofs],
-        "lines": int(f.size),
-        "frequency_hz": [float(f[0]), float(f[-1])],
-        "reliable_fraction": float(np.mean(result.reliable)),
+        "lines": whole["lines"],
+        "frequency_hz": whole["frequency_hz"],
+        "reliable_fraction": whole["reliable_fraction"],
+        "estimator": whole["estimator"],
+        "options": whole["options"] | {"model_accelerometers": study.identification.model_accelerometers},
+        "diagnostics": whole["diagnostics"],
+        "findings": whole["findings"],
+        "joints": {},
     }
-    if study.is_structure:
-        from ..terms import dof_term_labels, term_unit
-        from ..pipeline_structure import cross_joint_ratio, split_joints
-
-        out["joints"] = {}
-        for (name, part), joint in zip(split_joints(study, result).items(), study.joints):
-            labels = dof_term_labels(part.joint_dofs)
-            out["joints"][name] = {
-                "file": stiffness_file(study, name),
-                "dofs": [str(d) for d in joint.dofs],
-                "other": [str(d) for d in joint.other],
-                "reliable_fraction": float(np.mean(part.reliable)),
-                "terms": _terms(part),
-                "units": {f"K_{la}_{lb}": term_unit(di, dj) for la, di in zip(labels, part.joint_dofs) for lb, dj in zip(labels, part.joint_dofs)},
-            }
-        out["cross_joint_ratio"] = cross_joint_ratio(study, result.stiffness)
+    if study.beam is not None:
+        out["options"]["elements_per_segment"] = study.beam.mesh_refinement(study.frequency.stop)
+    for (name, part), joint in zip(split_joints(study, result).items(), study.joints):
+        j = part.to_json()
+        out["joints"][name] = {
+            "file": stiffness_file(study, name),
+            "dofs": [str(d) for d in joint.dofs],
+            "other": [str(d) for d in joint.other],
+            "reliable_fraction": j["reliable_fraction"],
+            "terms": j["terms"],
+            "units": j["units"],
+        }
+    if len(study.joints) == 1:  # the one joint's figures at the top level too (the beam's K_w_w ...)
+        only = next(iter(out["joints"].values()))
+        out["terms"], out["units"] = only["terms"], only["units"]
+    out["cross_joint_ratio"] = cross_joint_ratio(study, result.stiffness)
+    if len(study.joints) > 1:
         out["cross_joint_note"] = (
             "largest |K_ij| between DOFs of different joints over the largest within-joint |K_ij| (all joints identified "
             "together; the true matrix is block diagonal, so this should be small)"
         )
-    else:
-        out["terms"] = _terms(result)
-        out["units"] = {"K_w_w": "N/m", "K_w_theta": "N/rad", "K_theta_w": "N*m/m", "K_theta_theta": "N*m/rad"}
+    if any(d.direction == "theta" for d in result.joint_dofs):
         out["theta_convention"] = "theta = dw/dx, rad, positive when the beam rises with increasing x"
-    if out["method"] == "receptance":
-        o = result.options
-        out["options"] = {
-            "symmetric": o.symmetric, "smoothing": o.smoothing, "weighting": result.weighting,
-            "averages": o.averages, "max_relative_std": o.max_relative_std,
-            "model_accelerometers": study.identification.model_accelerometers,
-        }
-        if not study.is_structure:
-            out["options"]["elements_per_segment"] = study.beam.mesh_refinement(study.frequency.stop)
-        out["estimator"] = result.estimator_summary()
-        out["findings"] = result.findings()
-        out["max_condition"] = float(np.max(result.condition))
-        out["median_residual_scale"] = float(np.nanmedian(result.residual_scale)) if np.isfinite(result.residual_scale).any() else None
-        out["columns"] = "K_{i}_{j}_real/_imag: estimate; _real_std/_imag_std: 1-sigma; reliable_{i}_{j}: predicted relative std <= max_relative_std, conditioning and passivity checks; reliable: all terms"
-        return out
-    out["options"] = {
-        "symmetric": result.options.symmetric,
-        "regularization": result.options.regularization,
-        "model_accelerometers": study.identification.model_accelerometers,
-        "estimation": result.options.estimation,
-        "cond_rtol": result.options.cond_rtol,
-    }
-    out.update({
-        "max_cond_A": float(np.max(result.cond_A)),
-        "max_cond_A_relative_error_bound": float(np.max(result.cond_A_bound)),
-        "max_cond_B": float(np.max(result.cond_B)),
-        "max_cond_H": float(np.max(result.cond_H)),
-        "reliability_thresholds": vars(result.options.reliability),
-    })
+    out["columns"] = ("K_{i}_{j}_real/_imag: estimate; _real_std/_imag_std: 1-sigma (empty: the method gives none); "
+                      "reliable_{i}_{j}: the term is determined on that line (0/1); reliable: all terms")
     return out
 
 
@@ -151,6 +112,7 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
     (``notes``: the FRF file's unit conversions and skipped records). The files
     appear when ``out`` commits.
     """
+    from ..pipeline import split_joints
     from ..report.identification import identification_report
 
     figures = []  # (file name, PNG bytes, caption) for the report
@@ -163,26 +125,21 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
         figures.append((name, png, caption))
 
     caption = "|K| with its 90 % band (log axis), loss factor or phase of the diagonal terms; shaded: term unreliable"
-    if not study.is_structure:
-        out.write_csv("joint_stiffness.csv", result.columns())
+    i = 0
+    for name, part in split_joints(study, result).items():
+        k = len(part.joint_dofs)
+        csv = stiffness_file(study, name)
+        out.write_csv(csv, part.columns())
         if plots:
-            figure("joint_stiffness.png", result.plot(truth=truth), caption)
-    else:
-        from ..pipeline_structure import split_joints
-
-        i = 0
-        for name, part in split_joints(study, result).items():
-            k = len(part.joint_dofs)
-            csv = stiffness_file(study, name)
-            out.write_csv(csv, part.columns())
-            if plots:
+            t = None if truth is None else truth[:, i:i + k, i:i + k]
+            title = f"joint {name}: " if len(study.joints) > 1 else ""
+            figure(csv.replace(".csv", ".png"), part.plot(truth=t), f"{title}{caption}")
+            if k > 2:
                 from ..plots.joint_matrix import plot_joint_matrix
 
-                t = None if truth is None else truth[:, i:i + k, i:i + k]
-                figure(csv.replace(".csv", ".png"), part.plot(truth=t), f"joint {name}: {caption}")
                 figure(csv.replace("joint_stiffness", "joint_matrix").replace(".csv", ".png"), plot_joint_matrix(part, title=name),
                        f"joint {name}: |K_ij| of every term at a few frequencies")
-            i += k
+        i += k
     info = summary(result, study, source)
     out.write_text("summary.json", json_text(info))
     lines = identification_lines(result, study, max_findings=None)
@@ -203,8 +160,6 @@ def truth_errors(study, result, truth) -> dict:
     n = len(result.joint_dofs)
     diag = np.arange(n)
     err = np.abs(result.stiffness[:, diag, diag] - truth[:, diag, diag]) / np.abs(truth[:, diag, diag])  # (F, n)
-    if not study.is_structure:
-        return {f"K_{lab}_{lab}": err[:, a] for a, lab in enumerate(dof_term_labels(result.joint_dofs))}
     out, i = {}, 0
     for joint in study.joints:
         prefix = "" if len(study.joints) == 1 else f"{joint.name}_"
@@ -270,10 +225,7 @@ def term_lines(result, study) -> list[str]:
     method, the median predicted relative error and the fraction of reliable lines.
     """
     s = summary(result, study, Path("-"))
-    if study.is_structure:
-        blocks = [(f"{name}: " if len(s["joints"]) > 1 else "", j["terms"], j["units"]) for name, j in s["joints"].items()]
-    else:
-        blocks = [("", s["terms"], s["units"])]
+    blocks = [(f"{name}: " if len(s["joints"]) > 1 else "", j["terms"], j["units"]) for name, j in s["joints"].items()]
     lines = []
     for prefix, terms, units in blocks:
         names = list(terms)  # K_{a}_{b}, row-major over the joint's DOFs
@@ -287,7 +239,7 @@ def term_lines(result, study) -> list[str]:
             eta = t.get("median_loss_factor")
             if i == j:  # a loss factor of a coupling term means nothing
                 text += f", loss factor {eta:.3g}" if eta is not None else ", no loss factor (Re K <= 0 on every line)"
-            if "reliable_fraction" in t:
+            if result.has_uncertainty:
                 err = t.get("median_predicted_relative_std")
                 text += f", predicted error {100 * err:.2g} %" if err is not None else ", no predicted error"
                 text += f", reliable on {100 * t['reliable_fraction']:.0f} % of lines"
@@ -302,14 +254,13 @@ def identification_lines(result, study, wrote=(), max_findings: int | None = MAX
     findings shown (None: all; the rest are counted, they are all in ``summary.json``).
     """
     f = result.frequency.hz
-    what = f"{len(study.joints)} joints, " if study.is_structure and len(study.joints) > 1 else ""
+    what = f"{len(study.joints)} joints, " if len(study.joints) > 1 else ""
     first = (f"identified {what}{len(result.joint_dofs)}x{len(result.joint_dofs)} joint stiffness on {f.size} lines "
              f"({f[0]:g}-{f[-1]:g} Hz); {100 * np.mean(result.reliable):.0f}% of lines reliable")
     lines = [first + (f"; wrote {', '.join(str(p) for p in wrote)}" if wrote else "")]
-    if hasattr(result, "describe_estimator"):
-        lines.append(f"estimator: {result.describe_estimator()}")
+    lines.append(f"estimator: {result.describe_estimator()}")
     lines.extend(term_lines(result, study))
-    findings = getattr(result, "findings", lambda: [])()
+    findings = result.findings()
     shown = findings if max_findings is None else findings[:max_findings]
     lines.extend(shown)
     if len(findings) > len(shown):
@@ -319,7 +270,7 @@ def identification_lines(result, study, wrote=(), max_findings: int | None = MAX
 
 def output_files(study) -> list[str]:
     """The joint stiffness CSV(s) and ``report.html``: the files ``identify`` names on its summary line."""
-    files = [stiffness_file(study, j.name) for j in study.joints] if study.is_structure else ["joint_stiffness.csv"]
+    files = [stiffness_file(study, j.name) for j in study.joints]
     return files + ["report.html"]
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..io.output_dir import OutputSet
+from ..errors import StudyError
 from .common import add_out_argument, add_study_argument, study_from_args
 
 __all__ = ["add_parser", "run"]
@@ -31,6 +32,9 @@ def run(args: argparse.Namespace) -> int:
 
     study = study_from_args(args)
     with OutputSet(args.out, command="modes") as out:
+        if study.beam is None:  # the dense modes of the beam factory; a large matrix model has its own eigensolver
+            raise StudyError(f"{study.source}: `jointid modes` needs a [beam] study; the modes of a [{study.structure.study_table}] "
+                             "come with its FRFs (`jointid simulate --free`)")
         beam = study.beam.structure()
         modes = natural_modes(beam)
         f = modes.frequencies_hz

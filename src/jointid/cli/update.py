@@ -51,18 +51,16 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def parse_parameters(text: str, structure: bool = False) -> tuple[str, ...]:
-    """``--parameters`` as names, validated (one-line error naming a bad one); ``structure``: a ``[structure]`` study's names."""
+def parse_parameters(text: str, known=None, what: str = "") -> tuple[str, ...]:
+    """``--parameters`` as names, validated against ``known`` (default: a beam's; one-line error naming a bad one)."""
     names = tuple(n.strip() for n in text.split(",") if n.strip())
-    if structure:
-        check_parameter_names(names, prefix="--parameters (a [structure] study): ", known=STRUCTURE_PARAMETERS)
-    else:
-        check_parameter_names(names, prefix="--parameters: ")
+    check_parameter_names(names, prefix=f"--parameters{what}: ", known=known)
     return names
 
 
 def structure_paths_for(study, directory: Path) -> dict:
-    """``structure.mass`` / ``.stiffness`` / ``.dofs`` -> the file names as a study in ``directory`` must write them.
+    """The free structure's file keys (``structure.mass`` / ``.stiffness`` / ``.dofs``; a beam has none) -> the
+    file names as a study in ``directory`` must write them.
 
     Relative names are relative to the study file's directory; an updated study
     written elsewhere names the same files relative to its own directory
@@ -70,7 +68,7 @@ def structure_paths_for(study, directory: Path) -> dict:
     """
     spec = study.structure
     out = {}
-    for key in ("mass", "stiffness", "dofs"):
+    for key in spec.file_keys:
         name = getattr(spec, key)
         if Path(name).is_absolute():
             continue
@@ -80,7 +78,7 @@ def structure_paths_for(study, directory: Path) -> dict:
         except ValueError:
             new = Path(target).as_posix()
         if new != name:
-            out[f"structure.{key}"] = new
+            out[f"{spec.study_table}.{key}"] = new
     return out
 
 
@@ -91,8 +89,9 @@ def run(args: argparse.Namespace) -> int:
     if args.max_evaluations < 1:
         raise StudyError(f"--max-evaluations: expected an integer >= 1, got {args.max_evaluations}")
     study = study_from_args(args)
-    default = DEFAULT_STRUCTURE_PARAMETERS if study.is_structure else DEFAULT_PARAMETERS
-    names = parse_parameters(args.parameters if args.parameters is not None else ",".join(default), study.is_structure)
+    known, default = study.structure.update_parameter_names()
+    what = "" if study.beam is not None else f" (a [{study.structure.study_table}] study)"
+    names = parse_parameters(args.parameters if args.parameters is not None else ",".join(default), known, what)
     if study.accelerometers is None and any(n.startswith("accelerometers.") for n in names):
         raise StudyError(f"--parameters: {study.source} has no [accelerometers] section to fit")
     text = Path(args.study).read_text(encoding="utf-8-sig")
@@ -103,10 +102,9 @@ def run(args: argparse.Namespace) -> int:
     with OutputSet(args.out, command="update") as out:
         result = update(study, measured, options)
         determined = result.determined()
-        edits = dict(determined)
-        if study.is_structure:  # [structure] keys; the matrix files named relative to DIR
-            edits = {f"structure.{k}": v for k, v in determined.items()}
-            edits.update(structure_paths_for(study, args.out))
+        # the free structure's keys (accelerometers.* as they are); its files named relative to DIR
+        edits = {(k if "." in k else f"{study.structure.study_table}.{k}"): v for k, v in determined.items()}
+        edits.update(structure_paths_for(study, args.out))
         header = [
             f"Updated by `jointid update` on {datetime.date.today().isoformat()} from the free-free FRFs {args.frf}",
             f"(fit of {', '.join(names)} on {result.measured.frequency.size} lines x {len(result.measured.responses)} x "

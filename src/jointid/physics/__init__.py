@@ -7,7 +7,7 @@ The main API, re-exported here (imported on first use)::
 * :mod:`.elements` -- ``Section``, ``Material``, ``timoshenko_element``;
 * :mod:`.structure` -- ``Structure`` (immutable assembled model), ``ComplexStiffness``,
   ``beam_structure``, ``constant_stiffness``;
-* :mod:`.joints` -- ``parametric_joint``, ``joint_from_spec``;
+* :mod:`.joints` -- ``parametric_joint``, ``build_joint``, ``JOINT_MODELS`` (joint models by type);
 * :mod:`.frame` -- ``build_frame`` (3-D Timoshenko frames, 6 DOFs per node, sparse),
   ``FrameModel``, ``Member``, ``PointMass``; :mod:`.frame_sections` -- ``FrameSection``;
 * :mod:`.reduction` -- ``craig_bampton``, ``CraigBamptonModel`` (boundary DOFs + modal scalar points);
@@ -30,7 +30,7 @@ __getattr__, __dir__, __all__ = attach(
     {
         ".elements": ("Section", "Material", "timoshenko_element"),
         ".structure": ("Structure", "ComplexStiffness", "beam_structure", "constant_stiffness"),
-        ".joints": ("parametric_joint", "joint_from_spec"),
+        ".joints": ("parametric_joint", "build_joint", "JOINT_MODELS"),
         ".elastomer_joint": ("ElastomerJoint", "JointModes"),
         ".elastomer_material": ("ElastomerMaterial", "EndCap", "MATERIALS"),
         ".modes": ("Modes", "natural_modes"),

@@ -1,20 +1,38 @@
-"""Joint models that connect a beam node to ground: parametric and (via the direct method) elastomeric.
+"""Joint models, registered by type: every study's true joints are built here, for any structure.
 
-A joint is a :class:`~jointid.physics.structure.ComplexStiffness` on the joint
-coordinates ``(node w, node theta)`` (or a subset).
+A joint is a :class:`~jointid.physics.structure.ComplexStiffness` on its DOFs (one side,
+grounded) or on ``dofs + other`` (between two parts). :data:`JOINT_MODELS` maps a study's
+``[joint.model] type`` to its builder ``build(dofs, other, parameters, name)``:
+
+``"mount"``
+    :class:`~jointid.physics.mount.MountModel`, the parametric joint:
+    ``K*(f) = K0 (1 + growth (f / reference_frequency)^exponent) (1 + j loss_factor)`` with
+    ``stiffness`` (one per DOF) on the diagonal of ``K0`` and ``couplings`` (``(dof_i, dof_j, value)``) off it.
+``"parametric"``
+    The beam study's shorthand for a mount on ``(node w, node theta)``: ``k_w_w`` (N/m),
+    ``k_theta_theta`` (N*m/rad), ``k_w_theta`` (N/rad) and the same frequency law (the formula
+    lives once, in :class:`~jointid.physics.mount.MountModel`).
+``"elastomer"``
+    The elastomer cylinder's FE model (:mod:`jointid.physics.elastomer_joint`) on one
+    (translation, rotation) pair of the joint's DOFs (``pair``, ``sigma``;
+    :func:`~jointid.physics.elastomer_mount.elastomer_mount`), or, without ``pair``, on a beam
+    node's ``(w, theta)`` (or one of them).
+
+A new joint model is one builder added to :data:`JOINT_MODELS` (and its keys to the study schema).
 """
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..dofs import Dof
-from ..errors import StudyError
+from ..dofs import DIRECTIONS, Dof, parse_dof
+from ..errors import ModelError
+from .mount import MountModel
 from .structure import ComplexStiffness
 
-__all__ = ["parametric_joint", "joint_from_spec"]
+__all__ = ["parametric_joint", "build_joint", "JOINT_MODELS"]
 
 
 def parametric_joint(
@@ -26,9 +44,9 @@ def parametric_joint(
     growth: float = 0.0,
     reference_frequency: float = 100.0,
     exponent: float = 1.0,
-    dofs: Sequence[str] = ("w", "theta"),
+    dofs: Sequence[str] = DIRECTIONS,
 ) -> ComplexStiffness:
-    """A grounded joint with a frequency-dependent complex 2x2 stiffness.
+    """A grounded beam joint with a frequency-dependent complex 2x2 stiffness (a :class:`MountModel`).
 
     ``K*(f) = K0 (1 + growth (f / reference_frequency)^exponent) (1 + j loss_factor)``
     with ``K0 = [[k_w_w, k_w_theta], [k_w_theta, k_theta_theta]]``.
@@ -49,27 +67,79 @@ def parametric_joint(
         Storage-stiffness rise with frequency (dimensionless, Hz, dimensionless).
     dofs : sequence of {"w", "theta"}
         Joint DOFs kept (the matrix is restricted to them).
+
+    Raises
+    ------
+    ModelError
+        ``K0`` not positive definite, or a law that is not passive.
     """
-    K0 = np.array([[k_w_w, k_w_theta], [k_w_theta, k_theta_theta]], dtype=float)
-    keep = [("w", "theta").index(d) for d in dofs]
-    K0 = K0[np.ix_(keep, keep)]
-
-    def stiffness(f_hz: np.ndarray) -> np.ndarray:
-        s = 1.0 + growth * (np.asarray(f_hz) / reference_frequency) ** exponent
-        return s[:, None, None] * K0[None] * (1.0 + 1j * loss_factor)
-
-    return ComplexStiffness(tuple(Dof(node, d) for d in dofs), stiffness, "parametric joint")
+    return build_joint("parametric", tuple(Dof(node, d) for d in dofs), (), {
+        "k_w_w": k_w_w, "k_theta_theta": k_theta_theta, "k_w_theta": k_w_theta, "loss_factor": loss_factor,
+        "growth": growth, "reference_frequency": reference_frequency, "exponent": exponent,
+    }, "parametric joint")
 
 
-def joint_from_spec(joint) -> ComplexStiffness:
-    """The true joint of a study's ``[joint]`` / ``[joint.model]`` section (:class:`~jointid.study.parse.JointSpec`)."""
-    model = joint.model
-    if model is None:
-        raise StudyError("the study has no [joint.model] section: add one to simulate the joint")
-    if model.type == "parametric":
-        return parametric_joint(joint.node, dofs=joint.dofs, **dict(model.parameters))
-    if model.type == "elastomer":
-        from .elastomer_joint import elastomer_joint_from_parameters
+def _law(p: Mapping[str, Any]) -> dict:
+    return {k: float(p.get(k, d)) for k, d in (("loss_factor", 0.1), ("growth", 0.0), ("reference_frequency", 100.0), ("exponent", 1.0))}
 
-        return elastomer_joint_from_parameters(joint.node, joint.dofs, dict(model.parameters))
-    raise StudyError(f"[joint.model].type: unknown joint model {model.type!r}")
+
+def _mount(dofs, other, p, name) -> ComplexStiffness:
+    k = len(dofs)
+    stiffness = p["stiffness"]
+    if len(stiffness) != k:
+        raise ModelError(f"{name}: {len(stiffness)} stiffnesses for {k} DOFs; give one per DOF")
+    K0 = np.diag(np.asarray(stiffness, dtype=float))
+    pos = {d: i for i, d in enumerate(dofs)}
+    for a, b, v in p.get("couplings", ()):
+        i, j = pos[parse_dof(a)], pos[parse_dof(b)]
+        K0[i, j] = K0[j, i] = v
+    mount = MountModel(tuple(dofs), K0, other=tuple(other), **_law(p))
+    return ComplexStiffness(mount.joint_dofs, mount, name)
+
+
+def _parametric(dofs, other, p, name) -> ComplexStiffness:
+    if other:
+        raise ModelError(f"{name}: the parametric beam joint is grounded; use type = \"mount\" between two parts")
+    K0 = {("w", "w"): p["k_w_w"], ("theta", "theta"): p["k_theta_theta"], ("w", "theta"): p.get("k_w_theta", 0.0)}
+    directions = [d.direction for d in dofs]
+    stiffness = [K0[(d, d)] for d in directions]
+    couplings = [(str(dofs[0]), str(dofs[1]), K0[("w", "theta")])] if directions == ["w", "theta"] and K0[("w", "theta")] else []
+    return _mount(dofs, (), {**_law(p), "stiffness": stiffness, "couplings": couplings}, name)
+
+
+def _elastomer(dofs, other, p, name) -> ComplexStiffness:
+    from .elastomer_joint import elastomer_joint_model
+    from .elastomer_mount import elastomer_mount
+
+    material = {k: v for k, v in p.items() if k not in ("pair", "sigma", "axes", "cylinder_axis")}
+    fe = elastomer_joint_model(material)
+    if "pair" in p:
+        return elastomer_mount(fe, tuple(dofs), tuple(p["pair"]), int(p["sigma"]), tuple(other), name)
+    if other or len({d.node for d in dofs}) != 1 or not all(d.direction in DIRECTIONS for d in dofs):
+        raise ModelError(f"{name}: an elastomer joint without axes acts on one beam node's (w, theta); give axes for other DOFs")
+    return fe.complex_stiffness(dofs[0].node, tuple(d.direction for d in dofs), name=name)
+
+
+#: ``[joint.model] type`` -> ``build(dofs, other, parameters, name) -> ComplexStiffness``.
+JOINT_MODELS: dict[str, Callable[..., ComplexStiffness]] = {
+    "mount": _mount,
+    "parametric": _parametric,
+    "elastomer": _elastomer,
+}
+
+
+def build_joint(type: str, dofs: Sequence[Dof], other: Sequence[Dof], parameters: Mapping[str, Any], name: str = "joint") -> ComplexStiffness:
+    """The joint model registered as ``type`` on ``dofs`` (grounded) or ``dofs + other``, as a ComplexStiffness.
+
+    Raises
+    ------
+    ModelError
+        An unknown type, or parameters the model refuses (one line naming the joint).
+    """
+    if type not in JOINT_MODELS:
+        raise ModelError(f"{name}: unknown joint model type {type!r}; known: {', '.join(JOINT_MODELS)}")
+    try:
+        return JOINT_MODELS[type](tuple(dofs), tuple(other), parameters, name)
+    except ModelError as exc:
+        text = str(exc)
+        raise ModelError(text if text.startswith(name) else f"{name}: {text}") from None

@@ -129,6 +129,12 @@ class ModalBasis:
 DENSE_STRUCTURE_MAX_DOFS = 500
 
 
+#: Component codes (:data:`jointid.dofs.COMPONENT_CODES`) that carry a lumped mass: x, y, z, w.
+_TRANSLATION_CODES = (1, 2, 3, 7)
+#: Component codes that carry a lumped rotary inertia: rx, ry, rz, theta.
+_ROTATION_CODES = (4, 5, 6, 8)
+
+
 class SparseModel:
     """A free structure given by sparse M and K, as a :class:`~jointid.physics.free_model.FreeModel`.
 
@@ -201,6 +207,37 @@ class SparseModel:
         if eta is None:
             raise ModelError("the structure's damping is not proportional (Im K = eta Re K); a sparse model needs one loss factor")
         return cls(sp.csc_array(structure.M), sp.csc_array(structure.K.real), structure.dofs, eta, **options)
+
+    def with_masses(self, nodes: Iterable[int], mass_kg: float, rotary_inertia_kg_m2: float = 0.0) -> "SparseModel":
+        """A copy with the same lumped mass and rotary inertia at each of ``nodes`` (e.g. accelerometers).
+
+        ``mass_kg`` is added to the mass matrix's diagonal at every translational DOF of the
+        node (x, y, z, w), ``rotary_inertia_kg_m2`` at every rotational one (rx, ry, rz, theta):
+        a point mass with an isotropic rotary inertia. The options and loss factor are kept.
+
+        Raises
+        ------
+        ModelError
+            A negative or non-finite mass or inertia, or a node without DOFs in the model.
+        """
+        if not (np.isfinite(mass_kg) and mass_kg >= 0 and np.isfinite(rotary_inertia_kg_m2) and rotary_inertia_kg_m2 >= 0):
+            raise ModelError(f"lumped masses: mass ({mass_kg!r} kg) and rotary inertia ({rotary_inertia_kg_m2!r} kg*m^2) must be finite and >= 0")
+        nodes = np.unique(np.asarray(list(nodes), dtype=np.int64))
+        at = np.isin(self.dof_array.node, nodes)
+        missing = np.setdiff1d(nodes, self.dof_array.node[at])
+        if missing.size:
+            raise ModelError(f"lumped masses: node {int(missing[0])} has no DOF in the model")
+        code = self.dof_array.code
+        add = np.where(at & np.isin(code, _TRANSLATION_CODES), mass_kg, 0.0) + np.where(at & np.isin(code, _ROTATION_CODES), rotary_inertia_kg_m2, 0.0)
+        M = (self.mass + sp.diags_array(add, format="csc")).tocsc()
+        return SparseModel(M, self.stiffness, self.dof_array, self.loss_factor, self.method, self.cutoff_factor,
+                           self.residual_terms, self.n_modes)
+
+    def with_joints(self, joints):
+        """The model with frequency-dependent joints attached (:class:`~jointid.physics.jointed_model.JointedModel`)."""
+        from .jointed_model import JointedModel
+
+        return JointedModel(self, tuple(joints))
 
     # ------------------------------------------------------------ FreeModel
     @property

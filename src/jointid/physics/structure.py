@@ -260,6 +260,13 @@ class Structure:
         self._check_dofs(joint.dofs, joint.name)
         return replace(self, joints=self.joints + (joint,))
 
+    def with_joints(self, joints: Iterable[ComplexStiffness]) -> "Structure":
+        """Return a copy with every joint of ``joints`` attached (:meth:`with_joint`)."""
+        s = self
+        for joint in joints:
+            s = s.with_joint(joint)
+        return s
+
     def with_fixed(self, dofs: Iterable) -> "Structure":
         """Return a copy with ``dofs`` constrained to zero displacement."""
         new = parse_dofs(dofs)

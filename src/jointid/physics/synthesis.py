@@ -59,7 +59,7 @@ from .modes import DENSE_EIGEN_LIMIT, Modes, natural_modes
 from .structure import Structure
 
 __all__ = [
-    "synthesize_frf", "receptance_direct", "receptance_modal", "receptance_modal_refined", "receptance_coupled",
+    "synthesize_frf", "model_frf", "receptance_direct", "receptance_modal", "receptance_modal_refined", "receptance_coupled",
     "DENSE_DIRECT_LIMIT", "choose_method",
 ]
 
@@ -404,3 +404,29 @@ def synthesize_frf(
         H = receptance_direct(structure, frequency, responses, references)
     frf = FRF(frequency, H, responses, references, "receptance")
     return frf.to(kind)
+
+
+def model_frf(model, frequency, responses: Iterable, references: Iterable, kind: str = "receptance") -> FRF:
+    """FRFs of any model with the free-model seam: a :class:`Structure` by :func:`synthesize_frf` (every
+    line, 0 Hz included where the structure is grounded), anything else by its ``receptance(frequency,
+    rows, cols)`` (a free or Woodbury-coupled model: lines above 0 Hz only, where its free part is regular).
+
+    Parameters
+    ----------
+    model : Structure, SparseModel, JointedModel or any FreeModel
+    frequency : Frequency
+    responses, references : iterable of Dof or labels
+    kind : {"receptance", "mobility", "accelerance"}
+
+    Returns
+    -------
+    FRF
+        Shape (F, r, c) on the lines computed.
+    """
+    if isinstance(model, Structure):
+        return synthesize_frf(model, frequency, responses, references, kind=kind)
+    frequency = _as_frequency(frequency)
+    if frequency.hz[0] <= 0:
+        frequency = frequency[frequency.hz > 0]
+    rows, cols = parse_dofs(responses), parse_dofs(references)
+    return FRF(frequency, model.receptance(frequency, rows, cols), rows, cols, "receptance").to(kind)

@@ -129,9 +129,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, Mapping
 
-from ..dofs import DIRECTIONS
+from ..dofs import DIRECTIONS, Dof
 from ..errors import StudyError
-from ..schema import DENSITY, EXPONENT, FREQUENCY, GROWTH, LENGTH, LOSS_FACTOR, MODULUS, SHEAR_COEFFICIENT, STIFFNESS
+from ..schema import DENSITY, EXPONENT, FREQUENCY, GROWTH, LENGTH, LOSS_FACTOR, MODULUS, SCALE, SHEAR_COEFFICIENT, STIFFNESS
 from ..schema import Field as _Field
 from ..schema import format_number as _num
 from ..schema import choices as _choices
@@ -261,6 +261,11 @@ _EXPERIMENT = {
     "seed": _Field("int", False, 0, check=lambda v: None if v >= 0 else "an integer >= 0"),
 }
 _TRUTH = {k: replace(_BEAM[k], required=False, default=None) for k in TRUTH_KEYS}
+_STRUCTURE_TRUTH = {
+    "stiffness_scale": _Field("number", False, None, check=_positive, bounds=SCALE),
+    "mass_scale": _Field("number", False, None, check=_positive, bounds=SCALE),
+    "loss_factor": _Field("number", False, None, check=_nonneg, bounds=LOSS_FACTOR),
+}
 _TOP = ("beam", "structure", "joint", "measurement", "frequency", "accelerometers", "identification", "experiment", "truth")
 
 
@@ -326,7 +331,7 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
             raise StudyError(f"[joint.model].type: expected 'parametric' or 'elastomer', got {mtype!r}")
         params.pop("type")
         model = JointModelSpec(mtype, {k: v for k, v in params.items() if v is not None})
-    joint = JointSpec(j["node"], dofs, model)
+    joint = JointSpec("joint", tuple(Dof(j["node"], d) for d in dofs), (), model)
 
     mdata = data["measurement"]
     m = _section(mdata, "measurement", _MEASUREMENT, sub=("points",))
@@ -354,7 +359,7 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
     truth = None
     if "truth" in data:
         truth = TruthSpec(**{k: v for k, v in _section(data["truth"], "truth", _TRUTH).items()})
-    return Study(beam, joint, measurement, frequency, acc, ident, exp, source, truth)
+    return Study(beam, (joint,), measurement, frequency, acc, ident, exp, source, truth)
 
 
 def _sensors_below_beam(acc: AccelerometerSpec, beam: BeamSpec) -> None:
@@ -419,9 +424,6 @@ def _parse_structure_study(data: Mapping[str, Any], source: str) -> Study:
     for sec in ("joint", "measurement", "frequency"):
         if sec not in data:
             raise StudyError(f"missing section [{sec}]" if sec != "joint" else "missing section [[joint]]")
-    for sec in ("accelerometers", "truth"):
-        if sec in data:
-            raise StudyError(f"[{sec}] applies to [beam] studies only; put sensor masses or model changes into the [structure] matrices")
     base = Path(source).parent if not source.startswith("<") else Path(".")
     structure = parse_structure(data["structure"], base)
     model_name = f"structure ({structure.dofs})"
@@ -452,11 +454,24 @@ def _parse_structure_study(data: Mapping[str, Any], source: str) -> Study:
         points = _points(mdata["points"], int(structure.dof_array.node.max()), nodes)
     measurement = MeasurementSpec(dofs["observed"], dofs["excited"], "+Z", points)
     frequency = _frequency(data)
+    acc = None
+    if "accelerometers" in data:
+        a = _section(data["accelerometers"], "accelerometers", _ACCELEROMETERS)
+        if a["nodes"] is None:
+            a["nodes"] = tuple(dict.fromkeys(d.node for d in measurement.observed_dofs))
+        known = set(structure.dof_array.node.tolist())
+        for n in a["nodes"]:
+            if n not in known:
+                raise StudyError(f"[accelerometers].nodes: node {n} has no DOF in the structure ({structure.dofs})")
+        acc = AccelerometerSpec(**a)
     ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
-    if ident.model_accelerometers:
-        raise StudyError("[identification].model_accelerometers applies to [beam] studies only")
+    if ident.model_accelerometers and acc is None:
+        raise StudyError("[identification].model_accelerometers = true needs an [accelerometers] section")
     exp = _experiment(data, frequency)
-    return Study(None, None, measurement, frequency, None, ident, exp, source, None, structure, joints)
+    truth = None
+    if "truth" in data:
+        truth = TruthSpec(**_section(data["truth"], "truth", _STRUCTURE_TRUTH))
+    return Study(structure, joints, measurement, frequency, acc, ident, exp, source, truth)
 
 
 def _points(table: Any, n_nodes: int, used: tuple[int, ...]) -> tuple[tuple[int, int], ...]:

@@ -75,6 +75,72 @@ class BeamSpec:
 
         return elements_per_segment(self.length, self.nodes, self.section(), self.material(), max_frequency_hz)
 
+    #: ``[truth]`` keys of a ``[beam]`` study (each a ``[beam]`` key).
+    truth_keys = ("elastic_modulus", "density", "loss_factor", "elements_per_segment")
+    #: The study table of this spec, and its keys that name files (relative to the study file).
+    study_table = "beam"
+    file_keys = ()
+
+    def update_parameter_names(self) -> tuple[dict, tuple[str, ...]]:
+        """The parameters ``jointid update`` can fit on a beam (name -> unit, bounds, label) and those it fits by default."""
+        from ..methods.updating.parameters import DEFAULT_PARAMETERS, PARAMETERS
+
+        return PARAMETERS, DEFAULT_PARAMETERS
+
+    def free_model(self, max_frequency_hz: float | None = None):
+        """The free structure (the free-structure protocol of :mod:`jointid.study.structures`): :meth:`structure`."""
+        return self.structure(max_frequency_hz)
+
+    def dense_model(self, max_frequency_hz: float | None = None):
+        """The dense free model Hong & Lee solves with: the beam on its grid nodes, or refined where
+        ``elements_per_segment`` is given (its estimation step solves for every unobserved DOF, so an
+        automatic refinement would multiply its cost)."""
+        return self.structure(max_frequency_hz if self.elements_per_segment is not None else None)
+
+    def frf_reading(self, measurement) -> dict:
+        """The options of :func:`jointid.io.frf_files.read_frf` for this structure: node range and the file's ``w`` axis."""
+        return {"n_nodes": self.nodes, "axis": measurement.axis}
+
+    def describe(self) -> str:
+        """One line: what the free structure is."""
+        return f"beam {self.length:g} m, {self.nodes} nodes, E {self.elastic_modulus:.4g} Pa, density {self.density:.5g} kg/m^3"
+
+    def update_model(self, accelerometers, max_frequency_hz: float):
+        """The beam (and its sensors) as a parameterized model for :func:`jointid.methods.updating.fit.update_free_model`.
+
+        Returns ``(build, initial, known, default)``: ``build(values) -> Structure`` meshed with the
+        refinement at ``max_frequency_hz`` (fixed, so the model is smooth in the parameters), ``values``
+        replacing ``elastic_modulus``, ``density``, ``loss_factor``, ``shear_coefficient`` and
+        ``accelerometers.mass`` / ``accelerometers.rotary_inertia``; ``initial`` the study's values
+        (the accelerometer ones only with sensors); the parameter names known and fitted by default.
+        """
+        from ..methods.updating.parameters import DEFAULT_PARAMETERS, PARAMETERS
+
+        r = self.mesh_refinement(max_frequency_hz)
+        beam_keys = ("elastic_modulus", "density", "loss_factor", "shear_coefficient")
+        initial = {k: float(getattr(self, k)) for k in beam_keys}
+        acc = accelerometers
+        if acc is not None:
+            initial["accelerometers.mass"] = acc.mass
+            initial["accelerometers.rotary_inertia"] = acc.rotary_inertia
+
+        def build(values):
+            s = replace(self, elements_per_segment=r, **{k: values[k] for k in beam_keys if k in values}).structure()
+            if acc is not None:
+                s = s.with_masses(acc.nodes, values.get("accelerometers.mass", acc.mass),
+                                  values.get("accelerometers.rotary_inertia", acc.rotary_inertia))
+            return s
+
+        return build, initial, PARAMETERS, DEFAULT_PARAMETERS
+
+    def compatible(self, other, source: str = "the study") -> str | None:
+        """Why ``other`` cannot be the true structure of the study ``source`` (None: it can): a beam on the same nodes."""
+        if not isinstance(other, BeamSpec):
+            return f"--truth needs a [beam] study (the true beam of {source}); this one is a [{other.study_table}] study"
+        if other.nodes != self.nodes:
+            return f"[beam].nodes = {other.nodes} differs from the {self.nodes} of {source}; the true beam needs the same grid of nodes"
+        return None
+
     def structure(self, max_frequency_hz: float | None = None):
         """The free-free beam (:class:`~jointid.physics.structure.Structure`), grid nodes 1..N from x = 0.
 
@@ -107,16 +173,28 @@ class JointModelSpec:
 
 @dataclass(frozen=True)
 class JointSpec:
-    """Where the joint connects the beam to ground, on which DOFs."""
+    """One joint of a study (every study: the beam's ``[joint]`` is a shorthand for one ``[[joint]]``).
 
-    node: int
-    dofs: tuple[str, ...] = DIRECTIONS
+    ``dofs``: side one (grounded joint: its only side); ``other``: side two of a joint between
+    two parts (empty: grounded); ``model``: the true joint for virtual tests (``type`` registered in
+    :data:`jointid.physics.joints.JOINT_MODELS`), or None.
+    """
+
+    name: str
+    dofs: tuple[Dof, ...]
+    other: tuple[Dof, ...] = ()
     model: JointModelSpec | None = None
 
     @property
     def joint_dofs(self) -> tuple[Dof, ...]:
-        """The joint coordinates n as labelled DOFs."""
-        return tuple(Dof(self.node, d) for d in self.dofs)
+        """The joint matrix's DOFs: ``dofs`` (grounded) or ``dofs + other``."""
+        return tuple(self.dofs) + tuple(self.other)
+
+    @property
+    def node(self) -> int | None:
+        """The node of a joint whose DOFs are all on one node (the beam's joint), else None."""
+        nodes = {d.node for d in self.joint_dofs}
+        return nodes.pop() if len(nodes) == 1 else None
 
 
 @dataclass(frozen=True)
@@ -217,40 +295,44 @@ class ExperimentSpec:
 
 @dataclass(frozen=True)
 class TruthSpec:
-    """``[truth]``: how the true (simulated) beam differs from the study's model.
+    """``[truth]``: how the true (simulated) structure differs from the study's model.
 
-    Each value given replaces the ``[beam]`` key of the same name in the
-    structure that ``jointid simulate`` (and ``simulate --free``) synthesizes;
-    the study's ``[beam]`` stays the model that ``identify`` and ``update``
-    start from. ``None``: as in ``[beam]``.
+    Each value given replaces the free structure's key of the same name (a ``[beam]``:
+    ``elastic_modulus``, ``density``, ``loss_factor``, ``elements_per_segment``; a
+    ``[structure]``: ``stiffness_scale``, ``mass_scale``, ``loss_factor``) in the structure
+    that ``simulate``/``experiment`` (and ``simulate --free``) use; ``identify`` and ``update``
+    start from the study's own. ``None``: as in the study.
     """
 
     elastic_modulus: float | None = None
     density: float | None = None
     loss_factor: float | None = None
     elements_per_segment: int | None = None
+    stiffness_scale: float | None = None
+    mass_scale: float | None = None
 
-    def apply(self, beam: BeamSpec) -> BeamSpec:
-        """``beam`` with the overrides applied."""
-        return replace(beam, **{k: getattr(self, k) for k in TRUTH_KEYS if getattr(self, k) is not None})
+    def apply(self, structure):
+        """``structure`` (a free-structure spec) with the overrides applied."""
+        return replace(structure, **{k: v for k, v in vars(self).items() if v is not None})
 
 
-#: Keys of ``[truth]`` (each a ``[beam]`` key).
-TRUTH_KEYS = ("elastic_modulus", "density", "loss_factor", "elements_per_segment")
+#: Keys of a ``[beam]`` study's ``[truth]`` (each a ``[beam]`` key).
+TRUTH_KEYS = BeamSpec.truth_keys
 
 
 @dataclass(frozen=True)
 class Study:
-    """A validated study: beam, joint, measurement, frequency grid and optional sections.
+    """A validated study: free structure, joints, measurement, frequency grid and optional sections.
 
-    A structure study (``[structure]`` instead of ``[beam]``) has ``beam = None``,
-    ``joint = None``, its free structure in ``structure``
-    (:class:`~jointid.study.structures.StructureSpec`) and its joints in ``joints``
-    (:class:`~jointid.study.structures.NamedJoint`, one or more).
+    ``structure`` is the free structure's spec -- a :class:`BeamSpec` (``[beam]``) or a
+    :class:`~jointid.study.structures.MatrixStructureSpec` (``[structure]``): each gives the
+    free model, its dense form for Hong & Lee, how FRF files name its DOFs and what
+    ``[truth]`` may change (the free-structure protocol, :mod:`jointid.study.structures`).
+    ``joints`` are the study's joints (:class:`JointSpec`, identified together).
     """
 
-    beam: BeamSpec | None
-    joint: JointSpec | None
+    structure: Any
+    joints: tuple[JointSpec, ...]
     measurement: MeasurementSpec
     frequency: FrequencySpec
     accelerometers: AccelerometerSpec | None = None
@@ -258,19 +340,20 @@ class Study:
     experiment: ExperimentSpec = ExperimentSpec()
     source: str = "<study>"
     truth: TruthSpec | None = None
-    structure: Any = None
-    joints: tuple = ()
 
     @property
-    def is_structure(self) -> bool:
-        """True for a ``[structure]`` study (matrices from files, ``[[joint]]``), False for a ``[beam]`` study."""
-        return self.structure is not None
+    def beam(self) -> BeamSpec | None:
+        """The ``[beam]`` spec when the free structure is the beam factory's (the shorthand), else None."""
+        return self.structure if isinstance(self.structure, BeamSpec) else None
+
+    @property
+    def joint(self) -> JointSpec:
+        """The study's one joint (a study of several joints: the first; see :attr:`joints`)."""
+        return self.joints[0]
 
     @property
     def joint_dofs(self) -> tuple[Dof, ...]:
-        """Every joint DOF: the beam joint's, or every ``[[joint]]``'s in order (identified together)."""
-        if self.structure is None:
-            return self.joint.joint_dofs
+        """Every joint DOF, joint after joint in study order (identified together)."""
         return tuple(d for j in self.joints for d in j.joint_dofs)
 
     @property
@@ -279,7 +362,7 @@ class Study:
         return self.frequency.frequency()
 
     def true_study(self) -> "Study":
-        """The study of the true structure: ``[beam]`` with the ``[truth]`` overrides (itself without ``[truth]``)."""
+        """The study of the true structure: the ``[truth]`` overrides applied (itself without ``[truth]``)."""
         if self.truth is None:
             return self
-        return replace(self, beam=self.truth.apply(self.beam), truth=None)
+        return replace(self, structure=self.truth.apply(self.structure), truth=None)

@@ -74,16 +74,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-import numpy as np
 
 from ..dofs import Dof, DofArray, parse_dof
+from .sections import JointModelSpec, JointSpec
 from ..errors import DataError, DofError, ModelError, StudyError
 from ..schema import (
     DENSITY, EXPONENT, FREQUENCY, GROWTH, LENGTH, LOSS_FACTOR, MODULUS, SCALE, STIFFNESS, Field, choices, nonneg, positive, section, typed,
 )
 
 __all__ = [
-    "StructureSpec", "MountSpec", "ElastomerSpec", "NamedJoint", "parse_structure", "parse_joints", "parse_dof_list_key",
+    "MatrixStructureSpec", "parse_structure", "parse_joints", "parse_dof_list_key",
     "MOUNT_KEYS", "ELASTOMER_KEYS", "ELASTOMER_MATERIAL_FIELDS",
 ]
 
@@ -155,7 +155,7 @@ ELASTOMER_KEYS = tuple(_ELASTOMER_FIELDS)
 
 
 @dataclass(frozen=True)
-class StructureSpec:
+class MatrixStructureSpec:
     """``[structure]``: the free structure's matrix files and DOF list (as given), damping, receptance method.
 
     The free model is ``stiffness_scale K (1 + j loss_factor) - w^2 mass_scale M``.
@@ -173,6 +173,71 @@ class StructureSpec:
     dof_array: DofArray | None = None
     stiffness_scale: float = 1.0
     mass_scale: float = 1.0
+
+    #: ``[truth]`` keys of a ``[structure]`` study.
+    truth_keys = ("stiffness_scale", "mass_scale", "loss_factor")
+    #: The study table of this spec, and its keys that name files (relative to the study file).
+    study_table = "structure"
+    file_keys = ("mass", "stiffness", "dofs")
+
+    def update_parameter_names(self) -> tuple[dict, tuple[str, ...]]:
+        """The parameters ``jointid update`` can fit on matrices (name -> unit, bounds, label) and those it fits by default."""
+        from ..methods.updating.parameters import DEFAULT_STRUCTURE_PARAMETERS, STRUCTURE_PARAMETERS
+
+        return STRUCTURE_PARAMETERS, DEFAULT_STRUCTURE_PARAMETERS
+
+    def free_model(self, max_frequency_hz: float | None = None):
+        """The free structure (the free-structure protocol): :meth:`model` (matrices from files need no meshing)."""
+        return self.model()
+
+    def dense_model(self, max_frequency_hz: float | None = None):
+        """The dense free model Hong & Lee solves with (:meth:`SparseModel.dense_structure`; at most 500 DOFs).
+
+        Raises
+        ------
+        StudyError
+            A model too large to be dense (one line).
+        """
+        try:
+            return self.model().dense_structure()
+        except ModelError as exc:
+            raise StudyError(f"[identification].method = 'hong-lee': {exc}") from None
+
+    def frf_reading(self, measurement) -> dict:
+        """The options of :func:`jointid.io.frf_files.read_frf`: UFF direction codes 1-6 are x..rz (no ``w`` axis)."""
+        return {"axis": None}
+
+    def describe(self) -> str:
+        """One line: what the free structure is."""
+        return f"structure ({self.dofs})"
+
+    def update_model(self, accelerometers, max_frequency_hz: float):
+        """The matrices as a parameterized model for :func:`jointid.methods.updating.fit.update_free_model`.
+
+        Returns ``(family, initial, known, default)``: a
+        :class:`~jointid.methods.updating.scaled_matrices.ScaledMatrixFamily` of
+        ``alpha K (1 + j eta) - w^2 beta M`` (the sensors' masses, if any, are in ``M`` and scale
+        with ``beta``), the study's ``stiffness_scale``, ``mass_scale``, ``loss_factor``, the
+        parameter names known and fitted by default.
+        """
+        from ..methods.updating.parameters import DEFAULT_STRUCTURE_PARAMETERS, STRUCTURE_PARAMETERS
+        from ..methods.updating.scaled_matrices import ScaledMatrixFamily
+
+        initial = {"stiffness_scale": self.stiffness_scale, "mass_scale": self.mass_scale, "loss_factor": self.loss_factor}
+        model = self.model()
+        if accelerometers is not None:
+            model = model.with_masses(accelerometers.nodes, accelerometers.mass, accelerometers.rotary_inertia)
+        return ScaledMatrixFamily(model, initial, self.method), initial, STRUCTURE_PARAMETERS, DEFAULT_STRUCTURE_PARAMETERS
+
+    def compatible(self, other, source: str = "the study") -> str | None:
+        """Why ``other`` cannot be the true structure of the study ``source`` (None: it can): matrices on the same DOFs."""
+        if not isinstance(other, MatrixStructureSpec):
+            return f"--truth needs a [structure] study (the true structure of {source}); this one is a [{other.study_table}] study"
+        if len(other.dof_array) != len(self.dof_array) or not (
+            (other.dof_array.node == self.dof_array.node).all() and (other.dof_array.code == self.dof_array.code).all()
+        ):
+            return f"[structure].dofs {other.dofs} differs from the DOF list of {source}; the true structure needs the same DOFs"
+        return None
 
     def model(self):
         """The free structure as a :class:`~jointid.physics.sparse_model.SparseModel` (the matrices times their scales).
@@ -210,77 +275,7 @@ class StructureSpec:
             raise StudyError(f"[structure]: {exc}") from None
 
 
-@dataclass(frozen=True)
-class MountSpec:
-    """``[joint.model] type = "mount"``: see :class:`~jointid.physics.mount.MountModel`."""
-
-    stiffness: tuple[float, ...]
-    couplings: tuple[tuple[str, str, float], ...] = ()
-    loss_factor: float = 0.1
-    growth: float = 0.0
-    reference_frequency: float = 100.0
-    exponent: float = 1.0
-
-
-@dataclass(frozen=True)
-class ElastomerSpec:
-    """``[joint.model] type = "elastomer"``: see :mod:`jointid.physics.elastomer_mount`.
-
-    ``pair``: positions of the translation and rotation of ``axes`` in the joint's ``dofs``;
-    ``sigma``: ``theta = sigma phi_r`` (:func:`~jointid.physics.elastomer_mount.axis_sign`);
-    ``parameters``: ``material`` and overrides for
-    :func:`~jointid.physics.elastomer_joint.elastomer_joint_model`.
-    """
-
-    axes: tuple[str, str]
-    cylinder_axis: str
-    pair: tuple[int, int]
-    sigma: int
-    parameters: Mapping[str, Any]
-
-
-@dataclass(frozen=True)
-class NamedJoint:
-    """One ``[[joint]]``: its name, DOFs (side one), ``other`` DOFs (side two, or empty) and true model."""
-
-    name: str
-    dofs: tuple[Dof, ...]
-    other: tuple[Dof, ...] = ()
-    model: MountSpec | ElastomerSpec | None = None
-
-    @property
-    def joint_dofs(self) -> tuple[Dof, ...]:
-        """The joint matrix's DOFs: ``dofs`` (grounded) or ``dofs + other``."""
-        return self.dofs + self.other
-
-    def mount(self):
-        """The true mount (:class:`~jointid.physics.mount.MountModel`).
-
-        Raises
-        ------
-        StudyError
-            No ``[joint.model]``, or a mount that is not passive.
-        """
-        from ..physics.mount import MountModel
-
-        spec = self.model
-        if spec is None:
-            raise StudyError(f"[[joint]] {self.name!r} has no [joint.model] table: add one to simulate the joint")
-        if not isinstance(spec, MountSpec):
-            raise StudyError(f"[[joint]] {self.name!r}: [joint.model] is not a mount; use jointid.models.true_joints")
-        k = len(self.dofs)
-        K0 = np.diag(np.asarray(spec.stiffness, dtype=float))
-        pos = {d: i for i, d in enumerate(self.dofs)}
-        for a, b, v in spec.couplings:
-            i, j = pos[parse_dof(a)], pos[parse_dof(b)]
-            K0[i, j] = K0[j, i] = v
-        try:
-            return MountModel(self.dofs, K0.reshape(k, k), spec.loss_factor, spec.growth, spec.reference_frequency, spec.exponent, self.other)
-        except ModelError as exc:
-            raise StudyError(f"[[joint]] {self.name!r} [joint.model]: {exc}") from None
-
-
-def parse_structure(data: Any, base: Path) -> StructureSpec:
+def parse_structure(data: Any, base: Path) -> MatrixStructureSpec:
     """Validate ``[structure]`` (paths relative to ``base``) and read its DOF list.
 
     Raises
@@ -299,7 +294,7 @@ def parse_structure(data: Any, base: Path) -> StructureSpec:
         dof_array = read_dof_list(v["dofs"], base)
     except DataError as exc:
         raise StudyError(f"[structure].dofs: {exc}") from None
-    return StructureSpec(
+    return MatrixStructureSpec(
         v["mass"], v["stiffness"], v["dofs"], v["loss_factor"], v["method"], str(base), dof_array,
         stiffness_scale=v["stiffness_scale"], mass_scale=v["mass_scale"],
     )
@@ -334,7 +329,7 @@ def parse_dof_list_key(where: str, value: Any, model: DofArray, model_name: str,
     return tuple(out)
 
 
-def parse_joints(data: Any, model: DofArray, model_name: str) -> tuple[NamedJoint, ...]:
+def parse_joints(data: Any, model: DofArray, model_name: str) -> tuple[JointSpec, ...]:
     """Validate ``[[joint]]`` (or one ``[joint]`` table) of a structure study.
 
     Raises
@@ -347,7 +342,7 @@ def parse_joints(data: Any, model: DofArray, model_name: str) -> tuple[NamedJoin
     tables = data if isinstance(data, list) else [data]
     if not tables:
         raise StudyError("[[joint]]: expected at least one joint")
-    joints: list[NamedJoint] = []
+    joints: list[JointSpec] = []
     owner: dict[Dof, str] = {}
     for i, t in enumerate(tables, 1):
         if not isinstance(t, Mapping):
@@ -378,11 +373,11 @@ def parse_joints(data: Any, model: DofArray, model_name: str) -> tuple[NamedJoin
                 )
             owner[d] = name
         model_spec = _joint_model(f"{where} [joint.model]", t["model"], dofs, other) if "model" in t else None
-        joints.append(NamedJoint(name, dofs, other, model_spec))
+        joints.append(JointSpec(name, dofs, other, model_spec))
     return tuple(joints)
 
 
-def _joint_model(where: str, data: Any, dofs: tuple[Dof, ...], other: tuple[Dof, ...]) -> MountSpec | ElastomerSpec:
+def _joint_model(where: str, data: Any, dofs: tuple[Dof, ...], other: tuple[Dof, ...]) -> JointModelSpec:
     if not isinstance(data, Mapping):
         raise StudyError(f"{where} must be a table")
     if data.get("type") == "elastomer":
@@ -392,7 +387,7 @@ def _joint_model(where: str, data: Any, dofs: tuple[Dof, ...], other: tuple[Dof,
     return _mount(where, data, dofs)
 
 
-def _elastomer(where: str, data: Mapping, dofs: tuple[Dof, ...], other: tuple[Dof, ...]) -> ElastomerSpec:
+def _elastomer(where: str, data: Mapping, dofs: tuple[Dof, ...], other: tuple[Dof, ...]) -> JointModelSpec:
     from ..physics.elastomer_mount import AXIS_DIRECTIONS, ROTATIONS, TRANSLATIONS, axis_sign
 
     unknown = [k for k in data if k not in ELASTOMER_KEYS]
@@ -432,10 +427,11 @@ def _elastomer(where: str, data: Mapping, dofs: tuple[Dof, ...], other: tuple[Do
 
     section(data, "joint.model", _ELASTOMER_FIELDS, label=where)  # types and ranges, one line each
     params = {k: v for k, v in data.items() if k not in ("type", "axes", "cylinder_axis")}
-    return ElastomerSpec((t, r), cyl or default_cylinder_axis(t, r), (pair[0], pair[1]), sigma, params)
+    return JointModelSpec("elastomer", {**params, "axes": (t, r), "cylinder_axis": cyl or default_cylinder_axis(t, r),
+                                        "pair": (pair[0], pair[1]), "sigma": sigma})
 
 
-def _mount(where: str, data: Mapping, dofs: tuple[Dof, ...]) -> MountSpec:
+def _mount(where: str, data: Mapping, dofs: tuple[Dof, ...]) -> JointModelSpec:
     v = section(data, "joint.model", _MOUNT_FIELDS, label=where)
     if len(v["stiffness"]) != len(dofs):
         raise StudyError(f"{where}.stiffness: expected a list of {len(dofs)} stiffnesses (N/m, N*m/rad), one per DOF of dofs, got {data['stiffness']!r}")
@@ -455,6 +451,7 @@ def _mount(where: str, data: Mapping, dofs: tuple[Dof, ...]) -> MountSpec:
             raise StudyError(f"{where}.couplings: [{a}, {b}] is " + ("a diagonal term (give it in stiffness)" if a == b else "given twice"))
         seen.add(frozenset((a, b)))
         couplings.append((str(a), str(b), typed(None, "couplings", Field("number", bounds=(-STIFFNESS[1], STIFFNESS[1])), c[2], where)))
-    return MountSpec(
-        v["stiffness"], tuple(couplings), v["loss_factor"], v["growth"], v["reference_frequency"], v["exponent"],
-    )
+    return JointModelSpec("mount", {
+        "stiffness": tuple(v["stiffness"]), "couplings": tuple(couplings), "loss_factor": v["loss_factor"],
+        "growth": v["growth"], "reference_frequency": v["reference_frequency"], "exponent": v["exponent"],
+    })
