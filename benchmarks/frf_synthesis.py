@@ -14,7 +14,7 @@ import numpy as np
 
 from jointid.benchmark import benchmark_study
 from jointid.frequency import Frequency
-from jointid.physics.structure import beam_structure
+from jointid.physics.structure import build_beam
 from jointid.physics.synthesis import synthesize_frf
 
 
@@ -34,7 +34,7 @@ def main() -> None:
     small = spec.structure()
     cases.append(("(a) 19 nodes, 38 DOFs, 7x3, 1000 lines", small, Frequency.from_range(1, 1000, 1),
                   [f"{n}w" for n in (1, 3, 6, 9, 12, 15, 19)], ["3w", "9w", "15w"]))
-    big = beam_structure(spec.length, spec.section(), spec.material(), 2000, spec.shear_coefficient)
+    big = build_beam(spec.length, spec.section(), spec.material(), 2000, spec.shear_coefficient)
     cases.append(("(b) 2000 nodes, 4000 DOFs, 7x3, 2000 lines", big, Frequency.from_range(0.5, 1000, 0.5),
                   [f"{n}w" for n in (1, 300, 600, 1000, 1400, 1700, 2000)], ["300w", "1000w", "1700w"]))
     for name, s, f, r, c in cases:

@@ -13,7 +13,7 @@ from jointid.cli.main import main
 from jointid.dofs import Dof
 from jointid.errors import DataError
 from jointid.hits import frf_from_hits
-from jointid.io.impact_files import read_impact_uff, write_impact_csv, write_impact_npz, write_impact_uff
+from jointid.measurement.impact_files import read_impact_uff, write_impact_csv, write_impact_npz, write_impact_uff
 from jointid.io.frf_files import read_frf
 from jointid.io.uff import read_uff_frf, write_uff_frf
 from jointid.measurement.impact import ImpactOptions, ImpactRecord, check_hits, estimate_frfs, rejected_hits_table

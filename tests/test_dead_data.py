@@ -18,7 +18,7 @@ from jointid.cli.main import main
 from jointid.dofs import Dof, parse_dofs
 from jointid.errors import IdentificationError
 from jointid.frf import FRF
-from jointid.io.impact_files import write_impact_npz
+from jointid.measurement.impact_files import write_impact_npz
 from jointid.io.uff import read_uff_frf, write_uff_frf
 from jointid.measurement.impact import ImpactRecord
 from jointid.methods.frf_screening import check_visibility

@@ -7,7 +7,7 @@ from jointid.dofs import Dof
 from jointid.errors import ModelError
 from jointid.physics.elements import Material, Section, timoshenko_element
 from jointid.physics.modes import natural_modes
-from jointid.physics.structure import beam_structure
+from jointid.physics.structure import build_beam
 
 L, B = 0.9144, 0.0127
 SEC = Section.rectangle(B, B)
@@ -36,12 +36,12 @@ def test_element_matrices_symmetric_and_eb_limit():
 
 
 def test_total_translational_mass():
-    s = beam_structure(L, SEC, AL, 19)
+    s = build_beam(L, SEC, AL, 19)
     assert s.translational_mass() == pytest.approx(AL.density * SEC.area * L, rel=1e-12)
 
 
 def test_cantilever_static_tip_deflection():
-    s = beam_structure(L, SEC, AL, 7).clamped(1)
+    s = build_beam(L, SEC, AL, 7).clamped(1)
     P = 10.0
     K = s.K.real
     f = np.zeros(len(s.dofs))
@@ -53,20 +53,20 @@ def test_cantilever_static_tip_deflection():
 
 
 def test_timoshenko_19_nodes_within_0p2_percent_of_converged():
-    f19 = natural_modes(beam_structure(L, SEC, AL, 19)).frequencies_hz[2:6]
-    fine = natural_modes(beam_structure(L, SEC, AL, 401)).frequencies_hz[2:6]
+    f19 = natural_modes(build_beam(L, SEC, AL, 19)).frequencies_hz[2:6]
+    fine = natural_modes(build_beam(L, SEC, AL, 401)).frequencies_hz[2:6]
     assert np.allclose(fine, [78.87, 217.12, 424.81, 700.41], rtol=2e-4)
     assert np.all(np.abs(f19 / fine - 1) < 2e-3)
 
 
 def test_free_free_has_two_rigid_body_modes():
-    modes = natural_modes(beam_structure(L, SEC, AL, 19))
+    modes = natural_modes(build_beam(L, SEC, AL, 19))
     assert modes.rigid_body_count() == 2
     assert modes.frequencies_hz[2] > 70
 
 
 def test_euler_bernoulli_fine_mesh_matches_analytic():
-    modes = natural_modes(beam_structure(L, SEC, AL, 201, euler_bernoulli=True))
+    modes = natural_modes(build_beam(L, SEC, AL, 201, euler_bernoulli=True))
     beta_l = np.array([4.7300, 7.8532, 10.9956, 14.1372])
     E, I, rho, A = AL.elastic_modulus, SEC.second_moment, AL.density, SEC.area
     analytic = beta_l**2 / (2 * np.pi * L**2) * np.sqrt(E * I / (rho * A))
@@ -74,7 +74,7 @@ def test_euler_bernoulli_fine_mesh_matches_analytic():
 
 
 def test_lumped_mass_and_supports():
-    s = beam_structure(L, SEC, AL, 5)
+    s = build_beam(L, SEC, AL, 5)
     s2 = s.with_mass(3, 0.1, 1e-5)
     assert s2.translational_mass() == pytest.approx(s.translational_mass() + 0.1)
     assert s.translational_mass() == pytest.approx(AL.density * SEC.area * L)  # original untouched
@@ -87,8 +87,8 @@ def test_lumped_mass_and_supports():
     [
         (lambda: Section.rectangle(-1, 1), "section width must be a positive finite number in m, got -1"),
         (lambda: Material(-1, 2700), "elastic modulus must be a positive finite number in Pa, got -1"),
-        (lambda: beam_structure(L, SEC, AL, 1), "a beam needs an integer number of nodes >= 2, got 1"),
-        (lambda: beam_structure(L, SEC, AL, 5).with_mass(9, 0.1), "lumped mass at node 9: DOF 9w is not in the structure (nodes 1..5)"),
+        (lambda: build_beam(L, SEC, AL, 1), "a beam needs an integer number of nodes >= 2, got 1"),
+        (lambda: build_beam(L, SEC, AL, 5).with_mass(9, 0.1), "lumped mass at node 9: DOF 9w is not in the structure (nodes 1..5)"),
     ],
 )
 def test_bad_model_input(call, msg):

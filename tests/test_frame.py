@@ -12,7 +12,7 @@ from jointid.dofs import DofArray
 from jointid.errors import DataError, ModelError
 from jointid.io.matrix_files import read_free_matrices, write_free_matrices
 from jointid.io.output_dir import OutputError, OutputSet
-from jointid.physics import FrameSection, Material, Member, PointMass, Section, beam_structure, build_frame
+from jointid.physics import FrameSection, Material, Member, PointMass, Section, build_beam, build_frame
 from jointid.physics.elements import timoshenko_element
 from jointid.physics.frame import frame_element
 from jointid.physics.frame_sections import cowper_circle, cowper_rectangle, rectangle_torsion_constant
@@ -195,7 +195,7 @@ def test_frame_in_xz_plane_reproduces_planar_beam_receptance(meshed_member):
     L, b, h, n = 0.9, 0.0127, 0.0254, 7
     eta = 0.01
     mat = Material(70e9, 2700.0, loss_factor=eta, poisson_ratio=0.33)
-    planar = beam_structure(L, Section.rectangle(b, h), mat, n, shear_coefficient=5 / 6)
+    planar = build_beam(L, Section.rectangle(b, h), mat, n, shear_coefficient=5 / 6)
     s = FrameSection.rectangle(b, h, shear_coefficient=5 / 6)
     x = {k: (L * (k - 1) / (n - 1), 0.0, 0.0) for k in range(1, n + 1)}
     if meshed_member:

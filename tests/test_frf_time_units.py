@@ -18,7 +18,7 @@ from jointid.benchmark import benchmark_study_path
 from jointid.cli.main import main
 from jointid.dofs import Dof
 from jointid.hits import frf_from_hits
-from jointid.io.impact_files import read_impact_uff, write_impact_uff
+from jointid.measurement.impact_files import read_impact_uff, write_impact_uff
 from jointid.io.uff import read_uff_frf
 from jointid.io.uff_units import G0, LBF
 from jointid.measurement.impact import ImpactRecord
@@ -143,7 +143,7 @@ def test_dataset_164_units_apply_to_unlabelled_time_records(tmp_path):
 
 
 def test_points_and_axis_are_refused_for_npz_and_bad_point_maps(files, tmp_path, capsys):
-    from jointid.io.impact_files import write_impact_npz
+    from jointid.measurement.impact_files import write_impact_npz
 
     records = files[4]
     f = write_impact_npz(tmp_path / "n3.npz", records[0])

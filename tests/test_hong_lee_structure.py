@@ -38,7 +38,7 @@ def test_hong_lee_recovers_a_6dof_mount_from_translations_on_a_model_read_as_mat
     obs = parse_dofs([f"{n}{c}" for n in (1, 2, 3, 5) for c in "xyz"])  # 12 translations >= 6 joint DOFs
     exc = parse_dofs([f"{n}{c}" for n in (1, 3, 4) for c in "xyz"])
     frf = FRF(f, article.receptance(f, obs, exc), obs, exc, "receptance")
-    result = identify_joint(free.dense_structure(), frf, joint, InverseOptions(symmetric=True))
+    result = identify_joint(free.to_dense(), frf, joint, InverseOptions(symmetric=True))
     truth = mount(f.hz)
     d = np.sqrt(np.abs(np.diagonal(truth, axis1=1, axis2=2)))
     err = np.abs(result.stiffness - truth) / (d[:, :, None] * d[:, None, :])
@@ -49,7 +49,7 @@ def test_hong_lee_recovers_a_6dof_mount_from_translations_on_a_model_read_as_mat
 
 def test_rotation_scale_of_a_model_without_coordinates_comes_from_its_stiffness():
     free, *_ = _article()
-    s = free.dense_structure()
+    s = free.to_dense()
     k = np.abs(np.diagonal(s.K).real)
     rot = np.array([d.unit == "rad" for d in s.dofs])
     assert rotation_scale(s) == pytest.approx(np.sqrt(np.median(k[rot]) / np.median(k[~rot])), rel=1e-12)
@@ -58,7 +58,7 @@ def test_rotation_scale_of_a_model_without_coordinates_comes_from_its_stiffness(
 def test_dense_structure_refuses_a_model_too_large_for_hong_lee():
     free, *_ = _article()
     with pytest.raises(ModelError) as exc:
-        free.dense_structure(max_dofs=50)
+        free.to_dense(max_dofs=50)
     assert str(exc.value) == (
         "the model has 60 DOFs; the plain Hong & Lee method needs the dense 60 x 60 Do[nbar, mbar] on every line "
         'and is limited to 50 DOFs: use method = "receptance"'

@@ -17,7 +17,7 @@ import scipy.signal
 
 from jointid.dofs import Dof
 from jointid.errors import DataError
-from jointid.io.impact_files import read_impact_csv, read_impact_npz, read_impact_uff, write_impact_csv, write_impact_npz, write_impact_uff
+from jointid.measurement.impact_files import read_impact_csv, read_impact_npz, read_impact_uff, write_impact_csv, write_impact_npz, write_impact_uff
 from jointid.measurement.impact import (
     ImpactOptions,
     ImpactRecord,
@@ -403,7 +403,7 @@ def test_uff_time_record_minus_z_is_sign_flipped_and_rotations_rejected(tmp_path
     import pyuff
 
     from jointid.errors import DataError
-    from jointid.io.impact_files import read_impact_uff, write_impact_uff
+    from jointid.measurement.impact_files import read_impact_uff, write_impact_uff
     from jointid.measurement.impact import ImpactRecord
 
     t = np.arange(256) / 1024.0

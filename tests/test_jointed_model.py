@@ -9,7 +9,7 @@ from jointid.frequency import Frequency
 from jointid.physics import FrameSection, Material, build_frame, constant_stiffness
 from jointid.physics.jointed_model import JointedModel
 from jointid.physics.sparse_model import SparseModel
-from jointid.physics.structure import ComplexStiffness, beam_structure
+from jointid.physics.structure import ComplexStiffness, build_beam
 from jointid.physics.elements import Section
 from jointid.physics.synthesis import synthesize_frf
 
@@ -17,7 +17,7 @@ STEEL = Material(210e9, 7850.0, loss_factor=0.002, poisson_ratio=0.3)
 
 
 def test_beam_on_a_frequency_dependent_joint_matches_the_dense_jointed_structure():
-    beam = beam_structure(1.0, Section.rectangle(0.03, 0.01), STEEL, 11)
+    beam = build_beam(1.0, Section.rectangle(0.03, 0.01), STEEL, 11)
     joint = ComplexStiffness(("5w", "5theta"), lambda f: np.array([[2e5, 3e3], [3e3, 40.0]]) * (1 + 0.1j) * (1 + f / 500.0)[:, None, None])
     f = Frequency(np.linspace(10.0, 900.0, 30))
     rows, cols = ["2w", "9w", "5theta"], ["3w", "5w"]
@@ -58,7 +58,7 @@ def test_frame_with_a_grounded_mount_and_a_mount_between_two_nodes_matches_a_spa
 
 
 def test_bad_joints_raise_one_line():
-    beam = beam_structure(1.0, Section.rectangle(0.03, 0.01), STEEL, 5)
+    beam = build_beam(1.0, Section.rectangle(0.03, 0.01), STEEL, 5)
     with pytest.raises(ModelError, match=r"^JointedModel needs at least one joint$"):
         JointedModel(beam, [])
     with pytest.raises(ModelError, match=r"^joint 'j': DOF\(s\) \['9w'\] are not DOFs of the free model$"):

@@ -10,8 +10,7 @@ Layers, bottom-up (a module may import its own layer and any lower one):
    ``parallel``, and the file formats of those objects in ``io`` (UFF, CSV, matrices,
    atomic writes, output directories);
 1. ``physics`` (elements, structures, the elastomer joint FE model, modes, synthesis);
-2. ``measurement`` (impact and step-sine signal processing, virtual tests) and
-   ``io.impact_files`` (the files of the impact records);
+2. ``measurement`` (impact and step-sine signal processing and their record files, virtual tests);
 3. ``methods`` (inverse, direct material fit, updating, design);
 4. the application: ``study``, ``benchmark``,
    ``pipeline``, ``models``, ``design``, ``hits``, ``reproduce``, ``report`` and ``plots``;
@@ -47,7 +46,6 @@ RANKS = {
     "io": 0,
     "physics": 1,
     "measurement": 2,
-    "io.impact_files": 2,
     "methods": 3,
     "study": 4,
     "benchmark": 4,

@@ -63,7 +63,7 @@ def test_the_beams_own_matrices_give_the_beams_receptance():
     freq = Frequency.from_range(5, 1000, 5)
     dofs = ["1w", "10w", "10theta", "19w"]
     ref = StructureModel(BEAM).receptance(freq, dofs, dofs)
-    sparse = SparseModel.from_structure(BEAM)
+    sparse = SparseModel.from_dense(BEAM)
     assert isinstance(sparse, FreeModel) and sparse.dofs == BEAM.dofs
     d = np.sqrt(np.abs(np.diagonal(ref, axis1=1, axis2=2)))
     scale = d[:, :, None] * d[:, None, :]  # sqrt(|Y_ii Y_jj|): Y[10w, 10theta] is ~0 by symmetry
@@ -78,7 +78,7 @@ def test_identification_through_a_sparse_model_recovers_the_joint():
     freq = Frequency.from_range(5, 1000, 5)
     joint = parametric_joint(10, 2e5, 60.0, 1.5e3, 0.12, growth=0.5, reference_frequency=100, exponent=0.5)
     frf = synthesize_frf(BEAM.with_joint(joint), freq, ["1w", "3w", "6w", "9w", "12w", "15w", "19w"], ["3w", "9w", "15w"], kind="accelerance")
-    r = identify_joint_coupling(SparseModel.from_structure(BEAM), frf, ["10w", "10theta"])  # 199 lines x 38 DOFs: direct
+    r = identify_joint_coupling(SparseModel.from_dense(BEAM), frf, ["10w", "10theta"])  # 199 lines x 38 DOFs: direct
     K = joint(freq.hz)
     assert np.max(np.abs(r.stiffness - K) / np.abs(K)) < 3e-8  # measured 1.3e-8 (worst at 5 Hz; the dense path: < 1e-8)
 

@@ -8,13 +8,13 @@ from jointid.errors import FrequencyError, ModelError
 from jointid.frequency import Frequency
 from jointid.frf import FRF
 from jointid.physics.elements import Material, Section
-from jointid.physics.structure import ComplexStiffness, beam_structure
+from jointid.physics.structure import ComplexStiffness, build_beam
 from jointid.parallel import single_threaded_blas
 from jointid.physics.synthesis import choose_method, synthesize_frf
 
 SEC = Section.rectangle(0.0127, 0.0127)
 AL = Material(69e9, 2700.0, 0.006, 0.33)
-BEAM = beam_structure(0.9144, SEC, AL, 19)
+BEAM = build_beam(0.9144, SEC, AL, 19)
 FREQ = Frequency.from_range(5, 1000, 5)
 ALL = BEAM.dofs
 
@@ -109,7 +109,7 @@ def test_selection_by_label():
 
 
 def test_large_model_paths_agree():
-    big = beam_structure(0.9144, SEC, AL, 1000)  # 2000 DOFs: sparse direct and truncated modal
+    big = build_beam(0.9144, SEC, AL, 1000)  # 2000 DOFs: sparse direct and truncated modal
     f = Frequency.from_range(10, 1000, 10)
     r, c = ["1w", "300w", "1000w"], ["300w"]
     a = synthesize_frf(big, f, r, c, method="direct").data
@@ -123,7 +123,7 @@ def test_large_model_paths_agree():
 def test_sparse_direct_path_with_a_joint_equals_the_dense_one(monkeypatch):
     import jointid.physics.synthesis as synthesis
 
-    s = beam_structure(0.9144, SEC, AL, 400).with_joint(_joint(200))  # 800 DOFs: the sparse path
+    s = build_beam(0.9144, SEC, AL, 400).with_joint(_joint(200))  # 800 DOFs: the sparse path
     f = Frequency.from_range(10, 1000, 30)
     r, c = ["1w", "200w", "200theta", "400w"], ["100w", "300w"]
     sparse = synthesize_frf(s, f, r, c).data

@@ -6,7 +6,7 @@ import pytest
 
 from jointid.cli.main import main
 from jointid.errors import DataError
-from jointid.io.impact_files import read_impact_csv
+from jointid.measurement.impact_files import read_impact_csv
 from jointid.study.parse import MAX_LINES, MAX_NODES
 
 from test_uff_units import STUDY

@@ -40,7 +40,7 @@ __getattr__, __dir__, __all__ = attach(
             "IdentificationError",
         ),
         # physics
-        ".physics.structure": ("Structure", "ComplexStiffness", "beam_structure"),
+        ".physics.structure": ("Structure", "ComplexStiffness", "build_beam"),
         ".physics.joints": ("parametric_joint",),
         ".physics.modes": ("Modes", "natural_modes"),
         ".physics.synthesis": ("synthesize_frf",),

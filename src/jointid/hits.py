@@ -1,7 +1,7 @@
 """Roving-hammer time histories on disk to FRFs: the Python API behind ``jointid frf``.
 
 :func:`read_hits` reads hit files of any of the layouts of
-:mod:`jointid.io.impact_files` (NumPy ``.npz``, one excited node per file;
+:mod:`jointid.measurement.impact_files` (NumPy ``.npz``, one excited node per file;
 long CSV; UFF58 time records) by extension; :func:`frf_from_hits` turns the
 records into H1/H2 and coherence with :func:`jointid.measurement.impact.estimate_frfs`
 (hit checks, force and exponential windows, window correction) and returns a
@@ -39,18 +39,18 @@ from .measurement.impact import ImpactFRF, ImpactOptions, ImpactRecord, estimate
 
 __all__ = ["HIT_EXTENSIONS", "HitsFRF", "read_hits", "frf_from_hits"]
 
-#: File extension -> layout of :mod:`jointid.io.impact_files`.
+#: File extension -> layout of :mod:`jointid.measurement.impact_files`.
 HIT_EXTENSIONS: dict[str, str] = {".npz": "npz", ".csv": "csv", ".uff": "uff", ".unv": "uff", ".58": "uff"}
 
 
 def _read_one(path: Path, points=None, axis: str | None = "+Z", n_nodes: int | None = None) -> tuple[tuple[ImpactRecord, ...], tuple[str, ...]]:
-    from .io.impact_files import read_impact_csv, read_impact_npz, read_impact_uff
+    from .measurement.impact_files import read_impact_csv, read_impact_npz, read_impact_uff
 
     layout = HIT_EXTENSIONS.get(path.suffix.lower())
     if layout is None:
         raise DataError(
             f"cannot tell the layout of hits file {path} from its extension {path.suffix or '(none)'!r}; "
-            f"supported: {', '.join(HIT_EXTENSIONS)} (see jointid.io.impact_files)"
+            f"supported: {', '.join(HIT_EXTENSIONS)} (see jointid.measurement.impact_files)"
         )
     if not path.is_file():
         raise DataError(f"hits file {path} does not exist")
@@ -79,14 +79,14 @@ def read_hits(
     paths : path-like or sequence of path-like
         ``.npz`` (one excited node per file), ``.csv`` (long layout) or
         ``.uff``/``.unv``/``.58`` (UFF58 time records); layouts in
-        :mod:`jointid.io.impact_files`. CSV responses are accelerations.
+        :mod:`jointid.measurement.impact_files`. CSV responses are accelerations.
     n_nodes : int, optional
         Number of beam nodes; a DOF outside ``1..n_nodes`` is an error.
     points : mapping of int to int, optional
         UFF files: file point id -> model node (records at other points are skipped).
     axis : {"+Z", "-Z", "+X", "-X", "+Y", "-Y"} or None
         UFF files: the file's direction that is ``w`` (``None``: 3-D components);
-        see :func:`jointid.io.impact_files.read_impact_uff`. ``points`` and a
+        see :func:`jointid.measurement.impact_files.read_impact_uff`. ``points`` and a
         non-default ``axis`` are refused for ``.npz``/``.csv`` files (they name DOFs).
     with_notes : bool
         Also return the readers' notes (units converted, point map, skipped records).

@@ -25,7 +25,7 @@ def add_parser(sub) -> None:
         "frf",
         help="impact-hammer time histories -> H1/H2 and coherence (frf.uff), rejected hits, figure",
         description="Estimate FRFs from roving-hammer hits (.npz per excited node, long .csv, or UFF58 time records "
-        ".uff/.unv/.58; layouts in jointid.io.impact_files): double-hit and overload checks, optional force and "
+        ".uff/.unv/.58; layouts in jointid.measurement.impact_files): double-hit and overload checks, optional force and "
         "exponential windows (the exponential window's damping corrected mode by mode), H1 or H2 averaged over "
         "the accepted hits. Writes DIR/frf.uff (UFF58 FRF records plus coherence records), DIR/rejected_hits.csv "
         "(one row per finding: excited_dof, hit, check, channel, value, threshold, unit, time_s, reason) and "

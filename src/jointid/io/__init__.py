@@ -7,7 +7,6 @@ The main API, re-exported here (imported on first use)::
 * :mod:`.frf_files` -- ``read_frf``, ``write_frf`` (format from the extension);
 * :mod:`.uff` -- ``read_uff_frf``, ``write_uff_frf``; :mod:`.frf_csv` -- ``read_frf_csv``,
   ``write_frf_csv``;
-* :mod:`.impact_files` -- ``read_impact_npz``/``csv``/``uff`` and their writers;
 * :mod:`.output_dir` -- ``OutputSet`` (the ``--out DIR`` writer), ``OutputError``;
 * :mod:`.tables` -- ``write_csv``; :mod:`.json_files` -- ``json_text`` (strict JSON); :mod:`.atomic` -- ``atomic_write_text``,
   ``atomic_write_bytes``, ``atomic_path``.
@@ -21,18 +20,10 @@ __getattr__, __dir__, __all__ = attach(
         ".frf_files": ("read_frf", "write_frf"),
         ".uff": ("read_uff_frf", "write_uff_frf"),
         ".frf_csv": ("read_frf_csv", "write_frf_csv"),
-        ".impact_files": (
-            "read_impact_npz",
-            "write_impact_npz",
-            "read_impact_csv",
-            "write_impact_csv",
-            "read_impact_uff",
-            "write_impact_uff",
-        ),
         ".output_dir": ("OutputSet", "OutputError"),
         ".tables": ("write_csv",),
         ".json_files": ("json_text", "strict_json"),
         ".atomic": ("atomic_write_text", "atomic_write_bytes", "atomic_path"),
     },
-    submodules=("frf_files", "uff", "frf_csv", "impact_files", "output_dir", "tables", "json_files", "atomic"),
+    submodules=("frf_files", "uff", "frf_csv", "output_dir", "tables", "json_files", "atomic"),
 )

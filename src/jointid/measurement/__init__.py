@@ -6,7 +6,8 @@ The main API, re-exported here (imported on first use)::
 
 * impact tests -- :mod:`.impact`: ``estimate_frfs``, ``estimate_frf``, ``check_hits``,
   ``rejected_hits_table`` (hammer and response time histories to H1/H2 and coherence);
-  :mod:`.impact_records`: ``ImpactRecord``, ``ImpactOptions``; :mod:`.impact_checks`:
+  :mod:`.impact_records`: ``ImpactRecord``, ``ImpactOptions``; :mod:`.impact_files`: ``read_impact_npz``/``csv``/``uff``
+  and their writers (the hit records' files); :mod:`.impact_checks`:
   ``RejectedHit`` (double hits, overloads); :mod:`.impact_windows` (force and exponential
   windows); :mod:`.sensor_correction`: ``roving_sensor_correction``;
 * virtual impact test -- :mod:`.virtual_hammer`: ``simulate_hits``, ``HammerSettings``,
@@ -31,6 +32,7 @@ __getattr__, __dir__, __all__ = attach(
     {
         ".impact": ("estimate_frfs", "estimate_frf", "ImpactFRF", "check_hits", "rejected_hits_table"),
         ".impact_records": ("ImpactRecord", "ImpactOptions"),
+        ".impact_files": ("read_impact_npz", "write_impact_npz", "read_impact_csv", "write_impact_csv", "read_impact_uff", "write_impact_uff"),
         ".impact_checks": ("RejectedHit",),
         ".impact_windows": ("exponential_window", "force_window", "correct_exponential_window"),
         ".sensor_correction": ("roving_sensor_correction",),
@@ -43,6 +45,7 @@ __getattr__, __dir__, __all__ = attach(
         "impact",
         "impact_checks",
         "impact_records",
+        "impact_files",
         "impact_windows",
         "sensor_correction",
         "virtual_hammer",

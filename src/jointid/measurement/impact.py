@@ -2,7 +2,7 @@
 
 The records (:class:`ImpactRecord`, one per excited node) and settings
 (:class:`ImpactOptions`) are defined in :mod:`jointid.measurement.impact_records`;
-files: :mod:`jointid.io.impact_files` (NumPy ``.npz``, long CSV, UFF58 time
+files: :mod:`jointid.measurement.impact_files` (NumPy ``.npz``, long CSV, UFF58 time
 records). Every public name of the impact modules is importable from here.
 
 Processing (:func:`estimate_frf`, :func:`estimate_frfs`)

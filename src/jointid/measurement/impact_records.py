@@ -25,9 +25,10 @@ import numpy as np
 from ..dofs import Dof, parse_dof, parse_dofs
 from ..errors import DataError
 
-__all__ = ["ImpactRecord", "ImpactOptions", "where_hit"]
+__all__ = ["ImpactRecord", "ImpactOptions", "where_hit", "RESPONSE_KINDS"]
 
-_KINDS = ("receptance", "mobility", "accelerance")
+#: Response kinds of an impact record (what its responses measure).
+RESPONSE_KINDS = ("receptance", "mobility", "accelerance")
 
 
 # --------------------------------------------------------------------------- layout
@@ -87,8 +88,8 @@ class ImpactRecord:
         object.__setattr__(self, "reference", ref)
         dofs = parse_dofs(self.response_dofs)
         object.__setattr__(self, "response_dofs", dofs)
-        if self.kind not in _KINDS:
-            raise DataError(f"excited node {ref}: unknown response kind {self.kind!r}; expected one of {_KINDS}")
+        if self.kind not in RESPONSE_KINDS:
+            raise DataError(f"excited node {ref}: unknown response kind {self.kind!r}; expected one of {RESPONSE_KINDS}")
         fs = self.sample_rate_hz
         try:
             fs = float(fs)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import DataError
-from .impact_records import _KINDS
+from .impact_records import RESPONSE_KINDS
 
 __all__ = ["roving_sensor_correction"]
 
@@ -78,7 +78,7 @@ def roving_sensor_correction(
     elif kind == "mobility":
         den = 1.0 - 1j * w[:, None] * m[None, :] * dp
     else:
-        raise DataError(f"unknown FRF kind {kind!r}; expected one of {_KINDS}")
+        raise DataError(f"unknown FRF kind {kind!r}; expected one of {RESPONSE_KINDS}")
     if np.any(den == 0):
         raise DataError("roving-sensor correction is singular (1 + w^2 m H_L,jj = 0) at some line")
     return H / den[:, :, None]

@@ -2,11 +2,11 @@
 
 The main API, re-exported here (imported on first use)::
 
-    from jointid.physics import beam_structure, natural_modes, synthesize_frf
+    from jointid.physics import build_beam, natural_modes, synthesize_frf
 
 * :mod:`.elements` -- ``Section``, ``Material``, ``timoshenko_element``;
 * :mod:`.structure` -- ``Structure`` (immutable assembled model), ``ComplexStiffness``,
-  ``beam_structure``, ``constant_stiffness``;
+  ``build_beam``, ``constant_stiffness``;
 * :mod:`.joints` -- ``parametric_joint``, ``build_joint``, ``JOINT_MODELS`` (joint models by type);
 * :mod:`.frame` -- ``build_frame`` (3-D Timoshenko frames, 6 DOFs per node, sparse),
   ``FrameModel``, ``Member``, ``PointMass``; :mod:`.frame_sections` -- ``FrameSection``;
@@ -29,7 +29,7 @@ __getattr__, __dir__, __all__ = attach(
     __name__,
     {
         ".elements": ("Section", "Material", "timoshenko_element"),
-        ".structure": ("Structure", "ComplexStiffness", "beam_structure", "constant_stiffness"),
+        ".structure": ("Structure", "ComplexStiffness", "build_beam", "constant_stiffness"),
         ".joints": ("parametric_joint", "build_joint", "JOINT_MODELS"),
         ".elastomer_joint": ("ElastomerJoint", "JointModes"),
         ".elastomer_material": ("ElastomerMaterial", "EndCap", "MATERIALS"),

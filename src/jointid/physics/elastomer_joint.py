@@ -67,7 +67,7 @@ from ..dofs import Dof
 from ..errors import ModelError
 from .elastomer_material import DEFAULT_DIAMETER_M, DEFAULT_LENGTH_M, DEFAULT_POISSON, MATERIALS, ElastomerMaterial, EndCap
 from .elements import Material, Section, require_positive
-from .structure import ComplexStiffness, beam_structure
+from .structure import ComplexStiffness, build_beam
 
 __all__ = [
     "ElastomerMaterial",
@@ -167,7 +167,7 @@ class ElastomerJoint:
         kappa = self.kappa
         require_positive("shear coefficient", kappa, "(dimensionless)")
         mat = replace(material, loss_factor=0.0)
-        cylinder = beam_structure(L, self.section, mat, int(self.elements) + 1, kappa)  # undamped: eta is applied per line
+        cylinder = build_beam(L, self.section, mat, int(self.elements) + 1, kappa)  # undamped: eta is applied per line
         K, M = cylinder.K.real, cylinder.M
         object.__setattr__(self, "_K", K)
         object.__setattr__(self, "_M", M)

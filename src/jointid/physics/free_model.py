@@ -24,7 +24,7 @@ from ..frequency import Frequency
 from ..parallel import single_threaded_blas
 from .modes import DENSE_EIGEN_LIMIT, Modes, natural_modes
 from .structure import Structure
-from .synthesis import _check_zero_frequency, receptance_direct, receptance_modal_refined
+from .synthesis import check_zero_frequency, receptance_direct, receptance_modal_refined
 
 __all__ = ["FreeModel", "StructureModel", "as_free_model"]
 
@@ -87,7 +87,7 @@ class StructureModel:
         """Receptance ``Y[rows, cols]``, shape (F, r, c) (see :class:`FreeModel`)."""
         frequency = frequency if isinstance(frequency, Frequency) else Frequency(frequency)
         rows, cols = parse_dofs(rows), parse_dofs(cols)
-        _check_zero_frequency(self.structure, frequency)
+        check_zero_frequency(self.structure, frequency)
         if self.modes is not None:
             return receptance_modal_refined(self.structure, frequency, rows, cols, self.modes)
         return receptance_direct(self.structure, frequency, rows, cols)

@@ -125,7 +125,7 @@ class ModalBasis:
         return np.sqrt(np.clip(self.eigenvalues, 0.0, None)) / (2.0 * np.pi)
 
 
-#: Largest model :meth:`SparseModel.dense_structure` converts (the plain Hong & Lee method: its estimation step holds (250 lines, N, N) complex arrays, 1 GB at 500 DOFs).
+#: Largest model :meth:`SparseModel.to_dense` converts (the plain Hong & Lee method: its estimation step holds (250 lines, N, N) complex arrays, 1 GB at 500 DOFs).
 DENSE_STRUCTURE_MAX_DOFS = 500
 
 
@@ -199,7 +199,7 @@ class SparseModel:
         self._xs: dict[int, np.ndarray] = {}  # DOF index -> (J + 1, N) deflated Krylov vectors
 
     @classmethod
-    def from_structure(cls, structure, **options) -> "SparseModel":
+    def from_dense(cls, structure, **options) -> "SparseModel":
         """A :class:`~jointid.physics.structure.Structure` (proportional damping, no joints) as a sparse model."""
         if structure.joints:
             raise ModelError("a free model must not contain frequency-dependent joints: Do is the free structure alone")
@@ -297,7 +297,7 @@ class SparseModel:
             return self._direct(f, ri, ci)
         return self._modal(f, ri, ci)
 
-    def dense_structure(self, max_dofs: int | None = None):
+    def to_dense(self, max_dofs: int | None = None):
         """The model as a dense :class:`~jointid.physics.structure.Structure` (``K (1 + j eta)``, ``M``), for small models.
 
         What the plain Hong & Lee method needs: it solves with ``Do[nbar, mbar]``,

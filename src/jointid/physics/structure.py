@@ -23,7 +23,7 @@ from ..errors import DofError, ModelError
 from ..frequency import Frequency
 from .elements import Material, Section, timoshenko_element
 
-__all__ = ["ComplexStiffness", "Structure", "beam_structure", "constant_stiffness"]
+__all__ = ["ComplexStiffness", "Structure", "build_beam", "constant_stiffness"]
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -287,7 +287,7 @@ class Structure:
         return float(u @ self.mass @ u)
 
 
-def beam_structure(
+def build_beam(
     length: float,
     section: Section,
     material: Material,

@@ -59,7 +59,7 @@ from .modes import DENSE_EIGEN_LIMIT, Modes, natural_modes
 from .structure import Structure
 
 __all__ = [
-    "synthesize_frf", "model_frf", "receptance_direct", "receptance_modal", "receptance_modal_refined", "receptance_coupled",
+    "synthesize_frf", "model_frf", "check_zero_frequency", "receptance_direct", "receptance_modal", "receptance_modal_refined", "receptance_coupled",
     "DENSE_DIRECT_LIMIT", "choose_method",
 ]
 
@@ -75,7 +75,7 @@ def _as_frequency(frequency) -> Frequency:
     return frequency if isinstance(frequency, Frequency) else Frequency(frequency)
 
 
-def _check_zero_frequency(structure: Structure, frequency: Frequency) -> None:
+def check_zero_frequency(structure: Structure, frequency: Frequency) -> None:
     if frequency.hz[0] > 0.0:
         return
     D0 = structure.dynamic_stiffness(frequency.hz[:1])[0]
@@ -385,7 +385,7 @@ def synthesize_frf(
     if method not in ("auto", "direct", "modal", "coupled"):
         raise ModelError(f"unknown synthesis method {method!r}; expected 'auto', 'direct', 'modal' or 'coupled'")
     kind_factor(frequency.omega[-1:], "receptance", kind)  # validates the kind
-    _check_zero_frequency(structure, frequency)
+    check_zero_frequency(structure, frequency)
     auto = method == "auto"
     if auto:
         method = choose_method(structure)

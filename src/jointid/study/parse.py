@@ -139,7 +139,7 @@ from ..schema import nonneg as _nonneg
 from ..schema import positive as _positive
 from ..schema import section as _section
 from ..schema import typed as _typed  # noqa: F401 - importable from here (study_sections, other modules)
-from .structures import ELASTOMER_MATERIAL_FIELDS, parse_dof_list_key, parse_joints, parse_structure
+from .structures import ELASTOMER_MATERIAL_FIELDS, parse_dof_list_key, parse_joints, parse_structure_table
 from .sections import (
     TRUTH_KEYS,
     AccelerometerSpec,
@@ -425,7 +425,7 @@ def _parse_structure_study(data: Mapping[str, Any], source: str) -> Study:
         if sec not in data:
             raise StudyError(f"missing section [{sec}]" if sec != "joint" else "missing section [[joint]]")
     base = Path(source).parent if not source.startswith("<") else Path(".")
-    structure = parse_structure(data["structure"], base)
+    structure = parse_structure_table(data["structure"], base)
     model_name = f"structure ({structure.dofs})"
     joints = parse_joints(data["joint"], structure.dof_array, model_name)
     mdata = data["measurement"]

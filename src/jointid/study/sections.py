@@ -150,9 +150,9 @@ class BeamSpec:
             Refine the mesh between grid nodes for FRFs converged up to this
             frequency (:meth:`mesh_refinement`); internal nodes are numbered N+1, ...
         """
-        from ..physics.structure import beam_structure
+        from ..physics.structure import build_beam
 
-        return beam_structure(
+        return build_beam(
             self.length,
             self.section(),
             self.material(),

@@ -83,7 +83,7 @@ from ..schema import (
 )
 
 __all__ = [
-    "MatrixStructureSpec", "parse_structure", "parse_joints", "parse_dof_list_key",
+    "MatrixStructureSpec", "parse_structure_table", "parse_joints", "parse_dof_list_key",
     "MOUNT_KEYS", "ELASTOMER_KEYS", "ELASTOMER_MATERIAL_FIELDS",
 ]
 
@@ -191,7 +191,7 @@ class MatrixStructureSpec:
         return self.model()
 
     def dense_model(self, max_frequency_hz: float | None = None):
-        """The dense free model Hong & Lee solves with (:meth:`SparseModel.dense_structure`; at most 500 DOFs).
+        """The dense free model Hong & Lee solves with (:meth:`SparseModel.to_dense`; at most 500 DOFs).
 
         Raises
         ------
@@ -199,7 +199,7 @@ class MatrixStructureSpec:
             A model too large to be dense (one line).
         """
         try:
-            return self.model().dense_structure()
+            return self.model().to_dense()
         except ModelError as exc:
             raise StudyError(f"[identification].method = 'hong-lee': {exc}") from None
 
@@ -275,7 +275,7 @@ class MatrixStructureSpec:
             raise StudyError(f"[structure]: {exc}") from None
 
 
-def parse_structure(data: Any, base: Path) -> MatrixStructureSpec:
+def parse_structure_table(data: Any, base: Path) -> MatrixStructureSpec:
     """Validate ``[structure]`` (paths relative to ``base``) and read its DOF list.
 
     Raises
@@ -394,10 +394,12 @@ def _elastomer(where: str, data: Mapping, dofs: tuple[Dof, ...], other: tuple[Do
     if unknown:
         raise StudyError(f"{where}: unknown key {unknown[0]!r}; expected one of: " + ", ".join(ELASTOMER_KEYS))
     axes = data.get("axes")
-    if not (isinstance(axes, list) and len(axes) == 2 and axes[0] in TRANSLATIONS and axes[1] in ROTATIONS):
-        raise StudyError(f"{where}.axes: expected [translation, rotation] playing (w, theta), such as [\"z\", \"ry\"], got {axes!r}")
+    planar = axes == ["w", "theta"]  # a planar model's own (w, theta = dw/ds): no 3-D orientation to resolve
+    if not (isinstance(axes, list) and len(axes) == 2 and (planar or (axes[0] in TRANSLATIONS and axes[1] in ROTATIONS))):
+        raise StudyError(f"{where}.axes: expected [translation, rotation] playing (w, theta), such as [\"z\", \"ry\"] or "
+                         f"[\"w\", \"theta\"], got {axes!r}")
     t, r = axes
-    if r[1] == t:
+    if not planar and r[1] == t:
         raise StudyError(f"{where}.axes: the rotation {r} is about the translation {t}; theta turns about an axis across w: use e.g. [\"{t}\", \"r{'y' if t != 'y' else 'x'}\"]")
     pair = []
     for c in axes:
@@ -417,18 +419,19 @@ def _elastomer(where: str, data: Mapping, dofs: tuple[Dof, ...], other: tuple[Do
         if other[pair[0]].node != other[pair[1]].node:
             raise StudyError(f"{where}.axes: {other[pair[0]]} and {other[pair[1]]} (other) are on different nodes; the elastomer joint's (w, theta) are on one node")
     cyl = data.get("cylinder_axis")
-    if cyl is not None and cyl not in AXIS_DIRECTIONS:
-        raise StudyError(f"{where}.cylinder_axis: expected one of {', '.join(AXIS_DIRECTIONS)}, got {cyl!r}")
-    try:
-        sigma = axis_sign(t, r, cyl)
-    except ModelError as exc:
-        raise StudyError(f"{where}: {exc}") from None
+    if cyl is not None and (planar or cyl not in AXIS_DIRECTIONS):
+        raise StudyError(f"{where}.cylinder_axis: " + ("a planar joint on (w, theta) has no cylinder_axis: leave it out" if planar
+                         else f"expected one of {', '.join(AXIS_DIRECTIONS)}, got {cyl!r}"))
     from ..physics.elastomer_mount import default_cylinder_axis
 
+    try:
+        sigma = 1 if planar else axis_sign(t, r, cyl)
+        cyl = None if planar else cyl or default_cylinder_axis(t, r)
+    except ModelError as exc:
+        raise StudyError(f"{where}: {exc}") from None
     section(data, "joint.model", _ELASTOMER_FIELDS, label=where)  # types and ranges, one line each
     params = {k: v for k, v in data.items() if k not in ("type", "axes", "cylinder_axis")}
-    return JointModelSpec("elastomer", {**params, "axes": (t, r), "cylinder_axis": cyl or default_cylinder_axis(t, r),
-                                        "pair": (pair[0], pair[1]), "sigma": sigma})
+    return JointModelSpec("elastomer", {**params, "axes": (t, r), "cylinder_axis": cyl, "pair": (pair[0], pair[1]), "sigma": sigma})
 
 
 def _mount(where: str, data: Mapping, dofs: tuple[Dof, ...]) -> JointModelSpec:

@@ -48,9 +48,9 @@ import numpy as np
 
 from ..dofs import Dof
 from ..errors import DataError
-from ..measurement.impact import ImpactRecord, where_hit
-from .atomic import atomic_path
-from .uff import FUNC_TIME
+from .impact import ImpactRecord, where_hit
+from ..io.atomic import atomic_path
+from ..io.uff import FUNC_TIME
 
 __all__ = ["read_impact_npz", "write_impact_npz", "read_impact_csv", "write_impact_csv", "read_impact_uff", "write_impact_uff"]
 
@@ -160,7 +160,7 @@ def write_impact_csv(path: str | Path, records: Sequence[ImpactRecord]) -> Path:
     records : sequence of ImpactRecord
         One per excited node, all with the same response DOFs.
     """
-    from .tables import write_csv
+    from ..io.tables import write_csv
 
     records = [records] if isinstance(records, ImpactRecord) else list(records)
     labels = [str(d) for d in records[0].response_dofs]
@@ -196,7 +196,7 @@ def read_impact_csv(path: str | Path, kind: str = "accelerance") -> tuple[Impact
 
     import io
 
-    from .text import check_separator, read_utf8
+    from ..io.text import check_separator, read_utf8
 
     path = Path(path)
     rows = list(csv.reader(io.StringIO(read_utf8(path, "impact CSV file"), newline="")))
@@ -329,8 +329,8 @@ def read_impact_uff(
     """
     import pyuff
 
-    from .uff_records import AXES, Selection, map_signal
-    from .uff_units import SI, conversion_line, signal_units, time_factor, units_from_164
+    from ..io.uff_records import AXES, Selection, map_signal
+    from ..io.uff_units import SI, conversion_line, signal_units, time_factor, units_from_164
 
     path = Path(path)
     if axis is not None and axis not in AXES:
