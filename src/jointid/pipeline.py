@@ -259,36 +259,31 @@ class ExperimentResult:
 def experiment(study: Study, seed: int | None = None, *, periodic: bool = False) -> ExperimentResult:
     """Run the study's virtual roving-hammer test and estimate its FRFs (H1).
 
-    The test article (beam, ``[accelerometers]``, true joint) is hit at each excited
-    node ``[experiment].averages`` times with a half-sine pulse; the exact sampled
+    The test article (the free structure, its ``[accelerometers]``, every true joint) is hit at
+    each excited DOF ``[experiment].averages`` times with a half-sine pulse; the exact sampled
     responses (see :mod:`jointid.measurement.virtual_hammer`) get noise, and
     :func:`jointid.measurement.impact.estimate_frfs` turns them into H1 with a force
     window (and, for a transient test, the exponential window of
     ``[experiment].exponential_window``, corrected) on the study's ``start..stop`` band.
 
-    The force window keeps ``g = 16`` samples either side of the pulse flat (plus a
-    ``g`` half-cosine taper): the sampled force is band-limited at ``fs / 2`` and
-    rings there; a window of ``0.5`` pulse lengths cut that ringing and biased H1
-    by 3e-4 (median, benchmark), 16 samples leave 3e-7.
+    The force window keeps ``g = 16`` samples either side of the pulse flat (plus a ``g``
+    half-cosine taper): the sampled force is band-limited at ``fs / 2`` and rings there, and a
+    window that cuts that ringing biases H1 (``benchmarks/impact.py`` measures both).
 
     Parameters
     ----------
     study : Study
-        Needs ``[joint.model]``.
+        Every joint needs ``[joint.model]``.
     seed : int, optional
         Overrides ``[experiment].seed``.
     periodic : bool
-        False: a transient test (each record the first ``duration`` s after a
-        hit). Noise-free, its H1 differs from the model's FRF by the physics of
-        the record: leakage if the response has not decayed within
-        ``duration``, and, for the hysteretic (non-causal) damping of the
-        models, the response before the record start, which no record length
-        captures (benchmark, 100-1000 Hz, median relative: 4.4e-4 with its
-        2 s records and 0.5 s exponential window, 3.4e-4 with 4 s records and
-        no window, 2.6e-4 of it the precursor). True: a periodic test (each record one period of the
-        steady response to hits repeated every ``duration`` s; no leakage, no
-        exponential window, which is then not applied): noise-free, H1 equals
-        the model's FRF to ~3e-7 median, 3e-6 max (benchmark).
+        False: a transient test (each record the first ``duration`` s after a hit). Noise-free,
+        its H1 differs from the model's FRF by the physics of the record: leakage if the
+        response has not decayed within ``duration`` and, for the hysteretic (non-causal)
+        damping of the models, the response before the record start, which no record length
+        captures. True: a periodic test (each record one period of the steady response to hits
+        repeated every ``duration`` s; no leakage, no exponential window, which is then not
+        applied): noise-free, H1 equals the model's FRF up to the force window's ringing.
     """
     from .measurement.impact import estimate_frfs
 
@@ -402,7 +397,7 @@ def simulate_free(
 
     article = free_model(true_study(study, truth), with_accelerometers=True)
     m = study.measurement
-    # a banded beam: exact to ~1e-8 and fast on fine meshes
+    # a banded beam: the banded solver (exact within its conditioning, fast on fine meshes)
     Y = receptance_banded(article, frequency, m.observed_dofs, m.excited_dofs) if isinstance(article, Structure) else None
     if Y is None:
         frf = model_frf(article, frequency, m.observed_dofs, m.excited_dofs, kind="accelerance")
