@@ -183,7 +183,7 @@ def study_text(lines: int) -> str:
 LOOP_SCRIPT = """
 import numpy as np
 import pyuff
-from jointid.study.parse import load_study
+from jointid.study import load_study
 from jointid.frequency import Frequency
 from jointid.frf import FRF
 from jointid.dofs import Dof

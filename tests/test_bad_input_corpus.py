@@ -93,7 +93,7 @@ def d(tmp_path_factory) -> Path:
     from jointid.measurement.stepsine import write_stepsine_csv
     from jointid.measurement.stepsine_synth import example_stepsine
     from jointid.pipeline import simulate
-    from jointid.study.parse import load_study
+    from jointid.study import load_study
 
     base = tmp_path_factory.mktemp("corpus")
     (base / "beam.toml").write_text(BEAM)

@@ -14,7 +14,7 @@ from jointid.cli.main import main
 
 def test_identify_row_gives_the_pipeline_result_per_term(tmp_path):
     from jointid.pipeline import identify, read_measured
-    from jointid.study.parse import load_study
+    from jointid.study import load_study
 
     manifest = small_campaign(tmp_path / "data", temperatures=(20.0,), amplitudes=(2e-5,), extra=False)
     text = benchmark_study_path().read_text().replace("step = 1.0", "step = 5.0")  # 200 lines: a quick identification

@@ -19,7 +19,7 @@ from jointid.io.uff import read_uff_frf, write_uff_frf
 from jointid.measurement.impact import ImpactOptions, ImpactRecord, check_hits, estimate_frfs, rejected_hits_table
 from jointid.measurement.virtual_hammer import HammerSettings, simulate_hits
 from jointid.pipeline import experiment, virtual_hits
-from jointid.study.parse import parse_study
+from jointid.study import parse_study
 
 SEED = 3
 

@@ -19,7 +19,7 @@ from jointid.physics import build_frame
 from jointid.models import true_joint_matrix
 from jointid.pipeline import free_model
 from jointid.pipeline import simulate as simulate_structure
-from jointid.study.parse import load_study
+from jointid.study import load_study
 from test_frame_mounts import fixture_frame
 
 GOOD = (["1x", "1y", "2x", "2y", "2z", "4z"], ["2x", "2z", "4y"])  # near the mount (node 1), all three directions

@@ -11,7 +11,7 @@ from jointid.cli.main import main
 from jointid.physics.modes import natural_modes
 from jointid.physics.synthesis import synthesize_frf
 from jointid.pipeline import constrained_model, experiment, identify
-from jointid.study.parse import parse_study
+from jointid.study import parse_study
 
 
 def _study(**sections):

@@ -16,7 +16,7 @@ from jointid.physics import FrameSection, Material, build_frame
 from jointid.physics.reduction import craig_bampton
 from jointid.physics.sparse_model import SparseModel
 from jointid.pipeline import identify, read_measured
-from jointid.study.parse import load_study
+from jointid.study import load_study
 from test_structure_study import MOUNT_A, MOUNT_B, _list, _matrix, _mount_truth, read_table
 
 STEEL = Material(210e9, 7850.0, loss_factor=0.002, poisson_ratio=0.3)

@@ -16,7 +16,7 @@ from jointid.io.frf_csv import read_frf_csv, write_frf_csv  # noqa: E402
 from jointid.io.frf_files import write_frf  # noqa: E402
 from jointid.frf import FRF  # noqa: E402
 from jointid.pipeline import identify, read_measured, simulate  # noqa: E402
-from jointid.study.parse import load_study, parse_study  # noqa: E402
+from jointid.study import load_study, parse_study  # noqa: E402
 
 from test_uff_units import STUDY  # noqa: E402
 

@@ -13,7 +13,7 @@ from jointid.cli import main as cli_main
 from jointid.cli.main import main
 from jointid.errors import StudyError
 from jointid.schema import Field, format_number, typed
-from jointid.study.parse import parse_study
+from jointid.study import parse_study
 from study_texts import beam_study_toml
 
 import tomllib

@@ -17,7 +17,7 @@ from jointid.physics.elastomer_joint import ElastomerJoint, elastomer_joint_mode
 from jointid.physics.elastomer_mount import axis_sign, default_cylinder_axis, elastomer_mount
 from jointid.physics.sparse_model import SparseModel
 from jointid.pipeline import simulate
-from jointid.study.parse import load_study
+from jointid.study import load_study
 from study_texts import beam_study_toml
 from test_structure_study import _list, _matrix, read_table
 

@@ -14,7 +14,7 @@ from jointid.cli.main import main
 from jointid.dofs import Dof
 from jointid.errors import StudyError
 from jointid.physics.mount import MountModel
-from jointid.study.parse import load_study
+from jointid.study import load_study
 from structure_model import labels, write_model
 
 

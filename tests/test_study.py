@@ -9,7 +9,7 @@ import pytest
 
 from jointid.benchmark import benchmark_study_path
 from jointid.errors import StudyError
-from jointid.study.parse import parse_study
+from jointid.study import parse_study
 
 LAYOUT = """
 [beam]

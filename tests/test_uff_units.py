@@ -15,7 +15,7 @@ from jointid.io.frf_files import write_frf  # noqa: E402
 from jointid.io.uff import read_uff_frf  # noqa: E402
 from jointid.io.uff_units import G0, INCH, LBF  # noqa: E402
 from jointid.pipeline import identify, read_measured, simulate  # noqa: E402
-from jointid.study.parse import load_study  # noqa: E402
+from jointid.study import load_study  # noqa: E402
 from study_texts import beam_study_toml
 
 STUDY = beam_study_toml("growth = 0.5\n", shear_coefficient=False)

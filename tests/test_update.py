@@ -15,7 +15,7 @@ from jointid.frequency import Frequency
 from jointid.frf import FRF
 from jointid.io.uff import write_uff_frf
 from jointid.physics.synthesis import synthesize_frf
-from jointid.study.parse import load_study, parse_study
+from jointid.study import load_study, parse_study
 from jointid.study.edit import replace_study_values
 
 E0, RHO0, ETA0 = 69e9, 2700.0, 0.006

@@ -23,7 +23,7 @@ from jointid.physics.sparse_model import SparseModel
 from jointid.pipeline import identify, read_measured, update
 from jointid.pipeline import free_model
 from jointid.pipeline import simulate_free as simulate_free_structure
-from jointid.study.parse import load_study
+from jointid.study import load_study
 from test_frame_mounts import COMP, EXCITED, OBSERVED, TRUTH_A, TRUTH_B, _grounded_joints, fixture_frame
 from test_structure_study import _list, _matrix, _mount_truth, read_table
 

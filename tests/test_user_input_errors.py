@@ -7,7 +7,7 @@ import pytest
 from jointid.cli.main import main
 from jointid.errors import DataError
 from jointid.measurement.impact_files import read_impact_csv
-from jointid.study.parse import MAX_LINES, MAX_NODES
+from jointid.study import MAX_LINES, MAX_NODES
 
 from test_uff_units import STUDY
 
@@ -93,6 +93,6 @@ def test_huge_grid_and_mesh_are_refused_naming_the_key(tmp_path, capsys):
     assert code == 2 and err == f"jointid modes: error: {mesh}: [beam].nodes: expected an integer in 2..10000, got 1000000"
     edge = tmp_path / "edge.toml"  # exactly the limit is fine
     edge.write_text(STUDY.replace("start = 5.0", "start = 0.0").replace("stop = 1000.0", "stop = 999999.0").replace("step = 5.0", "step = 1.0"))
-    from jointid.study.parse import load_study
+    from jointid.study import load_study
 
     assert load_study(edge).frequency.stop == 999999.0

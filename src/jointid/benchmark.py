@@ -11,7 +11,7 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from .study.parse import Study, load_study
+from .study import Study, load_study
 
 __all__ = ["benchmark_study", "benchmark_study_path", "benchmark_beam"]
 

@@ -30,7 +30,7 @@ from .frequency import Frequency
 from .methods.design.layout import LayoutDesign, Scenario, Sensors, design_layout
 from .models import true_joints
 from .pipeline import coupling_options, free_model, true_joint
-from .study.parse import Study
+from .study import Study
 
 __all__ = [
     "design_study", "dof_candidates", "study_sensors", "with_layout", "design_band",

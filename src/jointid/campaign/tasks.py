@@ -199,7 +199,7 @@ def _direct(task: TestTask) -> tuple[dict, dict]:
 
 def _identify(task: TestTask) -> tuple[dict, dict]:
     from ..pipeline import identify, read_measured, split_joints
-    from ..study.parse import load_study
+    from ..study import load_study
 
     study = load_study(task.study)
     result = identify(study, read_measured(study, task.file))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from ..benchmark import benchmark_study_path
 from ..errors import StudyError
-from ..study.parse import Study, load_study
+from ..study import Study, load_study
 
 __all__ = ["add_study_argument", "study_from_args", "add_out_argument", "OUT_HELP"]
 

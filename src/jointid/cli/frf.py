@@ -135,7 +135,7 @@ def mapping_from_args(args: argparse.Namespace) -> tuple[dict[int, int] | None, 
     if args.points is not None or args.axis is not None:
         raise DataError("--study gives the axis and the point map ([measurement] axis and [measurement.points]); "
                         "drop --axis/--points or --study")
-    from ..study.parse import load_study
+    from ..study import load_study
 
     study = load_study(args.study)
     m = study.measurement

@@ -8,7 +8,7 @@ from pathlib import Path
 from ..errors import StudyError
 from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
-from ..study.parse import load_study
+from ..study import load_study
 from .common import add_out_argument, add_study_argument, study_from_args
 
 __all__ = ["add_parser", "run", "write_true_joints"]

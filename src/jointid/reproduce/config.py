@@ -46,7 +46,7 @@ from ..errors import StudyError
 from ..frequency import Frequency
 from .. import schema
 from ..schema import Field, table, typed
-from ..study.parse import BeamSpec
+from ..study import BeamSpec
 
 if TYPE_CHECKING:
     from ..physics.elastomer_joint import ElastomerMaterial

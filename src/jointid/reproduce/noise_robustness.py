@@ -42,7 +42,7 @@ from ..methods.receptance.coupling import Z90, CouplingOptions, identify_joint_c
 from ..physics.free_model import as_free_model
 from ..pipeline import coupling_options, free_model, identify, true_joint
 from ..report.html import Table
-from ..study.parse import Study, parse_study
+from ..study import Study, parse_study
 from .common import Progress, StudyOutput, add_noise, band_errors
 
 __all__ = [

@@ -18,7 +18,7 @@ from ..physics.synthesis import synthesize_frf
 from ..pipeline import constrained_model, experiment, identify
 from ..plots.studies import plot_terms
 from ..report.html import Table
-from ..study.parse import Study, parse_study
+from ..study import Study, parse_study
 from .common import Progress, StudyOutput, band_errors, fmt, pct, png, terms_of
 
 __all__ = ["run", "experiment_study", "parts", "combine"]

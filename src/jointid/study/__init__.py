@@ -7,5 +7,15 @@
 * :mod:`.edit` -- writing values into a study's text (``jointid update --write``).
 """
 
-from .parse import *  # noqa: F401,F403 - the public face of study files
-from .parse import __all__  # noqa: F401
+from .parse import MAX_AVERAGES, MAX_LINES, MAX_NODES, MAX_RECORD_SAMPLES, load_study, parse_study
+from .sections import (
+    AccelerometerSpec, BeamSpec, ExperimentSpec, FrequencySpec, IdentificationSpec, JointModelSpec, JointSpec,
+    MeasurementSpec, Study, TruthSpec,
+)
+from .structures import MatrixStructureSpec
+
+__all__ = [
+    "Study", "BeamSpec", "MatrixStructureSpec", "JointSpec", "JointModelSpec", "MeasurementSpec", "AccelerometerSpec",
+    "IdentificationSpec", "FrequencySpec", "ExperimentSpec", "TruthSpec",
+    "load_study", "parse_study", "MAX_NODES", "MAX_LINES", "MAX_RECORD_SAMPLES", "MAX_AVERAGES",
+]

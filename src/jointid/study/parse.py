@@ -138,7 +138,6 @@ from ..schema import choices as _choices
 from ..schema import nonneg as _nonneg
 from ..schema import positive as _positive
 from ..schema import section as _section
-from ..schema import typed as _typed  # noqa: F401 - importable from here (study_sections, other modules)
 from .structures import ELASTOMER_MATERIAL_FIELDS, parse_dof_list_key, parse_joints, parse_structure_table
 from .sections import (
     TRUTH_KEYS,
@@ -154,24 +153,7 @@ from .sections import (
     TruthSpec,
 )
 
-__all__ = [
-    "Study",
-    "BeamSpec",
-    "JointSpec",
-    "JointModelSpec",
-    "MeasurementSpec",
-    "AccelerometerSpec",
-    "IdentificationSpec",
-    "FrequencySpec",
-    "ExperimentSpec",
-    "TruthSpec",
-    "load_study",
-    "parse_study",
-    "MAX_NODES",
-    "MAX_LINES",
-    "MAX_RECORD_SAMPLES",
-    "MAX_AVERAGES",
-]
+__all__ = ["load_study", "parse_study", "MAX_NODES", "MAX_LINES", "MAX_RECORD_SAMPLES", "MAX_AVERAGES"]
 
 #: Largest ``[beam].nodes`` accepted (the FE model is dense per frequency line).
 MAX_NODES = 10_000
