@@ -133,7 +133,7 @@ def _reference_calibration(hz, Ymn, Yne, change, H, variance, nb=16):
 
     from jointid.methods.receptance.column_calibration import _hermitian_factor
     from jointid.methods.receptance.coupling_lines import symmetric_parametrization, whitened_line_design
-    from jointid.methods.receptance.smoothing import _basis
+    from jointid.methods.receptance.smoothing import bspline_basis
 
     F, m, n = Ymn.shape
     e = Yne.shape[2]
@@ -149,7 +149,7 @@ def _reference_calibration(hz, Ymn, Yne, change, H, variance, nb=16):
     QhG = np.einsum("fij,fjk->fik", Qh, Gw)
     Z = Gw - np.einsum("fij,fjk->fik", Q, QhG)
     r0 = dw - np.einsum("fij,fj->fi", Q, np.einsum("fij,fj->fi", Qh, dw))
-    B = _basis(hz, nb).toarray()
+    B = bspline_basis(hz, nb).toarray()
     N = np.einsum("fai,fb,faj,fc->ibjc", Z.conj(), B, Z, B).reshape(e * nb, e * nb)
     rhs = -np.einsum("fai,fa,fb->ib", Z.conj(), r0, B).reshape(e * nb)
     Ninv = np.linalg.inv(N)
@@ -188,9 +188,9 @@ def test_the_batched_estimate_equals_the_sums_written_out(case):
     var = (0.003 * np.abs(H)) ** 2
     cal = estimate_column_calibration(hz, Ymn, Yne, Yme - H, H, var)
     c_ref, f_ref, p_ref, Cx_ref, cond, amplification = _reference_calibration(hz, Ymn, Yne, Yme - H, H, var)
-    from jointid.methods.receptance.smoothing import _basis
+    from jointid.methods.receptance.smoothing import bspline_basis
 
-    c = np.linalg.lstsq(_basis(hz, 16).toarray(), cal.delta, rcond=None)[0].T.reshape(-1)  # B has full column rank
+    c = np.linalg.lstsq(bspline_basis(hz, 16).toarray(), cal.delta, rcond=None)[0].T.reshape(-1)  # B has full column rank
     bound = 10 * hz.size * np.finfo(float).eps * cond
     assert cal.significant and bound < 1e-6  # a meaningful comparison: a real column error, a well-posed system
     assert np.max(np.abs(c - c_ref)) <= bound * np.max(np.abs(c_ref))

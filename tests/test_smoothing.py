@@ -7,7 +7,7 @@ import scipy.sparse as sp
 
 from jointid.methods.receptance import smoothing
 from jointid.parallel import single_threaded_blas
-from jointid.methods.receptance.smoothing import _LOG_LAMBDA, _basis, _posterior_variance, smooth_series
+from jointid.methods.receptance.smoothing import LOG_LAMBDA_GRID, _posterior_variance, bspline_basis, smooth_series
 
 
 def _reference(x, y, variance, n_basis=None):
@@ -15,14 +15,14 @@ def _reference(x, y, variance, n_basis=None):
     ok = np.isfinite(y) & np.isfinite(variance) & (variance > 0)
     K = int(n_basis or min(max(x.size // 2, 4), smoothing.MAX_BASIS))
     K = max(4, min(K, int(ok.sum()) - 1))
-    B = _basis(x, K).toarray()
+    B = bspline_basis(x, K).toarray()
     w = np.where(ok, 1.0 / np.where(ok, variance, 1.0), 0.0)
     yz = np.where(ok, y, 0.0)
     BWB = B.T @ (w[:, None] * B)
     BWBj = BWB + 1e-12 * np.trace(BWB) / K * np.eye(K)  # the smoother's jitter
     D = np.diff(np.eye(K), 2, axis=0)
     P = D.T @ D
-    lams = np.trace(BWB) / np.trace(P) * 10.0**_LOG_LAMBDA
+    lams = np.trace(BWB) / np.trace(P) * 10.0**LOG_LAMBDA_GRID
     best = None
     for lam in lams:
         A = BWBj + lam * P
@@ -59,7 +59,7 @@ def test_fast_smoother_equals_a_dense_solve_per_lambda(seed, F, n_basis):
 
 def test_posterior_variance_of_a_general_sparse_design_takes_the_dense_path():
     x = np.linspace(0.0, 1.0, 300)
-    B = _basis(x, 20)
+    B = bspline_basis(x, 20)
     T = np.random.default_rng(3).standard_normal((20, 20))
     filt = np.linspace(1.0, 0.01, 20)
     banded = _posterior_variance(B, T, filt)

@@ -48,8 +48,8 @@ import scipy.linalg as sla
 
 from ..receptance.column_calibration import CALIBRATION_BASIS
 from ..receptance.coupling_lines import symmetric_parametrization, whitened_line_design
-from ..receptance.smoothing import _LOG_LAMBDA, MAX_BASIS
-from ..receptance.smoothing import _basis as bspline_basis
+from ..receptance.smoothing import LOG_LAMBDA_GRID, MAX_BASIS
+from ..receptance.smoothing import bspline_basis
 
 __all__ = ["SmootherPrediction", "smoothed_squared_error", "common_variance"]
 
@@ -98,7 +98,7 @@ class SmootherPrediction:
         s = np.clip(s, 0.0, None)
         T = Li.T @ U
         BT = B @ T  # (F, K)
-        lams = np.trace(BWB) / max(np.trace(self.P), 1e-300) * 10.0**_LOG_LAMBDA
+        lams = np.trace(BWB) / max(np.trace(self.P), 1e-300) * 10.0**LOG_LAMBDA_GRID
         phi = 1.0 / (1.0 + lams[None, :] * s[:, None])  # (K, G)
         n = int(ok.sum())
         trS, trS2 = phi.sum(axis=0), (phi**2).sum(axis=0)

@@ -65,7 +65,7 @@ from scipy.special import fdtrc
 
 from ...parallel import single_threaded_blas
 from .coupling_lines import symmetric_parametrization, whitened_line_design
-from .smoothing import _basis as bspline_basis
+from .smoothing import bspline_basis
 
 __all__ = ["ColumnCalibration", "estimate_column_calibration", "residual_variance", "RESIDUAL_VARIANCE_LINES", "CALIBRATION_BASIS", "CALIBRATION_P_VALUE", "CALIBRATION_MIN_F", "CALIBRATION_MIN_ERROR"]
 

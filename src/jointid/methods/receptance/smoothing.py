@@ -33,13 +33,14 @@ from scipy.interpolate import BSpline
 
 from ...parallel import single_threaded_blas
 
-__all__ = ["SmoothedSeries", "smooth_series", "MAX_BASIS"]
+__all__ = ["SmoothedSeries", "smooth_series", "bspline_basis", "MAX_BASIS", "LOG_LAMBDA_GRID"]
 
 #: Most basis functions of the spline (knot spacing = band / MAX_BASIS at most).
 MAX_BASIS = 200
 #: Order of the difference penalty on the spline coefficients.
 PENALTY_ORDER = 2
-_LOG_LAMBDA = np.linspace(-10.0, 8.0, 73)
+#: The smoothing parameters searched, log10 of lambda relative to the data's scale (GCV picks one).
+LOG_LAMBDA_GRID = np.linspace(-10.0, 8.0, 73)
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,7 +53,8 @@ class SmoothedSeries:
     edf: float
 
 
-def _basis(x: np.ndarray, n_basis: int, degree: int = 3):
+def bspline_basis(x: np.ndarray, n_basis: int, degree: int = 3):
+    """Cubic (``degree``) B-splines on uniform knots over ``x[0]..x[-1]``, shape (F, n_basis), sparse CSR."""
     u = (x - x[0]) / (x[-1] - x[0])
     inner = np.linspace(0.0, 1.0, n_basis - degree + 1)
     t = np.r_[[0.0] * degree, inner, [1.0] * degree]
@@ -87,7 +89,7 @@ def _smooth(x: np.ndarray, y: np.ndarray, variance: np.ndarray, n_basis: int | N
     ok = np.isfinite(y) & np.isfinite(variance) & (variance > 0)
     K = int(n_basis or min(max(F // 2, 4), MAX_BASIS))
     K = max(4, min(K, int(ok.sum()) - 1))
-    B = _basis(x, K)
+    B = bspline_basis(x, K)
     w = np.where(ok, 1.0 / np.where(ok, variance, 1.0), 0.0)
     yz = np.where(ok, y, 0.0)
     BW = B.multiply(w[:, None]).tocsr()
@@ -104,7 +106,7 @@ def _smooth(x: np.ndarray, y: np.ndarray, variance: np.ndarray, n_basis: int | N
     T = Li.T @ U  # a = T diag(1 / (1 + lam s)) T^T BWy
     c = T.T @ BWy
     scale = np.trace(BWB) / max(np.trace(P), 1e-300)
-    lams = scale * 10.0**_LOG_LAMBDA
+    lams = scale * 10.0**LOG_LAMBDA_GRID
     filt = 1.0 / (1.0 + lams[None, :] * s[:, None])  # (K, G)
     a = T @ (c[:, None] * filt)  # (K, G): coefficients for every lambda
     # rss(lam) = ||W^1/2 (y - B a)||^2 split about the lam -> 0 fit a0 (exact algebra, no (F, G) array):
