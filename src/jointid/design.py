@@ -176,9 +176,9 @@ def hammer_noise(study: Study, noise: float) -> float:
 
     ``[experiment].response_noise / sqrt(averages * step * duration)``: the response
     noise (relative to the response's rms) averaged over the hits and over the
-    ``step * duration`` lines of the test's resolution in one line of the grid
-    (benchmark: 0.01 / sqrt(5 * 1 * 2) = 0.32 %; the virtual test's FRFs have a noise
-    floor of 0.27-0.42 % of each FRF's rms over the band). Without ``[experiment]``: ``noise``.
+    ``step * duration`` lines of the test's resolution in one line of the grid (a
+    nominal level: the noise floor of a virtual test's FRFs, relative to each FRF's
+    rms over the band, scatters around it from FRF to FRF). Without ``[experiment]``: ``noise``.
     """
     x = getattr(study, "experiment", None)
     if x is None:

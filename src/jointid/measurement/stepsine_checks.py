@@ -2,10 +2,11 @@
 
 A saturated load cell (amplifier, actuator) clips its channel: the record holds
 its limit for as long as the true signal exceeds it. The fundamental of a
-clipped sine is smaller than the true one (a force clipped at 30 % of its peak
-read E at 3.9 MPa where the true value was 8.8 MPa), so such a block must not be
-identified from. :func:`distortion_problems` names what is wrong with one block,
-used by :func:`jointid.measurement.stepsine.process_block`.
+clipped sine is smaller than the true one (clipped at ``c`` times its peak:
+``(2 / pi) (asin c + c sqrt(1 - c^2))`` of it, so the identified modulus reads
+far low), so such a block must not be identified from. :func:`distortion_problems`
+names what is wrong with one block, used by
+:func:`jointid.measurement.stepsine.process_block`.
 """
 
 from __future__ import annotations

@@ -22,9 +22,9 @@ Two kinds of record (``HammerSettings.pad``):
     test: leakage of the response still ringing at the end of the record, and,
     for hysteretic (non-causal) damping, the loss of the response *before* the
     record starts (a hysteretic model's impulse response has a precursor that
-    decays only like ``1/|t|``). On the benchmark (beam loss factor 0.006) with
-    a 2 s record these are each ~3e-4 median relative; a 4 s record removes
-    the leakage (4e-6) but no record length removes the precursor (2.6e-4).
+    decays only like ``1/|t|``). A longer record shrinks the leakage (the
+    ringing left at its end decays like ``exp(-sigma T)``) but no record length
+    removes the lost precursor; a periodic test has neither bias.
 ``pad == 1`` (periodic test)
     The grid is the record: each record is one period of the steady response
     to a hit repeated every ``duration``. The record's DFT is exactly

@@ -2,12 +2,13 @@
 
 Model updating evaluates the free model many times; a beam's ``K`` and ``M``
 (DOFs in x order) have half-bandwidth 3, so one LAPACK ``gbsv`` per line
-(~30 us for 290 DOFs) is far cheaper than an eigen-solution per evaluation.
+(``O(N b^2)`` work for N DOFs and half-bandwidth b) is far cheaper than an
+eigen-solution per evaluation.
 
 A free structure's ``D(w) = K* - w^2 M`` is nearly singular at low frequency
 (condition ~ ``w_max^2 / w^2`` through its rigid-body modes): a plain solve
-loses ~1e-7 of relative accuracy there, enough to drown the small, smooth
-effect of the parameters (e.g. of the loss factor off resonance) in a
+loses about ``eps w_max^2 / w^2`` of relative accuracy there, enough to drown
+the small, smooth effect of the parameters (e.g. of the loss factor off resonance) in a
 finite-difference Jacobian. The rigid-body modes ``Phi_0`` (null space of
 ``K``, mass-normalized) are therefore split off exactly:
 

@@ -49,12 +49,12 @@ class StructureModel:
     :data:`~jointid.physics.modes.DENSE_EIGEN_LIMIT` DOFs use modal superposition
     over every mode with one step of iterative refinement
     (:func:`~jointid.physics.synthesis.receptance_modal_refined`): the plain modal
-    sum loses accuracy to the eigensolver's round-off (1.5e-11 relative on the
-    19-node benchmark beam, up to 1.2e-7 at resonances on it meshed 8x finer,
-    which an inverse method amplifies ~200x in the rotational term); the refined
-    sum agrees with an extended-precision direct solve to 8e-14 and 2e-11, at
-    the cost of a modal sum on the requested rows and columns only (20 000 lines
-    of the refined beam: ~0.2 s CPU). The modes are computed once, here.
+    sum loses accuracy to the eigensolver's round-off (up to about
+    ``eps lam_max / (eta lam_r)`` relative at a resonance, so most on fine meshes,
+    and an inverse method amplifies it most in the rotational term); the refined
+    sum agrees with an extended-precision direct solve to round-off
+    (``tests/test_synthesis.py``), at the cost of a modal sum on the requested
+    rows and columns only, no N x N work per line. The modes are computed once, here.
     Others use a batched direct solve.
 
     Parameters
@@ -71,7 +71,7 @@ class StructureModel:
             raise ModelError("a free model must not contain frequency-dependent joints: Do is the free structure alone")
         if self.modes is None and len(self.structure.dofs) <= DENSE_EIGEN_LIMIT:
             try:
-                with single_threaded_blas():  # a 290-DOF eigh: BLAS threads only contend (measured 0.3-4.8 s vs 0.1 s on a loaded machine)
+                with single_threaded_blas():  # a small dense eigh: BLAS threads only contend (several times slower on a loaded machine)
                     modes = natural_modes(self.structure)
             except np.linalg.LinAlgError:  # e.g. massless DOFs: M not positive definite
                 return

@@ -25,17 +25,16 @@ eigenvalue: at the top of the band with ``cutoff_factor = 2.5`` about
 ``(1.11 / 6.36)^k`` of the truncated modes' contribution is left (far less lower
 in the band); the default 6 terms leave ~3e-5 of it. The kept modes are
 deflated at every step (no cancellation against the rigid-body terms) and every
-solve takes one step of iterative refinement. Measured on a 2000-DOF chain
-(tests/test_sparse_model.py), worst relative error per entry against a direct
-solve over the band: 3.0 without residual, 7.7e-2 with the static term only,
-3.7e-3 with 2 terms, 5.6e-8 with 6. On an ill-conditioned model (2 mm frame
-elements, 60 mm deep) the floor is the factorization's: ~7e-5, like a direct
-solve's own change under refinement (9e-6). Cost: one real sparse factorization, ``k`` Lanczos
+solve takes one step of iterative refinement. ``tests/test_sparse_model.py``
+bounds the worst relative error per entry against a direct solve over the band
+on a 2000-DOF chain with 0, 1, 2 and 6 terms. On an ill-conditioned model (frame
+elements far shorter than their depth) the floor is the factorization's
+round-off, as for a direct solve (``benchmarks/large_model.py`` prints it against
+a direct sparse solve). Cost: one real sparse factorization, ``k`` Lanczos
 modes, two block solves per requested DOF set; then every line is a product of
-``(r x k)`` and ``(k x c)`` blocks, vectorized over frequency. Measured on the
-100 800-DOF grillage of ``benchmarks/large_model.py`` (one core): factorization
-and 114 modes 15 s, residual moments of 84 DOFs 5.5 s, the modal sum on
-72 x 60 DOFs for 2000 lines 1.1 s; the basis and the cached moments take ~300 MB.
+``(r x k)`` and ``(k x c)`` blocks, vectorized over frequency
+(``benchmarks/large_model.py`` prints the time of each step and the peak memory
+on a 1e5-DOF grillage).
 
 **direct**: one complex sparse LU (``scipy.sparse.linalg.splu``) of
 ``K (1 + j eta) - w^2 M`` per line, solved for the smaller of the row and
@@ -89,8 +88,8 @@ DEFAULT_RESIDUAL_TERMS = 6
 #: Most terms of the residual series.
 MAX_RESIDUAL_TERMS = 8
 #: Eigenvalues below this fraction of the largest computed one are rigid-body modes, set to 0: their
-#: computed values are round-off of ``eps * |K| / m`` (0.01 rad^2/s^2 on the 1e5-DOF benchmark grillage,
-#: whose first elastic mode is at 3 Hz); an elastic mode that low would be below 3e-5 x the top line.
+#: computed values are round-off of ``eps * |K| / m``, far below it; an elastic mode that low would be
+#: below ``sqrt(RIGID_TOLERANCE)`` (3e-5) times the highest computed natural frequency.
 RIGID_TOLERANCE = 1e-9
 _CHUNK_BYTES = 32 * 2**20
 

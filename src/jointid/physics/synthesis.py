@@ -20,7 +20,8 @@ Two paths, chosen by ``method="auto"`` and overridable:
     (``Im K = eta Re K``) and there are no frequency-dependent joints. With
     every mode present (models up to
     :data:`~jointid.physics.modes.DENSE_EIGEN_LIMIT` DOFs) it equals the direct
-    result to ~1e-10. Larger models keep the modes below
+    result to round-off (``benchmarks/frf_synthesis.py`` prints the difference).
+    Larger models keep the modes below
     ``cutoff_factor * f_max`` and add the truncated modes' residual flexibility
     evaluated at a negative shift ``s0 = -sigma``:
     ``R = [(K* + sigma M)^-1]_rc - sum_kept phi phi^T / (w_r^2 (1 + j eta) + sigma)``;
@@ -30,7 +31,7 @@ Two paths, chosen by ``method="auto"`` and overridable:
     A proportionally damped structure with frequency-dependent joints: the
     joint-free receptance by refined modal superposition, the joints added by
     Sherman-Morrison-Woodbury on their DOFs (:func:`receptance_coupled`); exact,
-    and ~100x faster than ``"direct"`` on a 290-DOF beam.
+    and far cheaper than ``"direct"`` (no N x N solve per line).
 
 ``"auto"`` picks ``"coupled"`` for such structures (up to
 :data:`~jointid.physics.modes.DENSE_EIGEN_LIMIT` DOFs), and ``"modal"`` whenever it is exact (or, for large models,
@@ -138,19 +139,19 @@ def receptance_modal_refined(structure: Structure, frequency: Frequency, respons
     ``Y0 = Phi g Phi^T`` with ``g = diag(1 / (w_r^2 (1 + j eta) - w^2))`` over every mode:
     exact in exact arithmetic, but the computed modes diagonalize ``K*`` only to
     ``eps lam_max`` (``Phi^T K* Phi = Lam* + dA``, ``Phi^T M Phi = I + dB``), which the
-    plain sum turns into 1.5e-11 relative error on the 19-node benchmark beam and
-    1.2e-7 on it meshed 8x finer (at resonances, where ``g`` is ~1/eta). One step of
+    plain sum turns into a relative error of up to about ``eps lam_max / (eta lam_r)``
+    (at resonances, where ``g`` is ~1/eta; large on fine meshes). One step of
     refinement removes it to first order::
 
         Y = Y0 - Phi[r] g (dA - w^2 dB) g Phi[c]^T
 
     with ``dA``, ``dB`` computed once (:func:`_projection_errors`) on the modes below
     ``REFINE_FACTOR * f_max`` (the others' share is < 1e-12 relative; their plain sum
-    is evaluated as a power series in ``w^2``). Against a direct solve refined with
-    long-double residuals: 8e-14 and 2e-11 worst line (the earlier refinement
-    against the assembled matrices on every DOF: 7e-12 and 1.2e-9). Cost: a modal
-    sum over ~30 modes on ``r, c`` plus a ~30 x 30 product per line, no N x N work
-    per line (20 000 lines, 9 x 5 entries of the 290-DOF beam: ~0.2 s CPU).
+    is evaluated as a power series in ``w^2``). It agrees with a direct solve refined
+    with long-double residuals to round-off, more closely than the refinement
+    against the assembled matrices on every DOF (``tests/test_synthesis.py``
+    bounds both). Cost: a modal sum over the modes below ``REFINE_FACTOR * f_max``
+    on ``r, c`` plus a product of that size squared per line, no N x N work per line.
     Needs complete modes of a proportionally damped structure without joints.
     """
     ri, ci = np.array(structure.index(responses)), np.array(structure.index(references))

@@ -4,10 +4,11 @@ The analytic prediction (:mod:`jointid.methods.design.estimator`) is linear in
 the FRF errors and takes the expected GCV lambda. The rotational term's per-line
 errors are 100 % and more on most lines, so the estimator is not linear there
 (its first smoothing pass starts from heavy-tailed per-line estimates), and how
-far it departs depends on the layout: on the benchmark, layouts with equal
-predicted errors (2.3-2.4 %) gave median K_theta_theta errors of 1.5-5 % over six
-seeds. A Monte Carlo of the estimator itself resolves that, at a cost of one
-identification per layout and seed (about 0.5-1 s for 900 lines).
+far it departs depends on the layout: layouts with nearly equal predicted
+errors can differ severalfold in their actual median K_theta_theta error
+(``benchmarks/design.py`` prints predicted and actual errors per layout and
+seed). A Monte Carlo of the estimator itself resolves that, at a cost of one
+identification per layout and seed (``benchmarks/design.py`` prints its time).
 
 Each realization: the exact receptance ``H`` of the test article (from the
 :class:`~jointid.methods.design.layout.LayoutPredictor`, sensors and joint included) with

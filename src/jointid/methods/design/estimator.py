@@ -37,8 +37,9 @@ The relinearization of the estimator (per-line estimates linearized around the
 smooth estimate, close to the truth) is what makes the truth the right point to
 linearize at here. Caveats: the expected GCV is not the GCV of one realization
 (on data lambda scatters, and with it the error: the K_theta_theta error of one
-synthetic realization of the benchmark ranges 1.7-6.9 % between seeds); the
-bias uses the expected joint (``[joint.model]``), so it is as right as that model.
+synthetic realization varies severalfold between seeds, ``benchmarks/design.py``
+prints it per seed); the bias uses the expected joint (``[joint.model]``), so it
+is as right as that model.
 """
 
 from __future__ import annotations

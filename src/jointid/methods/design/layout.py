@@ -80,22 +80,22 @@ Steps 1-3 run on ``search_lines`` lines (default 300) spread evenly over the
 band; each stands for ``F / search_lines`` lines of the band (its variance is
 divided by that) and the smoother has :data:`SEARCH_BASIS` functions. That grid
 samples the narrow resonances of a lightly damped beam by luck (the smoothed
-prediction of one layout moved by up to 2x between a 300-line grid and the
+prediction of one layout can move substantially between the search grid and the
 full band), hence step 4. The layouts of each step (and the re-ranked ones) are
 evaluated on forked workers, one BLAS thread each (:mod:`jointid.methods.design.pool`;
 BLAS threads only contend on these small matrices); ``benchmarks/design.py`` prints the time.
 
 Caveats: the prediction is linear in the FRF errors (at the true joint) and
 uses the *expected* GCV lambda; on data lambda scatters with the noise, and
-with it the error of one test (the benchmark's K_theta_theta, synthetic 1 %
-noise, Model 3: 1.4-9.3 % between seeds, median 2.9 %, which the prediction
-reproduces when the scatter of lambda is simulated). Per-line errors of 100 %
-and more (the rotational term on most lines) make the estimator nonlinear: for
-layouts other than Model 3 the actual error of the uncalibrated settings came out
-up to 1.5x the linear prediction, so differences below that between layouts are
-not resolved; the differences that the column calibration makes (3x on the
-benchmark) are. The FE model is assumed right (unmodelled accelerometers bias
-the identification, and the bias is not in the criterion).
+with it the error of one test (the rotational term's varies severalfold between
+noise seeds, a scatter the prediction reproduces when the scatter of lambda is
+simulated). Per-line errors of 100 % and more (the rotational term on most
+lines) make the estimator nonlinear: the actual error of a layout can exceed the
+linear prediction, so small differences between layouts are not resolved; the
+large differences that the column calibration makes are (``benchmarks/design.py``
+prints the predicted error per term and noise scenario and the actual error per
+seed, chosen layout against Model 3). The FE model is assumed right (unmodelled
+accelerometers bias the identification, and the bias is not in the criterion).
 """
 
 from __future__ import annotations
@@ -499,7 +499,7 @@ def design_layout(
     evaluations = len(cache)
 
     # re-rank the best layouts of the search on every line, with the estimator's own smoother: the
-    # search grid samples narrow resonances by luck, which moves the smoothed prediction by up to 2x
+    # search grid samples narrow resonances by luck, which can move the smoothed prediction substantially
     pool = sorted((c, tuple(sorted(o)), tuple(sorted(e))) for (o, e), c in cache.items()
                   if len(o) == n_observed and len(e) == n_excited and c < math.inf)[:rerank]
     active = [k for k in range(len(terms)) if w[k] > 0]

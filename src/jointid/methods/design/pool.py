@@ -1,8 +1,8 @@
 """Evaluate many test layouts on the available cores (the search of :mod:`jointid.methods.design.layout`).
 
 Each step of the design's search (the seed sets, one greedy growth step, one
-exchange pass) is a batch of independent layouts, each costing a few
-milliseconds of small batched LAPACK calls and NumPy overhead. Threads would
+exchange pass) is a batch of independent layouts, each a few small batched
+LAPACK calls and NumPy overhead. Threads would
 contend for the GIL on such small arrays, and BLAS threads only contend on
 them, so the batch is split over **forked** worker processes that inherit the
 layout predictor (its receptances are computed once, before the fork, and

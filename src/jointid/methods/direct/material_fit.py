@@ -205,8 +205,8 @@ def inertia_fraction(joint: ElastomerJoint, frequency_hz, elastic_modulus_pa: fl
 
     The blocked transfer stiffness of a massless cylinder is the static one at
     every line; the mass raises it as about ``(pi^2 / 6) (f / f_mode)^2``
-    below the first blocked internal mode ``f_mode`` (6 % at 0.17 f_mode,
-    74 % at 0.52 f_mode for Material A). A storage modulus that rises with
+    below the first blocked internal mode ``f_mode`` (and faster as ``f``
+    approaches ``f_mode``). A storage modulus that rises with
     frequency (rubber: 1.2-2x from 10 Hz to 1 kHz) raises K21 the same way,
     so the density is only separable from it when inertia is a large part of
     K21 somewhere in the band.

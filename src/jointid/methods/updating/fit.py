@@ -1,8 +1,10 @@
 """Free-structure model updating: fit a free model's parameters to FRFs measured on the free (suspended) structure.
 
 Before a joint is identified, the free beam's FE model ``Do`` should be
-updated from a free-free test: 1 % error in the beam's E gives ~7 / 28 / 390 %
-error in the translational / coupling / rotational joint term (benchmark).
+updated from a free-free test: a small error in the beam's E gives a far
+larger error in the joint terms, the rotational one most (the model-error study
+of ``jointid reproduce``, :mod:`jointid.reproduce.model_error`, prints the
+figures per term before and after updating).
 
 Residuals
 ---------
@@ -33,15 +35,15 @@ resonances, and the frequency step should not be much coarser than those
 bandwidths (with 1 Hz lines the benchmark's ``eta = 0.0042`` gives 0.3 Hz at
 79 Hz, one line at best, but 2.9 Hz at 700 Hz, several lines). Off resonance,
 hysteretic damping only tilts the phase by about ``eta`` times the elastic
-modes' share of the FRF: on virtual data with exact phase a band up to 60 Hz
-(below the first resonance at ~75 Hz) still gave ``eta`` to 1.3 %, but a real
-test's phase errors (sensors, conditioning, ~0.01 rad) are of that size, so
-trust ``eta`` only from a band with resonances. Far below the first resonance
+modes' share of the FRF: on virtual data with exact phase a band just below
+the first resonance still determines ``eta``, but a real test's phase errors
+(sensors, conditioning, ~0.01 rad) are of the size of that tilt, so trust
+``eta`` only from a band with resonances. Far below the first resonance
 (5-20 Hz on the benchmark) the FRF is the rigid-body mass line and ``eta`` is
-reported as not determined. Measured (benchmark beam, 5-1000 Hz, 1 Hz lines, five
-resonances, 1 % noise, data meshed 2x finer): E, rho, eta of a beam +2 / -1 /
--30 % off the model recovered to 0.004 / 0.005 / 0.04 %, each within 1.5
-standard errors (1.4e-6 for eta = 0.0042).
+reported as not determined. On a virtual free-free test with resonances in the
+band (1 % noise, data from a finer mesh than the model) E, rho and eta of a
+model +2 / -1 / -30 % off are recovered within two standard errors
+(``tests/test_update.py``).
 
 Two stages
 ----------
@@ -57,8 +59,8 @@ Two stages
    trust region an initial radius of ~1 in ``ln p``), within per-parameter
    bounds (e.g. ``p0 / 5 .. 5 p0`` for E), Jacobian by finite differences
    (steps 1e-5 in ``ln p``, 1e-3 for the loss factor). The model's FRFs come
-   from a banded solve per line (:mod:`jointid.physics.banded_receptance`,
-   ~0.1 s per evaluation on the benchmark's 290-DOF beam at 996 lines).
+   from a banded solve per line (:mod:`jointid.physics.banded_receptance`: no
+   eigen-solution per evaluation).
 
 Judging the fit (:mod:`.update_check`): when the updated model leaves a misfit
 far above the data's noise, or the resonances misaligned, the FRFs are not a
@@ -119,8 +121,9 @@ __all__ = [
 #: Every parameter name any model family knows: name -> (unit, bounds as ratios of the initial value, label).
 _ALL_PARAMETERS = {**PARAMETERS, **STRUCTURE_PARAMETERS}
 #: Finite-difference step of the Jacobian in ln p: small enough for sharp resonances (a step of 1e-5
-#: in ln E moves a 1 kHz resonance by 0.005 Hz), large against the model's round-off (~1e-9, see
-#: :mod:`jointid.physics.banded_receptance`); the loss factor acts smoothly and weakly off resonance.
+#: in ln E moves a 1 kHz resonance by 0.005 Hz), large against the model's round-off (with the rigid-body
+#: modes split off, see :mod:`jointid.physics.banded_receptance`); the loss factor acts smoothly and weakly
+#: off resonance.
 _DIFF_STEP = {"loss_factor": 1e-3}
 _DEFAULT_DIFF_STEP = 1e-5
 
