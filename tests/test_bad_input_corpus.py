@@ -519,11 +519,11 @@ _add("options", "config_noise_level_bounds", _config("[noise_robustness]\nlevels
 _add("findings", "update_on_jointed_frfs", lambda d, t: ["update", str(d / "beam.toml"), "--frf", str(d / "good.uff"), "--no-plots", "--out", str(t / "out")],
      0, "these FRFs do not look like a free-free test of the study's structure (this beam with these sensors)")
 _add("findings", "g_label_on_si_data", lambda d, t: ["identify", str(d / "beam.toml"), "--frf", str(d / "g_on_si.uff"), "--no-plots", "--out", str(t / "out")],
-     0, "the structured joint model does not fit these FRFs")
+     2, "jointid identify: error: the FRFs look scaled by 9.81 in every excitation column (values in m/s^2/N labelled g")
 _add("findings", "g_label_on_si_exact_data", lambda d, t: ["identify", str(d / "beam.toml"), "--frf", str(d / "g_on_si_exact.uff"), "--no-plots", "--out", str(t / "out")],
-     0, "the structured joint model does not fit these FRFs")
+     2, "jointid identify: error: the FRFs look scaled by 9.81 in every excitation column (values in m/s^2/N labelled g")
 _add("findings", "mm_values_declared_si", lambda d, t: ["identify", str(d / "beam.toml"), "--frf", str(d / "mm_as_si.uff"), "--no-plots", "--out", str(t / "out")],
-     0, "the structured joint model does not fit these FRFs")
+     2, "jointid identify: error: the FRFs look scaled by 1000 in every excitation column (mm/s^2/N (or mm/N) read as m/s^2/N?)")
 
 
 # dead and degenerate data (jointid's dead-data checks): refused, or the dead channel left out with a finding

@@ -61,12 +61,15 @@ from typing import ClassVar, Sequence
 import numpy as np
 
 from ...dofs import Dof, parse_dofs
-from ...errors import IdentificationError
+from ...errors import DataError, IdentificationError
 from ...frequency import Frequency
 from ...frf import FRF
 from ...physics.free_model import as_free_model
 from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration, residual_variance
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
+from .junk_lines import junk_lines
+from .model_check import check_model, residual_statistics
+from .units_check import units_conclusion
 from ..frf_screening import check_visibility, floor_exact_zeros, noise_level_unknown, screen_measured
 from .frf_variance import RELATIVE_FLOOR, WEIGHTINGS, column_noise_fraction, frf_variance
 from ..estimate import JointEstimate, term_scale
@@ -94,6 +97,10 @@ STRUCTURED_MIN_LINES = 20
 #: Residual degrees of freedom per line (``m e`` minus the joint's parameters) from which an unknown noise
 #: level (coherence identically 1) is measured value by value from the residuals; below, only its scale per line.
 RESIDUAL_MIN_REDUNDANCY = 10
+#: B-spline functions per column of the coarse calibration estimate the units check makes when there is none.
+UNITS_BASIS = 4
+#: Fewest residual equations per line (``m e`` minus the joint's parameters) for the units check.
+UNITS_MIN_REDUNDANCY = 6
 #: Values of ``CouplingOptions.calibration``.
 CALIBRATIONS = ("auto", "columns", "none")
 #: Two-sided 90 % normal quantile: the bands drawn and the passivity test are +-Z90 sigma.
@@ -126,6 +133,13 @@ class CouplingOptions:
         ("auto"), always estimated and corrected ("columns"), or ignored ("none").
     calibration_basis : int
         B-spline functions per column for that error over the band.
+    units_check : bool
+        FRFs off by one gross factor in every excitation column (e.g. 1/9.81: g/N read as SI) are
+        refused (:class:`~jointid.errors.DataError`); False: used as they are, with a finding and
+        every term flagged unreliable (:mod:`jointid.methods.receptance.units_check`).
+    model_check : bool
+        Test per octave band whether the free model explains the FRFs; where not, every term is
+        flagged unreliable with a finding (:mod:`jointid.methods.receptance.model_check`).
     """
 
     symmetric: bool = True
@@ -136,6 +150,8 @@ class CouplingOptions:
     n_basis: int | None = None
     calibration: str = "auto"
     calibration_basis: int = CALIBRATION_BASIS
+    units_check: bool = True
+    model_check: bool = True
 
     def __post_init__(self) -> None:
         if self.smoothing not in SMOOTHINGS:
@@ -188,7 +204,10 @@ class CouplingResult(JointEstimate):
     estimator_note : str
         Why the structured model was not fitted when it was asked for or failed (a finding), else "".
     data_notes : tuple of str
-        What the data screening found (:mod:`jointid.methods.frf_screening`): channels left out, an unknown noise level.
+        What the data screening found (:mod:`jointid.methods.frf_screening`): channels and junk lines left out, an
+        unknown noise level, FRFs used as they are despite the units check, the free model's misfit per band.
+    checked_unreliable : ndarray of bool, shape (F,), or None
+        Lines flagged unreliable on every term by the units or the model check (a data note says why).
     """
 
     std_real: np.ndarray
@@ -207,6 +226,7 @@ class CouplingResult(JointEstimate):
     structured: StructuredEstimate | None = None
     estimator_note: str = ""
     data_notes: tuple[str, ...] = ()
+    checked_unreliable: np.ndarray | None = None
 
     method: ClassVar[str] = "receptance"
 
@@ -267,14 +287,15 @@ class CouplingResult(JointEstimate):
             self.frequency, dofs, self.stiffness[blk], self.std_real[blk], self.std_imag[blk], self.per_line[blk],
             self.per_line_std[blk], self.reliable_terms[blk], self.passive[:, idx], self.condition, self.residual_scale,
             self.weighting, edf, self.options, self.calibration, self.calibration_applied, self.structured, self.estimator_note,
-            self.data_notes,
+            self.data_notes, self.checked_unreliable,
         )
 
     def options_summary(self) -> dict:
         """JSON-ready: symmetric, smoothing, weighting (the variance model used), averages, max_relative_std, calibration."""
         o = self.options
         return {"symmetric": o.symmetric, "smoothing": o.smoothing, "weighting": self.weighting, "averages": o.averages,
-                "max_relative_std": o.max_relative_std, "calibration": o.calibration}
+                "max_relative_std": o.max_relative_std, "calibration": o.calibration, "units_check": o.units_check,
+                "model_check": o.model_check}
 
     def diagnostics(self) -> dict:
         """JSON-ready: the estimator that made the result (structured model's orders), largest condition, residual scale."""
@@ -300,10 +321,11 @@ class CouplingResult(JointEstimate):
         cal = self.calibration
         if cal is not None and self.calibration_applied:
             eps = 100 * np.median(np.abs(cal.error), axis=0)
+            why = f"F test p = {cal.p_value:.2g}" if self.options.calibration == "auto" else 'calibration = "columns"'
             out.append(
                 "force calibration error of the excitation columns (median " + ", ".join(f"{v:.2g} %" for v in eps)
-                + f"; F test p = {cal.p_value:.2g}): corrected, its uncertainty is in the bands"
-                + ("; far more than force noise: check the FRF units and the hammer's sensitivity" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
+                + f"; {why}): corrected, its uncertainty is in the bands"
+                + ("; more than force noise makes: check the hammer's sensitivity per column" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
             )
         rel = self.relative_std
         done = set()
@@ -312,6 +334,8 @@ class CouplingResult(JointEstimate):
                 continue
             done.add((a, b))
             bad = ~self.reliable_terms[:, a, b]
+            if self.checked_unreliable is not None:  # those lines' finding is the check's
+                bad &= ~self.checked_unreliable
             if not bad.any():
                 continue
             edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(int), 0]))
@@ -382,16 +406,24 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         coherence = None if coherence is None else np.asarray(coherence)[:, r][:, :, c]
         nm = len(m_dofs)
     check_visibility(Ymn, Ynn, Yne, n_dofs)
+    notes = list(screen.findings)
+    kron = uses_kronecker(freq.size, nm, len(e_dofs), nn, options.symmetric)
+    # junk lines (coherence or residual) are left out before the variance model, calibration and smoothing see them
+    junk = junk_lines(freq.hz, H, coherence, Ymn, Yne, Yme, options.symmetric, residuals=not kron)
+    if junk.finding:
+        k = junk.keep
+        freq, H, Ymn, Yne, Ynn, Yme = Frequency(freq.hz[k]), H[k], Ymn[k], Yne[k], Ynn[k], Yme[k]
+        coherence = None if coherence is None else np.asarray(coherence)[k]
+        notes.append(junk.finding)
     variance, source = frf_variance(H, coherence, options.weighting, options.averages)
     variance = floor_exact_zeros(variance, H, RELATIVE_FLOOR)
-    notes = list(screen.findings)
     # coherence identically 1 carries no noise information: the variance is measured from the residuals of the
     # per-line fit once column errors are removed (below), where each line has the redundancy for it
     unknown = source == "coherence" and noise_level_unknown(coherence)
     params = nn * (nn + 1) // 2 if options.symmetric else nn * nn
     measurable = nm * len(e_dofs) - params >= RESIDUAL_MIN_REDUNDANCY
     cal, applied = None, False
-    if uses_kronecker(freq.size, nm, len(e_dofs), nn, options.symmetric):  # many joint DOFs: no full design, no calibration
+    if kron:  # many joint DOFs: no full design, no calibration
         if options.calibration == "columns":
             raise IdentificationError(f"calibration = 'columns' needs the full per-line design, too large for {nn} joint DOFs on {freq.size} lines; use 'auto' or 'none'")
     elif options.calibration != "none":
@@ -406,7 +438,8 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
                 variance = left
             else:
                 cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, options.calibration_basis) or cal
-    if unknown and not applied and measurable and not uses_kronecker(freq.size, nm, len(e_dofs), nn, options.symmetric):
+    checked = _units_check(freq, Ymn, Yne, Yme, H, variance, cal, options, kron, notes)
+    if unknown and not applied and measurable and not kron:
         measured_var = residual_variance(Ymn, Yne, Yme - H, variance, options.symmetric)
         variance = variance if measured_var is None else measured_var
     if unknown:
@@ -419,7 +452,31 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         H, variance = cal.apply(H, variance)
         common = cal.x_covariance
     lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
-    return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes))
+    stats = residual_statistics(Ymn, Yne, Yme - H, variance, options.symmetric) if options.model_check and not kron else None
+    if stats is not None:  # does the free model explain the FRFs, band by band (model_check)?
+        check = check_model(freq.hz, stats)
+        if not check.fits:
+            notes.append(check.finding(freq.hz))
+            checked = check.failed_lines if checked is None else checked | check.failed_lines
+    return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes), checked)
+
+
+def _units_check(freq: Frequency, Ymn, Yne, Yme, H, variance, cal, options: CouplingOptions, kron: bool, notes: list) -> np.ndarray | None:
+    """Refuse FRFs off by one gross factor in every column (:mod:`.units_check`), or (``units_check = False``) note it
+    and return every line as flagged (else None). The column calibration's estimate is used when there is one."""
+    F, m, n = Ymn.shape
+    if kron or m * Yne.shape[2] - n * (n + 1) // 2 < UNITS_MIN_REDUNDANCY:  # too few equations: a column factor trades with X
+        return None
+    if cal is None:  # not estimated (calibration = "none", or too few lines for its basis): a coarse one for the check
+        cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, UNITS_BASIS)
+    units = units_conclusion(cal)
+    if units is None:
+        return None
+    if options.units_check:
+        raise DataError(f"{units}: give the file's units (UFF dataset 164 / unit labels, or the CSV header) or set "
+                        "[identification] units_check = false to use them as they are")
+    notes.append(f"{units}: used as they are (units_check = false); every term flagged unreliable")
+    return np.ones(freq.size, bool)
 
 
 def _structured(freq: Frequency, lines, options: CouplingOptions, cal, applied) -> tuple[StructuredEstimate | None, str]:
@@ -463,8 +520,10 @@ def _exact(lines) -> bool:
                for a in range(n) for b in range(a, n))
 
 
-def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False, data_notes=()) -> CouplingResult:
-    """Estimate over frequency (structured model, or each term smoothed and relinearized), propagate the variance, set the flags."""
+def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False, data_notes=(),
+            checked=None) -> CouplingResult:
+    """Estimate over frequency (structured model, or each term smoothed and relinearized), propagate the variance, set the
+    flags (every term unreliable on the ``checked`` lines: the units or the model check failed there)."""
     structured, note = _structured(freq, lines, options, cal, applied)
     if structured is not None and structured.accepted:
         K, edf = structured.stiffness, {}
@@ -481,9 +540,11 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
         rel = np.hypot(std_re, std_im) / term_scale(K)
     reliable = (rel <= options.max_relative_std) & (lines.condition <= MAX_CONDITION)[:, None, None]
     reliable[:, diag, diag] &= passive
+    if checked is not None:
+        reliable &= ~checked[:, None, None]
     return CouplingResult(
         freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(np.maximum(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0), 0.0)),
-        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured, note, data_notes,
+        reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured, note, data_notes, checked,
     )
 
 

@@ -1,0 +1,200 @@
+"""Does the free model explain the measured FRFs? The coupling equations' residuals per band against the noise.
+
+Per line the coupling equations ``Y[m,e] - H[m,e] = Y[m,n] X Y[n,e]``
+(:mod:`jointid.methods.receptance.coupling_lines`) are ``|m||e|`` complex equations in
+``p`` joint parameters (``p = n(n+1)/2`` when symmetric). With weights ``1 / var(H)``
+the whitened residual ``r = (I - Q Q^H) W^(1/2) (Y[m,e] - H)`` of the per-line fit has
+``E|r_k|^2 = (1 - h_k) sigma^2`` when the free model ``Y`` is right (``h``: leverage,
+``sigma^2``: the weights' unknown scale), so per line::
+
+    chi2_f = sum_k |r_fk|^2 / (|m||e| - p)  ~  sigma^2
+
+A free model that is wrong (E or density off by 1-2 %: its resonances shift by
+~0.5-1 %) adds a residual the joint cannot absorb (``Y[m,e]`` is not of the form
+``Y[m,n] X Y[n,e]``); it grows near the resonances and is far above the noise there.
+
+**The noise without a model of it.** The weights carry the noise's *shape* only
+(relative weighting has no scale at all, and coherence from ``n`` averages is read
+with ``n`` unknown), so ``sigma^2`` is measured from the residuals themselves: FRF
+noise is independent from line to line while a model error's residual is smooth in
+frequency, so the second difference over lines ``d2_f = r_(f+1) - 2 r_f + r_(f-1)``
+has ``E|d2|^2 = 6 (1 - h) sigma^2`` from the noise and almost nothing from the model
+error. Per line (medians over the ``|m||e|`` values; for a complex Gaussian ``|z|^2``,
+median = ``ln 2`` times the mean)::
+
+    noise_f = median_k |d2_fk|^2 / (6 ln 2 (1 - p / (|m||e|)))
+
+and per band ``b`` (octaves from the first line, merged until each has at least
+:data:`BAND_MIN_LINES` lines) the ratio ``R_b = median_(f in b) chi2_f / median_(f in b)
+noise_f`` is ~1 when the free model fits (medians: a few junk lines do not move it).
+``R_b >`` :data:`MODEL_RESIDUAL_RATIO` fails the band (the median noise is taken at least
+:data:`MIN_NOISE_LEVEL`, so exact data's round-off fails nothing): the free model does not explain the
+FRFs there.
+
+Caveats: noise correlated over neighbouring lines (a strong time window smooths the
+spectrum) lowers ``noise_f`` and raises ``R``; a frequency step much coarser than the
+resonances' half-power bandwidth makes a model error's residual rough over lines
+(it then also raises ``noise_f``, and ``R`` understates the misfit).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...parallel import single_threaded_blas
+from .coupling_lines import symmetric_parametrization, whitened_line_design
+
+__all__ = ["ResidualStatistics", "residual_statistics", "ModelCheck", "check_model", "octave_bands", "MODEL_RESIDUAL_RATIO", "BAND_MIN_LINES", "MIN_NOISE_LEVEL"]
+
+#: A band whose median residual is above this many times the noise (both per degree of freedom) fails.
+MODEL_RESIDUAL_RATIO = 4.0
+#: Fewest lines of a band (octaves are merged with the next until they have as many).
+BAND_MIN_LINES = 16
+#: Smallest noise level per degree of freedom a ratio is taken against (in the weights' units: with relative
+#: weights ``|H|^2`` a relative standard deviation of 1e-4): exact data's round-off says nothing about the model.
+MIN_NOISE_LEVEL = 1e-8
+#: Fewest residual degrees of freedom per line (complex) for the check.
+MIN_REDUNDANCY = 3
+
+
+@dataclass(frozen=True, eq=False)
+class ResidualStatistics:
+    """Per-line residual level of the coupling fit and the noise measured from its second differences.
+
+    Attributes
+    ----------
+    chi2 : ndarray, shape (F,)
+        ``sum_k |r_fk|^2 / (|m||e| - p)`` of the whitened residual (units of the weights' scale).
+    noise : ndarray, shape (F,)
+        ``noise_f`` of the module docstring (NaN on the first and last line).
+    """
+
+    chi2: np.ndarray
+    noise: np.ndarray
+
+
+def residual_statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, variance: np.ndarray,
+                        symmetric: bool = True) -> ResidualStatistics | None:
+    """Residuals of the per-line weighted coupling fit and their line-to-line noise (module docstring).
+
+    Parameters
+    ----------
+    Ymn, Yne : ndarray, shapes (F, m, n), (F, n, e), complex
+        Free receptance blocks, m/N.
+    change : ndarray, shape (F, m, e), complex
+        ``Y[m,e] - H[m,e]``, m/N.
+    variance : ndarray, shape (F, m, e)
+        Variance shape of each measured value (the weights), (m/N)^2.
+    symmetric : bool
+
+    Returns
+    -------
+    ResidualStatistics, or None with fewer than 3 lines or :data:`MIN_REDUNDANCY` residual
+    degrees of freedom per line.
+    """
+    F, m, n = Ymn.shape
+    e = Yne.shape[2]
+    p = symmetric_parametrization(n, symmetric).shape[1]
+    dof = m * e - p
+    if F < 3 or dof < MIN_REDUNDANCY:
+        return None
+    with single_threaded_blas():
+        sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric)
+    dw = change.reshape(F, m * e) * sw
+    r = dw - (Q @ (np.conj(np.swapaxes(Q, 1, 2)) @ dw[:, :, None]))[:, :, 0]
+    chi2 = np.sum(r.real ** 2 + r.imag ** 2, axis=1) / dof
+    d2 = r[2:] - 2.0 * r[1:-1] + r[:-2]
+    noise = np.full(F, np.nan)
+    noise[1:-1] = np.median(d2.real ** 2 + d2.imag ** 2, axis=1) / (6.0 * np.log(2.0) * dof / (m * e))
+    return ResidualStatistics(chi2, noise)
+
+
+def octave_bands(hz: np.ndarray, min_lines: int = BAND_MIN_LINES) -> list[tuple[int, int]]:
+    """Octaves ``[f0 2^k, f0 2^(k+1))`` from the first line, as index ranges ``(start, stop)``,
+    each merged with the next until it has at least ``min_lines`` lines (the last with the one before)."""
+    hz = np.asarray(hz, float)
+    f0 = max(hz[0], np.finfo(float).tiny)
+    k = np.floor(np.log2(np.maximum(hz, f0) / f0) + 1e-12).astype(int)
+    edges = np.r_[0, np.flatnonzero(np.diff(k)) + 1, hz.size]
+    bands: list[list[int]] = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        if bands and bands[-1][1] - bands[-1][0] < min_lines:
+            bands[-1][1] = int(b)
+        else:
+            bands.append([int(a), int(b)])
+    if len(bands) > 1 and bands[-1][1] - bands[-1][0] < min_lines:
+        last = bands.pop()
+        bands[-1][1] = last[1]
+    return [(a, b) for a, b in bands]
+
+
+@dataclass(frozen=True, eq=False)
+class ModelCheck:
+    """The free model's fit per band.
+
+    Attributes
+    ----------
+    bands : list of (int, int)
+        Index ranges of the bands (:func:`octave_bands`).
+    ratio : ndarray, shape (bands,)
+        ``R_b``: median residual over median noise per degree of freedom (~1 when the model fits).
+    failed_lines : ndarray of bool, shape (F,)
+        Lines in a band with ``R_b >`` :data:`MODEL_RESIDUAL_RATIO`.
+    """
+
+    bands: list
+    ratio: np.ndarray
+    failed_lines: np.ndarray
+
+    @property
+    def fits(self) -> bool:
+        """Every band passes."""
+        return not bool(self.failed_lines.any())
+
+    def finding(self, hz: np.ndarray) -> str:
+        """One line naming the failing bands, the residual and the fix ("" when every band passes)."""
+        if self.fits:
+            return ""
+        bad = self.ratio > MODEL_RESIDUAL_RATIO
+        spans: list[list[int]] = []
+        for i in np.flatnonzero(bad):
+            a, b = self.bands[i]
+            if spans and spans[-1][1] == a:
+                spans[-1][1] = b
+            else:
+                spans.append([a, b])
+        where = ", ".join(f"{hz[a]:g}-{hz[b - 1]:g} Hz" for a, b in spans)
+        lo, hi = float(np.min(self.ratio[bad])), float(np.max(self.ratio[bad]))
+        size = f"{lo:.0f}x" if round(lo) == round(hi) else f"{lo:.0f}-{hi:.0f}x"
+        return (f"the free model does not explain these FRFs in {where} (residual {size} the noise): update it from a "
+                "free-free test (`jointid update`) or correct the structure's model; every term flagged unreliable there")
+
+
+def check_model(hz: np.ndarray, stats: ResidualStatistics, ratio_limit: float = MODEL_RESIDUAL_RATIO) -> ModelCheck:
+    """Test the free model band by band: ``R_b = median chi2 / median noise`` against ``ratio_limit``.
+
+    Parameters
+    ----------
+    hz : ndarray, shape (F,)
+        Frequencies of the lines, Hz.
+    stats : ResidualStatistics
+    ratio_limit : float
+
+    Returns
+    -------
+    ModelCheck
+    """
+    bands = octave_bands(hz)
+    ratio = np.ones(len(bands))
+    failed = np.zeros(hz.size, bool)
+    for i, (a, b) in enumerate(bands):
+        noise = stats.noise[a:b]
+        noise = noise[np.isfinite(noise) & (noise > 0)]
+        chi2 = stats.chi2[a:b][np.isfinite(stats.chi2[a:b])]
+        if noise.size == 0 or chi2.size == 0:
+            continue
+        ratio[i] = float(np.median(chi2) / max(float(np.median(noise)), MIN_NOISE_LEVEL))
+        failed[a:b] = ratio[i] > ratio_limit
+    return ModelCheck(bands, ratio, failed)

@@ -1,0 +1,78 @@
+"""The units check (issue 26 item 4, issue 28): FRFs off by one gross factor in every column are refused, one conclusion."""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+
+import numpy as np
+import pytest
+
+from jointid.errors import DataError
+from jointid.methods.receptance.column_calibration import ColumnCalibration
+from jointid.methods.receptance.coupling import CouplingOptions
+from jointid.methods.receptance.units_check import units_conclusion
+from jointid.pipeline import identify, simulate
+from jointid.study.parse import parse_study
+
+from study_texts import beam_study_toml
+
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
+
+REFUSAL_TAIL = (": give the file's units (UFF dataset 164 / unit labels, or the CSV header) or set [identification] "
+                "units_check = false to use them as they are")
+
+
+def _cal(factors, F=40) -> ColumnCalibration:
+    """A calibration whose column j is off by ``factors[j]`` on every line (measured = true * factor)."""
+    eps = np.broadcast_to(np.asarray(factors, float) - 1.0, (F, len(factors))).astype(complex)
+    delta = eps / (1.0 + eps)
+    return ColumnCalibration(delta, np.zeros((F, 3, 3), complex), 1e3, 0.0, 16)  # F test: significant
+
+
+def test_a_common_unit_factor_is_named():
+    g = 9.80665
+    assert units_conclusion(_cal([1 / g] * 3)) == "the FRFs look scaled by 1/9.81 in every excitation column (g/N read as m/s^2/N?)"
+    assert units_conclusion(_cal([g * 1.02, g, g / 1.02])) == (
+        "the FRFs look scaled by 9.81 in every excitation column (values in m/s^2/N labelled g, or converted from g twice?)")
+    assert units_conclusion(_cal([1000.0] * 3)).startswith("the FRFs look scaled by 1000 in every excitation column (mm/s^2/N")
+
+
+def test_a_gross_factor_without_a_unit_and_small_or_unequal_ones():
+    assert units_conclusion(_cal([3.0] * 3)) == (
+        "the FRFs look scaled by 3 in every excitation column (wrong units, or a wrong sensor sensitivity?)")
+    assert units_conclusion(_cal([1.3] * 3)) is None  # a hammer sensitivity error: corrected by the calibration
+    assert units_conclusion(_cal([9.81, 1.0, 1.0])) is None  # one column: not a units problem of the file
+    assert units_conclusion(None) is None
+
+
+@pytest.fixture(scope="module")
+def beam():
+    study = parse_study(tomllib.loads(beam_study_toml(start=5.0, stop=200.0, step=5.0)))
+    vt = simulate(study)
+    rng = np.random.default_rng(3)
+    z = (rng.standard_normal(vt.frf.data.shape) + 1j * rng.standard_normal(vt.frf.data.shape)) / np.sqrt(2)
+    return study, dataclasses.replace(vt.frf, data=vt.frf.data * (1 + 0.005 * z))
+
+
+def test_unlabelled_g_per_newton_is_refused_with_one_line(beam):
+    study, frf = beam
+    with pytest.raises(DataError) as exc:
+        identify(study, dataclasses.replace(frf, data=frf.data / 9.80665))
+    assert str(exc.value) == "the FRFs look scaled by 1/9.81 in every excitation column (g/N read as m/s^2/N?)" + REFUSAL_TAIL
+
+
+def test_units_check_false_uses_them_and_flags_every_term(beam):
+    study, frf = beam
+    r = identify(study, dataclasses.replace(frf, data=frf.data * 9.80665), CouplingOptions(units_check=False))
+    assert not r.reliable_terms.any()
+    assert ("the FRFs look scaled by 9.81 in every excitation column (values in m/s^2/N labelled g, or converted from g "
+            "twice?): used as they are (units_check = false); every term flagged unreliable") in r.findings()
+    assert not any(f.startswith("K_") for f in r.findings())  # the flags' reason is the units, said once
+
+
+def test_si_data_pass_the_check(beam):
+    study, frf = beam
+    r = identify(study, frf)
+    assert r.reliable_terms[:, 0, 0].mean() > 0.9
+    assert not any("scaled by" in f for f in r.findings())
