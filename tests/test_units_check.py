@@ -76,3 +76,14 @@ def test_si_data_pass_the_check(beam):
     r = identify(study, frf)
     assert r.reliable_terms[:, 0, 0].mean() > 0.9
     assert not any("scaled by" in f for f in r.findings())
+
+
+def test_the_study_key_units_check_reaches_the_estimator(beam):
+    """``[identification] units_check = false`` in a study file: the same as the option (the pipeline passes it on)."""
+    study, frf = beam
+    text = beam_study_toml(start=5.0, stop=200.0, step=5.0)
+    off = parse_study(tomllib.loads(text.replace("[identification]", "[identification]\nunits_check = false")
+                                    if "[identification]" in text else text + "\n[identification]\nunits_check = false\n"))
+    assert off.identification.units_check is False and study.identification.units_check is True
+    r = identify(off, dataclasses.replace(frf, data=frf.data * 9.80665))
+    assert not r.reliable_terms.any() and any("used as they are (units_check = false)" in f for f in r.findings())

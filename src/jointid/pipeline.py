@@ -120,6 +120,8 @@ def coupling_options(study: Study) -> CouplingOptions:
         averages=spec.averages,
         max_relative_std=spec.max_relative_std,
         calibration=spec.calibration,
+        units_check=spec.units_check,
+        model_check=spec.model_check,
     )
 
 

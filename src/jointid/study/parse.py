@@ -68,6 +68,10 @@ re-exported here. Units are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     model_accelerometers = false  # add the [accelerometers] to Do
     estimation = "qr"         # "qr" (fast) | "svd" (one SVD per line): same least-squares solution
     cond_rtol = 0.01          # certified relative accuracy of cond_A with "qr" (0: an SVD on every line)
+    units_check = true        # receptance: FRFs scaled by a unit factor in every column (g/N read as SI) are
+                              #   refused (false: used as they are, every term flagged unreliable, one finding)
+    model_check = true        # receptance: bands where the free model does not explain the FRFs (residual far
+                              #   above the noise) flag every term there, with a finding (false: no such check)
 
     [frequency]
     start = 5.0               # Hz
@@ -225,6 +229,8 @@ _IDENTIFICATION = {
     "model_accelerometers": _Field("bool", False, False),
     "estimation": _Field("str", False, "qr", check=_choices("qr", "svd")),
     "cond_rtol": _Field("number", False, 0.01, check=lambda v: None if 0 <= v < 1 else "a number in [0, 1)"),
+    "units_check": _Field("bool", False, True),
+    "model_check": _Field("bool", False, True),
 }
 _FREQUENCY = {
     "start": _Field("number", True, unit="Hz", check=_nonneg, bounds=FREQUENCY),

@@ -249,7 +249,8 @@ class IdentificationSpec:
     ``symmetric`` defaults to true for "receptance" and false for "hong-lee".
     ``calibration`` ("receptance" only): force-calibration error per excitation column,
     corrected when significant ("auto"), always ("columns") or never ("none")
-    (:mod:`jointid.methods.receptance.column_calibration`).
+    (:mod:`jointid.methods.receptance.column_calibration`). ``units_check``, ``model_check``
+    ("receptance" only): refuse FRFs scaled by a unit factor, flag bands the free model does not explain.
     """
 
     method: str = "receptance"
@@ -263,6 +264,8 @@ class IdentificationSpec:
     model_accelerometers: bool = False
     estimation: str = "qr"
     cond_rtol: float = 0.01
+    units_check: bool = True
+    model_check: bool = True
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ has a maximum ``K''m`` at ``Ac`` and shares ``Ac`` and ``m``
 residuals ``(K'_model - K') / K'`` (or whitened by given standard errors) in
 the unbounded parameters ``(ln K'0, ln K'inf, ln Ac, ln m)``, several
 starts, best kept; standard errors are ``s^2 (J^T J)^-1`` propagated to the
-physical parameters (:mod:`.fit_statistics`). With 4 parameters, a few
+physical parameters (:mod:`..fit_statistics`). With 4 parameters, a few
 amplitudes leave few degrees of freedom: the errors are then rough, and a
 sweep that does not reach both plateaus leaves ``K'0`` or ``K'inf`` (and
 ``Ac``) not identified - the statuses say so.

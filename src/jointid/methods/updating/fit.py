@@ -62,12 +62,12 @@ Two stages
    from a banded solve per line (:mod:`jointid.physics.banded_receptance`: no
    eigen-solution per evaluation).
 
-Judging the fit (:mod:`.update_check`): when the updated model leaves a misfit
+Judging the fit (:mod:`.check`): when the updated model leaves a misfit
 far above the data's noise, or the resonances misaligned, the FRFs are not a
 free-free test of this structure (e.g. the jointed structure's): one finding,
 and no parameter is reported as determined.
 
-Statistics (:mod:`.fit_statistics`): ``cov_x = s^2 (J^T J)^-1``,
+Statistics (:mod:`..fit_statistics`): ``cov_x = s^2 (J^T J)^-1``,
 ``s^2 = RSS / (n - m)``; ``std(p) = p std(x)``. A parameter is determined when
 it stays inside its bounds with a relative standard error <= 50 %; otherwise
 it is held at its initial value (reported as not determined, never as a
