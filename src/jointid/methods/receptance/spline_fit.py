@@ -1,0 +1,570 @@
+"""A joint's dynamic stiffness as a few B-splines in log frequency, fitted to every line's FRFs at once.
+
+With ``Y`` the free structure's receptance and ``H`` the measured receptance of the
+jointed structure on observed m x excited e DOFs, a joint ``K`` on the joint DOFs n
+predicts (receptance coupling, Sherman-Morrison-Woodbury)::
+
+    H[m,e] = Y[m,e] - Y[m,n] X Y[n,e],     X = (Y[n,n] + K^-1)^-1 = (I + K Y[n,n])^-1 K
+
+Here every term of ``K`` (each of the ``p = n(n+1)/2`` terms of a symmetric joint) is
+a short complex B-spline series in ``u = log f``::
+
+    K_ab(f) = sum_k c_abk B_k(log f),    k = 1..nb
+
+(``nb = 1``: a constant; ``nb <= 4``: a polynomial of degree ``nb - 1`` in ``log f``
+(Bernstein basis); more: cubic B-splines on uniform knots in ``log f``). The complex
+coefficients ``c`` are fitted to all lines jointly by Levenberg-Marquardt on the
+whitened residual ``w (Y[m,e] - H - Y[m,n] X(K) Y[n,e])``, ``w = 1 / sqrt(var H)``.
+The model is holomorphic in ``c``, so the Gauss-Newton step is the complex one,
+``(J^H J + mu D) dc = -J^H r``, with ``dr = -(Y[m,n] L) dK (R Y[n,e])``,
+``L = (I + K Y[n,n])^-1``, ``R = (I + Y[n,n] K)^-1`` (``dX = L dK R``). The normal
+matrix is built from per-line ``p x p`` blocks (no Python loop over lines).
+
+Why a joint fit: the per-line estimate inverts ``X`` line by line, and where a term is
+weakly seen (a rotation of a mount whose rotations the measured translations hardly
+feel) its error is of the order of the term itself and far from Gaussian; smoothing
+those estimates afterwards keeps their bias. The joint fit uses the FRFs themselves,
+so the whole band informs each coefficient, and its bands come from the FRF noise.
+
+Procedure (:func:`fit_joint_spline`):
+
+1. a constant joint (``nb = 1``) from several starts - the componentwise median of a
+   per-line estimate, and :data:`STARTS` log-normal perturbations of its diagonal with
+   the couplings shrunk - keeping the lowest cost (the cost has local minima in the
+   weakly seen terms);
+2. ``nb = 2, 3, ...`` up to ``max_basis``, each started from the previous fit projected
+   onto the larger basis (the bases are nested up to 4);
+3. the order with the lowest AIC, ``2 N log(chi^2) + 4 P`` (N complex values, P complex
+   coefficients; the noise scale is estimated, so only the weights' shape must be right);
+4. covariance ``cov(c) = s^2 (J^H J)^-1`` with ``s^2 = chi^2 / (N - P)``, errors circular
+   (half the variance in each part), propagated to ``std_real``/``std_imag`` per term
+   and line.
+
+Units: ``frequency_hz`` in Hz; receptances in m/N, rad/N, m/(N*m), rad/(N*m); ``K`` in
+N/m, N/rad, N*m/m, N*m/rad; ``variance`` in the squared units of ``H``.
+
+Caveats: the bands hold when the joint is in the class (smooth in ``log f`` to the
+chosen order: a power-law or fractional modulus over a decade or two is; an internal
+resonance of the joint inside the band is not) and when the free model is right -
+model error is not in them. The linearization behind them holds while the predicted
+relative errors are small. The multi-start finds the global constant fit with high
+probability, not certainty; ``converged`` only reports that LM stopped on a small step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .smoothing import bspline_basis
+
+__all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "spline_covariance", "term_variance", "MAX_ITERATIONS", "STARTS"]
+
+#: Levenberg-Marquardt iterations per order (at most).
+MAX_ITERATIONS = 200
+#: Perturbed starts of the constant fit, besides the per-line median itself.
+STARTS = 8
+#: Standard deviation of the log-normal factor on each diagonal term of a perturbed start.
+START_SPREAD = 1.5
+#: Iterations of each start before the best is refined (from where it stopped).
+START_ITERATIONS = 15
+#: A term gets another coefficient when its score statistic exceeds this times s^2 (the AIC's 2 per complex coefficient).
+SCORE_THRESHOLD = 2.0
+#: Orders whose Akaike weight is below this are left out of the average.
+AVERAGE_MIN_WEIGHT = 1e-6
+#: Finite-difference step (times the LM step) of the geodesic acceleration.
+ACCELERATION_STEP = 0.1
+#: The acceleration is used while ``2 |a| <= ACCELERATION_RATIO |v|`` (scaled norms).
+ACCELERATION_RATIO = 0.75
+#: LM stops when the scaled step is below this (relative to the scaled coefficients) or the cost stops falling by more.
+STEP_TOLERANCE = 1e-10
+
+
+@dataclass(frozen=True, eq=False)
+class JointSplineFit:
+    """A joint fitted as B-splines in log frequency to all lines (:func:`fit_joint_spline`).
+
+    Attributes
+    ----------
+    frequency_hz : ndarray, shape (F,)
+    stiffness : ndarray, shape (F, n, n), complex
+        N/m, N/rad, N*m/m, N*m/rad.
+    std_real, std_imag : ndarray, shape (F, n, n)
+        1-sigma standard deviation of the real and imaginary part of each term (linearized).
+    n_basis : int
+        B-spline functions per term of the chosen order.
+    chi2_per_dof : float
+        Whitened residual sum of squares per complex degree of freedom (``s^2``; ~1 when
+        ``variance`` is on an absolute scale and the model fits).
+    converged : bool
+        LM stopped on a small step at the chosen order.
+    coefficients : ndarray, shape (p, n_basis), complex
+        ``c`` per term (upper triangle row by row if symmetric, else every entry).
+    covariance : ndarray, shape (p * n_basis, p * n_basis), complex
+        ``E[dc dc^H]`` (scaled by ``s^2``), coefficients ordered term-major.
+    criterion : dict
+        ``n_basis -> (AIC, chi2_per_dof)`` of every order fitted.
+    starts : int
+        Starts of the constant fit.
+    symmetric : bool
+    term_basis : ndarray of int, shape (p,)
+        Coefficients per term (per-term orders: Legendre polynomials in ``log f``; else all ``n_basis``).
+    """
+
+    frequency_hz: np.ndarray
+    stiffness: np.ndarray
+    std_real: np.ndarray
+    std_imag: np.ndarray
+    n_basis: int
+    chi2_per_dof: float
+    converged: bool
+    coefficients: np.ndarray
+    covariance: np.ndarray
+    criterion: dict = field(default_factory=dict)
+    starts: int = 0
+    symmetric: bool = True
+    term_basis: np.ndarray | None = None
+
+    def describe(self) -> str:
+        """One line: the order chosen, by what, the fit's chi^2/dof and convergence."""
+        orders = ", ".join(f"{k}: {v[1]:.3g}" for k, v in sorted(self.criterion.items()))
+        return (f"every term {self.n_basis} B-spline(s) in log f, fitted to all lines jointly "
+                f"(order by AIC; chi^2/dof per order {orders}; chosen {self.chi2_per_dof:.3g})"
+                + ("" if self.converged else "; not converged"))
+
+
+def log_frequency_basis(frequency_hz: np.ndarray, n_basis: int) -> np.ndarray:
+    """B-splines in ``log f`` over the band, shape (F, n_basis), dense.
+
+    ``n_basis = 1``: ones; ``2..4``: Bernstein polynomials of degree ``n_basis - 1`` in
+    ``log f`` (nested: each order holds the previous one); more: cubic B-splines on
+    uniform knots in ``log f``. Frequencies must be > 0 Hz and increasing.
+    """
+    f = np.asarray(frequency_hz, float)
+    if n_basis < 1:
+        raise ValueError(f"n_basis must be >= 1, got {n_basis}")
+    if n_basis == 1:
+        return np.ones((f.size, 1))
+    return bspline_basis(np.log(f), n_basis, degree=min(3, n_basis - 1)).toarray()
+
+
+def legendre_log_basis(frequency_hz: np.ndarray, n_basis: int) -> np.ndarray:
+    """Legendre polynomials ``P_0..P_{n_basis-1}`` of ``log f`` mapped to [-1, 1], shape (F, n_basis).
+
+    The same space as :func:`log_frequency_basis` for ``n_basis <= 4``, but hierarchical: a term
+    with ``k`` coefficients uses the first ``k`` columns (per-term orders).
+    """
+    u = np.log(np.asarray(frequency_hz, float))
+    u = 2.0 * (u - u[0]) / (u[-1] - u[0]) - 1.0 if u.size > 1 else np.zeros_like(u)
+    return np.polynomial.legendre.legvander(u, n_basis - 1)
+
+
+def _pairs(n: int, symmetric: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column of each parametrized term: the upper triangle row by row, or every entry."""
+    if symmetric:
+        return np.triu_indices(n)
+    a, b = np.indices((n, n))
+    return a.ravel(), b.ravel()
+
+
+def _stiffness(coef: np.ndarray, basis: np.ndarray, pairs, n: int, symmetric: bool = True) -> np.ndarray:
+    """``K(f)`` (F, n, n) from coefficients (p, nb) on ``basis`` (F, nb); symmetric: the upper triangle mirrored."""
+    ia, ib = pairs
+    terms = basis @ coef.T  # (F, p)
+    K = np.zeros((basis.shape[0], n, n), complex)
+    if symmetric:
+        K[:, ib, ia] = terms
+    K[:, ia, ib] = terms
+    return K
+
+
+class _Problem:
+    """The whitened data of one fit and its residual and per-line Jacobian at a joint ``K``."""
+
+    def __init__(self, Ymn, Ynn, Yne, change, weight, symmetric: bool):
+        self.Ymn, self.Ynn, self.Yne = Ymn, Ynn, Yne
+        self.change, self.weight = change, weight  # change = Y[m,e] - H; weight = 1/sqrt(var), 0 for unused values
+        self.n = Ynn.shape[1]
+        self.pairs = _pairs(self.n, symmetric)
+        self.symmetric = symmetric
+        self.count = int(np.count_nonzero(weight))
+
+    def residual(self, K: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Whitened residual (F, m, e) and ``A = Y[m,n] L``, ``B = R Y[n,e]`` at ``K``."""
+        eye = np.eye(self.n)
+        L = np.linalg.inv(eye + K @ self.Ynn)
+        R = np.linalg.inv(eye + self.Ynn @ K)
+        X = L @ K
+        r = (self.change - self.Ymn @ X @ self.Yne) * self.weight
+        return r, self.Ymn @ L, R @ self.Yne
+
+    def cost(self, K: np.ndarray) -> float:
+        """Whitened residual sum of squares at ``K`` (inf where ``I + K Y[n,n]`` is singular)."""
+        with np.errstate(all="ignore"):
+            try:
+                r = self.residual(K)[0]
+            except np.linalg.LinAlgError:
+                return np.inf
+        c = float(np.sum(r.real ** 2 + r.imag ** 2))
+        return c if np.isfinite(c) else np.inf
+
+    def line_jacobian(self, A: np.ndarray, B: np.ndarray) -> np.ndarray:
+        """Whitened ``d r / d K_t`` per line, shape (F, m*e, p): ``-w (A E_t B)`` (``E_t`` the term's unit pattern)."""
+        ia, ib = self.pairs
+        Bt = B.transpose(0, 2, 1)  # (F, e, n)
+        G = A[:, :, None, ia] * Bt[:, None, :, ib]  # (F, m, e, p): A[i, a] B[b, j]
+        if self.symmetric:
+            off = ia != ib
+            G[..., off] += A[:, :, None, ib[off]] * Bt[:, None, :, ia[off]]
+        G *= -self.weight[..., None]
+        F, m, e, p = G.shape
+        return G.reshape(F, m * e, p)
+
+    def normal(self, K: np.ndarray, basis: np.ndarray):
+        """Whitened residual, ``J^H J`` (P, P) and ``J^H r`` (P,) for coefficients on ``basis`` (term-major)."""
+        r, A, B = self.residual(K)
+        G = self.line_jacobian(A, B)
+        M = np.einsum("fkt,fku->ftu", G.conj(), G)  # per-line p x p
+        g = np.einsum("fkt,fk->ft", G.conj(), r.reshape(r.shape[0], -1))
+        p, nb = G.shape[2], basis.shape[1]
+        N = np.einsum("ftu,fk,fl->tkul", M, basis, basis).reshape(p * nb, p * nb)
+        grad = np.einsum("ft,fk->tk", g, basis).reshape(p * nb)
+        return r, N, grad, G
+
+
+def _terms(step: np.ndarray, basis: np.ndarray, p: int) -> np.ndarray:
+    """Term values (F, p) of a coefficient vector (p * nb,) on ``basis``."""
+    return basis @ step.reshape(p, -1).T
+
+
+def _levenberg_marquardt(problem: _Problem, coef: np.ndarray, basis: np.ndarray, iterations: int, active=None):
+    """Minimize the whitened cost over the coefficients (p, nb) from ``coef``; returns (coef, cost, converged).
+
+    ``active`` (bool, p * nb), optional: only those coefficients move (the others keep their values).
+
+    Levenberg-Marquardt with Marquardt's diagonal scaling and geodesic acceleration
+    (Transtrum & Sethna 2012): the second directional derivative of the residual along
+    the step, by one extra residual, bends the step along the cost's curved valleys,
+    where the weakly seen terms make plain LM crawl.
+    """
+    n, sym = problem.n, problem.symmetric
+    p, nb = coef.shape
+    x = coef.reshape(-1).astype(complex)
+    K = _stiffness(coef, basis, problem.pairs, n, sym)
+    cost = problem.cost(K)
+    if not np.isfinite(cost):
+        return coef, cost, False
+    mu, converged = 1e-3, False
+    eye = np.eye(x.size)
+    for _ in range(iterations):
+        r, N, grad, G = problem.normal(K, basis)
+        if active is not None:
+            N, grad = _restrict(N, grad, active)
+        d = np.sqrt(np.maximum(np.real(np.diagonal(N)), 1e-300))
+        Ns = N / d[:, None] / d[None, :]
+        gs = grad / d
+        rflat = r.reshape(r.shape[0], -1)
+        accepted = False
+        for _ in range(40):
+            try:
+                lhs = Ns + mu * eye
+                z = np.linalg.solve(lhs, -gs)
+            except np.linalg.LinAlgError:
+                mu *= 10.0
+                continue
+            v = z / d
+            # geodesic acceleration: r'' along v by a finite difference of the residual
+            h = ACCELERATION_STEP
+            try:
+                rh = problem.residual(_stiffness((x + h * v).reshape(p, nb), basis, problem.pairs, n, sym))[0]
+            except np.linalg.LinAlgError:
+                rh = None
+            step = v
+            if rh is not None:
+                Jv = np.einsum("fkt,ft->fk", G, _terms(v, basis, p))
+                rpp = (2.0 / h) * ((rh.reshape(rflat.shape) - rflat) / h - Jv)
+                ga = np.einsum("ft,fk->tk", np.einsum("fkt,fk->ft", G.conj(), rpp), basis).reshape(-1)
+                if active is not None:
+                    ga = np.where(active, ga, 0.0)
+                za = np.linalg.solve(lhs, -ga / d)
+                if np.all(np.isfinite(za)) and 2.0 * np.linalg.norm(za) <= ACCELERATION_RATIO * np.linalg.norm(z):
+                    step = v + 0.5 * za / d
+            x_new = x + step
+            K_new = _stiffness(x_new.reshape(p, nb), basis, problem.pairs, n, sym)
+            cost_new = problem.cost(K_new)
+            if cost_new <= cost:
+                accepted = True
+                break
+            mu *= 4.0
+        if not accepted:
+            converged = True  # no step lowers the cost: a minimum to round-off
+            break
+        small = np.linalg.norm(step * d) <= STEP_TOLERANCE * (1.0 + np.linalg.norm(x * d))
+        flat = cost - cost_new <= STEP_TOLERANCE * cost
+        x, K, cost = x_new, K_new, cost_new
+        mu = max(mu / 5.0, 1e-12)
+        if small or (flat and mu < 1e-4) or cost == 0.0:
+            converged = True
+            break
+    return x.reshape(p, nb), cost, converged
+
+
+def _per_term_orders(problem: _Problem, coef: np.ndarray, basis_from: np.ndarray, f: np.ndarray, max_basis: int):
+    """From a uniform fit, add one coefficient at a time to the terms whose score test says it lowers the AIC.
+
+    On the Legendre basis (hierarchical), the score statistic of the next coefficient ``j`` of a
+    term at the current fit is the predicted fall of the cost, ``|g_j - N_ja N_aa^-1 g_a|^2 /
+    (N_jj - N_ja N_aa^-1 N_aj)``; every term whose statistic exceeds :data:`SCORE_THRESHOLD`
+    times ``s^2`` gets it, then all are refitted, until none does. Returns
+    (coef (p, max_basis), cost, converged, basis, active (p * max_basis,), orders (p,)).
+    """
+    p = coef.shape[0]
+    basis = legendre_log_basis(f, max_basis)
+    orders = np.full(p, basis_from.shape[1])
+    coef = _project(coef, basis_from, basis)
+    col = np.tile(np.arange(max_basis), p)
+    term = np.repeat(np.arange(p), max_basis)
+    active = col < orders[term]
+    coef = np.where(active.reshape(p, max_basis), coef, 0.0)
+    coef, cost, converged = _levenberg_marquardt(problem, coef, basis, MAX_ITERATIONS, active)
+    for _ in range(p * max_basis):
+        K = _stiffness(coef, basis, problem.pairs, problem.n, problem.symmetric)
+        _, N, grad, _ = problem.normal(K, basis)
+        s2 = cost / max(problem.count - int(active.sum()), 1)
+        a = np.flatnonzero(active)
+        cand = np.flatnonzero(~active & (col == orders[term]))
+        if cand.size == 0:
+            break
+        inv = _inverse(N[np.ix_(a, a)])
+        Nja = N[np.ix_(cand, a)]
+        g = grad[cand] - Nja @ (inv @ grad[a])
+        schur = np.real(N[cand, cand] - np.einsum("ja,ab,jb->j", Nja, inv, Nja.conj()))
+        score = np.abs(g) ** 2 / np.maximum(schur, 1e-300)
+        add = cand[score > SCORE_THRESHOLD * s2]
+        if add.size == 0:
+            break
+        active[add] = True
+        orders[term[add]] += 1
+        coef, cost, converged = _levenberg_marquardt(problem, coef, basis, MAX_ITERATIONS, active)
+    return coef, cost, converged, basis, active, orders
+
+
+def _restrict(N: np.ndarray, grad: np.ndarray, active: np.ndarray):
+    """Normal matrix and gradient with the inactive coefficients held fixed (identity rows, zero gradient)."""
+    N = np.where(active[:, None] & active[None, :], N, 0.0)
+    N[~active, ~active] = 1.0
+    return N, np.where(active, grad, 0.0)
+
+
+def _constant_starts(initial: np.ndarray, pairs, rng: np.random.Generator, starts: int) -> list[np.ndarray]:
+    """Starting coefficients (p, 1) of the constant fit: the per-line median and perturbations of it."""
+    ia, ib = pairs
+    vals = initial[:, ia, ib]
+    med = np.nanmedian(vals.real, axis=0) + 1j * np.nanmedian(vals.imag, axis=0)
+    med = np.where(np.isfinite(med), med, 0.0)
+    diag = ia == ib
+    # a diagonal term whose median is not a positive stiffness: start from the magnitude of it
+    scale = np.nanmedian(np.abs(vals), axis=0)
+    scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+    bad = diag & ~(med.real > 0)
+    med[bad] = scale[bad] * (1 + 0.1j)
+    out = [med[:, None].copy()]
+    for _ in range(starts):
+        c = med.copy()
+        c[diag] = c[diag] * np.exp(START_SPREAD * rng.standard_normal(int(diag.sum())))
+        c[~diag] = c[~diag] * rng.uniform(0.0, 1.0, int((~diag).sum()))
+        out.append(c[:, None])
+    return out
+
+
+def _project(coef: np.ndarray, basis_from: np.ndarray, basis_to: np.ndarray) -> np.ndarray:
+    """Coefficients on ``basis_to`` of the series ``basis_from @ coef.T`` (least squares over the lines)."""
+    values = basis_from @ coef.T  # (F, p)
+    sol = np.linalg.lstsq(basis_to, values, rcond=None)[0]
+    return sol.T.copy()
+
+
+def spline_covariance(problem_or_data, K: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """``(J^H J)^-1`` (P, P) of the coefficients on ``basis`` at the joint ``K`` (unit noise scale).
+
+    ``problem_or_data``: a tuple ``(Ymn, Ynn, Yne, variance, symmetric)``. With the true
+    variance and the true joint, the per-term variance this gives (:func:`term_variance`)
+    is the Cramer-Rao bound of the spline class of that order.
+    """
+    Ymn, Ynn, Yne, variance, symmetric = problem_or_data
+    weight = _weights(variance)
+    problem = _Problem(Ymn, Ynn, Yne, np.zeros_like(variance, complex), weight, symmetric)
+    _, N, _, _ = problem.normal(K, basis)
+    return _inverse(N)
+
+
+def term_variance(covariance: np.ndarray, basis: np.ndarray, n: int, symmetric: bool = True) -> np.ndarray:
+    """``E|dK_ab(f)|^2`` (F, n, n) from the coefficients' covariance on ``basis``."""
+    nb = basis.shape[1]
+    ia, ib = _pairs(n, symmetric)
+    p = ia.size
+    blocks = covariance.reshape(p, nb, p, nb)[np.arange(p), :, np.arange(p), :]  # (p, nb, nb)
+    v = np.einsum("fk,tkl,fl->ft", basis, blocks, basis).real
+    out = np.zeros((basis.shape[0], n, n))
+    if symmetric:
+        out[:, ib, ia] = v
+    out[:, ia, ib] = v
+    return np.maximum(out, 0.0)
+
+
+def _inverse(N: np.ndarray) -> np.ndarray:
+    """Inverse of a Hermitian positive (semi)definite normal matrix, diagonally equilibrated (pseudo-inverse if singular)."""
+    d = np.sqrt(np.maximum(np.real(np.diagonal(N)), 1e-300))
+    Ns = N / d[:, None] / d[None, :]
+    Ns = 0.5 * (Ns + Ns.conj().T)
+    try:
+        inv = np.linalg.inv(Ns)
+    except np.linalg.LinAlgError:
+        inv = np.linalg.pinv(Ns, hermitian=True)
+    return inv / d[:, None] / d[None, :]
+
+
+def _weights(variance: np.ndarray) -> np.ndarray:
+    """``1 / sqrt(variance)``; zero for non-finite or non-positive variances (those values are not used)."""
+    v = np.asarray(variance, float)
+    ok = np.isfinite(v) & (v > 0)
+    w = np.zeros(v.shape)
+    w[ok] = 1.0 / np.sqrt(v[ok])
+    return w
+
+
+def _averaged(problem: _Problem, fits: dict, criterion: dict, best: int, average: bool, count: int, n: int, symmetric: bool):
+    """Estimate, std (real, imag), covariance of the chosen order and s^2: with ``average``, the orders averaged by
+    Akaike weight and the spread between them (a lower order's bias) added to the bands."""
+    aic = np.array([criterion[k][0] for k in fits])
+    weights = np.exp(-(aic - aic.min()) / 2.0) if average else (np.array(list(fits)) == best).astype(float)
+    weights /= weights.sum()
+    parts = {}
+    for (nb, (c_nb, cost_nb, _, basis_nb)), w in zip(fits.items(), weights):
+        if w < AVERAGE_MIN_WEIGHT and nb != best:
+            continue
+        s2_nb = cost_nb / max(count - c_nb.size, 1)
+        K_nb = _stiffness(c_nb, basis_nb, problem.pairs, n, problem.symmetric)
+        cov_nb = s2_nb * _inverse(problem.normal(K_nb, basis_nb)[1])
+        parts[nb] = (w, K_nb, term_variance(cov_nb, basis_nb, n, symmetric), cov_nb, s2_nb)
+    total = sum(v[0] for v in parts.values())
+    K = sum(v[0] * v[1] for v in parts.values()) / total
+    var_re = sum(v[0] * (v[2] / 2.0 + (v[1] - K).real ** 2) for v in parts.values()) / total
+    var_im = sum(v[0] * (v[2] / 2.0 + (v[1] - K).imag ** 2) for v in parts.values()) / total
+    return K, np.sqrt(var_re), np.sqrt(var_im), parts[best][3], parts[best][4]
+
+
+def fit_joint_spline(
+    frequency_hz,
+    Ymn: np.ndarray,
+    Ynn: np.ndarray,
+    Yne: np.ndarray,
+    Yme: np.ndarray,
+    H: np.ndarray,
+    variance: np.ndarray,
+    symmetric: bool = True,
+    max_basis: int = 4,
+    initial: np.ndarray | None = None,
+    starts: int = STARTS,
+    seed: int = 0,
+    n_basis: int | None = None,
+) -> JointSplineFit:
+    """Fit ``K(f) = sum_k c_k B_k(log f)`` per term to every line's FRFs jointly (module docstring).
+
+    Minimizes ``sum |w (Y[m,e] - H[m,e] - Y[m,n] X(K) Y[n,e])|^2`` over the complex
+    coefficients, ``X = (Y[n,n] + K^-1)^-1``, ``w = 1 / sqrt(variance)``.
+
+    Parameters
+    ----------
+    frequency_hz : array_like, shape (F,)
+        Lines, Hz, > 0 and increasing.
+    Ymn, Ynn, Yne, Yme : ndarray, shapes (F, m, n), (F, n, n), (F, n, e), (F, m, e), complex
+        Free structure's receptance blocks (m observed, n joint, e excited DOFs).
+    H : ndarray, shape (F, m, e), complex
+        Measured receptance of the jointed structure.
+    variance : ndarray, shape (F, m, e)
+        Variance of each value of ``H`` (shape is enough: the scale is estimated from the
+        residuals, e.g. ``|H|^2`` for relative noise). Non-finite or zero: value not used.
+    symmetric : bool
+        ``K = K^T`` (p = n(n+1)/2 terms), else every entry.
+    max_basis : int
+        Most B-splines per term; orders ``1..max_basis`` are fitted in turn, chosen by AIC.
+    initial : ndarray, shape (F, n, n), complex, optional
+        A per-line estimate (its componentwise median starts the constant fit); default: the
+        weighted per-line least squares (:func:`~jointid.methods.receptance.coupling_lines.coupling_per_line`).
+    starts : int
+        Perturbed starts of the constant fit.
+    seed : int
+        Seed of the perturbations (the fit is deterministic for a given seed).
+    n_basis : int, optional
+        Use this order (orders ``1..n_basis`` are still fitted in turn, as starts) instead of the AIC's choice.
+
+    Returns
+    -------
+    JointSplineFit
+    """
+    f = np.asarray(frequency_hz, float)
+    Ymn, Ynn, Yne, Yme, H = (np.asarray(a, complex) for a in (Ymn, Ynn, Yne, Yme, H))
+    F, n = f.size, Ynn.shape[1]
+    if np.any(f <= 0) or np.any(np.diff(f) <= 0):
+        raise ValueError("fit_joint_spline: frequencies must be > 0 Hz and increasing")
+    if max_basis < 1:
+        raise ValueError(f"fit_joint_spline: max_basis must be >= 1, got {max_basis}")
+    change = Yme - H
+    weight = _weights(variance)
+    weight = np.where(np.isfinite(change), weight, 0.0)
+    change = np.where(weight > 0, change, 0.0)
+    problem = _Problem(Ymn, Ynn, Yne, change, weight, symmetric)
+    if initial is None:
+        from .coupling_lines import coupling_per_line
+
+        initial = coupling_per_line(Ymn, Yne, Ynn, change, np.where(weight > 0, variance, np.inf), symmetric).stiffness
+    rng = np.random.default_rng(seed)
+    basis1 = log_frequency_basis(f, 1)
+    candidates = _constant_starts(np.asarray(initial, complex), problem.pairs, rng, starts)
+    scored = []
+    for c0 in candidates:
+        coef, cost, _ = _levenberg_marquardt(problem, c0, basis1, START_ITERATIONS)
+        if np.isfinite(cost):
+            scored.append((cost, coef))
+    if not scored:
+        raise ValueError("fit_joint_spline: no start gives a finite residual (I + K Y[n,n] singular)")
+    coef = min(scored, key=lambda t: t[0])[1]
+    fits, criterion = {}, {}
+    count = problem.count
+    previous = basis1
+    top = max_basis if n_basis is None else n_basis
+    for nb in range(1, top + 1):
+        basis = log_frequency_basis(f, nb)
+        if nb > 1:
+            coef = _project(coef, previous, basis)
+        coef, cost, converged = _levenberg_marquardt(problem, coef, basis, MAX_ITERATIONS)
+        P = coef.size
+        dof = max(count - P, 1)
+        s2 = cost / dof
+        aic = 2.0 * count * np.log(max(cost, 1e-300)) + 4.0 * P
+        fits[nb] = (coef, cost, converged, basis)
+        criterion[nb] = (float(aic), float(s2))
+        previous = basis
+    best = n_basis if n_basis is not None else min(criterion, key=lambda k: criterion[k][0])
+    if n_basis is None and best < max_basis <= 4:
+        # per-term orders: the terms that need more coefficients get them, one at a time
+        coef, cost, converged, basis, active, orders = _per_term_orders(problem, fits[best][0], fits[best][3], f, max_basis)
+        P = int(active.sum())
+        s2 = cost / max(count - P, 1)
+        criterion["per-term"] = (float(2.0 * count * np.log(max(cost, 1e-300)) + 4.0 * P), float(s2))
+        K = _stiffness(coef, basis, problem.pairs, n, problem.symmetric)
+        N = problem.normal(K, basis)[1]
+        a = np.flatnonzero(active)
+        cov = np.zeros(N.shape, complex)
+        cov[np.ix_(a, a)] = s2 * _inverse(N[np.ix_(a, a)])
+        std = np.sqrt(term_variance(cov, basis, n, symmetric) / 2.0)  # circular errors: half in each part
+        std_im = std.copy()
+        best = int(orders.max())
+        term_orders = orders
+    else:
+        term_orders = np.full(len(problem.pairs[0]), best)
+        coef, cost, converged, _ = fits[best]
+        K, std, std_im, cov, s2 = _averaged(problem, fits, criterion, best, n_basis is None, count, n, symmetric)
+    return JointSplineFit(f, K, std, std_im, best, float(s2), bool(converged), coef, cov, criterion, len(candidates), symmetric, term_orders)
