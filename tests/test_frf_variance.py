@@ -124,3 +124,18 @@ def test_the_structured_split_is_the_dense_levenberg_marquardt():
     frac = _split(logq, logM, m, e)
     assert np.quantile(dense, 0.1) < 0.5 < np.quantile(dense, 0.9)  # both parts present: not a trivial split
     assert np.max(np.abs(frac - dense)) < 1e-6
+
+
+def test_a_constant_coherence_carries_no_split_and_raises_no_warning():
+    """q the same for every value of a line: column and response noise cannot be told apart, the whole variance is kept."""
+    import warnings
+
+    from jointid.methods.receptance.frf_variance import column_noise_fraction
+
+    rng = np.random.default_rng(0)
+    H = (rng.standard_normal((40, 7, 3)) + 1j * rng.standard_normal((40, 7, 3))) * 10.0 ** rng.uniform(-3, 1, (40, 7, 3))
+    for g2 in (0.2, 0.9):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            frac = column_noise_fraction(H, np.full(H.shape, g2))
+        assert np.array_equal(frac, np.ones(H.shape))

@@ -125,6 +125,11 @@ def frf_variance(
     return rel * np.maximum(mag2, np.finfo(float).tiny), weighting
 
 
+#: Spread of ``log q`` over a line's values below which the line carries no split (the coherence is the same
+#: for every value: nothing tells column noise from response noise).
+FLAT_LOG_Q = 1e-6
+
+
 def column_noise_fraction(data: np.ndarray, coherence: np.ndarray) -> np.ndarray:
     """Fraction of each FRF value's coherence-based variance that is *not* common to its column.
 
@@ -145,7 +150,8 @@ def column_noise_fraction(data: np.ndarray, coherence: np.ndarray) -> np.ndarray
         ``b_rj / (a_j + b_rj)``, at least :data:`SPLIT_MIN_FRACTION`: multiply the variance of
         :func:`frf_variance` by it once the column errors have been removed.
         All ones when the layout cannot separate the parts (see
-        :data:`SPLIT_MIN_REDUNDANCY`).
+        :data:`SPLIT_MIN_REDUNDANCY`); one on a line whose coherence is the same for every value
+        (:data:`FLAT_LOG_Q`) or where the split does not converge to finite shares.
     """
     F, m, e = data.shape
     if m < 3 or e < 2 or m * e - (m + 2 * e - 1) < SPLIT_MIN_REDUNDANCY:
@@ -161,10 +167,16 @@ def column_noise_fraction(data: np.ndarray, coherence: np.ndarray) -> np.ndarray
 
     def split(lines: np.ndarray) -> None:
         a, b = int(lines[0]), int(lines[-1]) + 1
-        frac[a:b] = _split(logq[a:b], logM[a:b], m, e)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # degenerate lines: handled below
+            frac[a:b] = _split(logq[a:b], logM[a:b], m, e)
 
     with single_threaded_blas():  # (F, 21) x (21, 3) products: BLAS threads only contend on such sizes
         map_chunks(split, np.arange(F), chunk)  # numpy releases the GIL: the batches run on the cores
+    # a line whose q is the same for every value (a constant coherence: a file that gives one value, or
+    # none) cannot tell column noise from response noise: keep the whole variance there (fraction 1),
+    # as where the split did not converge to finite shares
+    flat = np.ptp(logq, axis=1) < FLAT_LOG_Q
+    frac[flat | ~np.isfinite(frac).all(axis=1)] = 1.0
     return np.maximum(frac, SPLIT_MIN_FRACTION).reshape(F, m, e)
 
 
