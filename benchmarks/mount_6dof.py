@@ -127,7 +127,7 @@ def main(argv=None):
           f"9 x 9 translational FRFs at grids {MEASURED_GRIDS}, {F} lines 2-150 Hz, {100 * NOISE:g} % noise, {args.seeds} seeds")
     names = [f"K_{c}_{c}" for c in COMP]
     out = {k: ([], []) for k in ("spline", "per-line", "gcv")}
-    nbs, times, chi2 = [], [], []
+    nbs, times, chi2, orders = [], [], [], []
     for seed in range(args.seeds):
         frf = add_noise(exact, NOISE, np.random.default_rng(seed))
         H = frf.data
@@ -139,6 +139,7 @@ def main(argv=None):
         gcv = identify_joint_coupling(free, frf, joint, CouplingOptions(smoothing="gcv"))
         times.append(t2 - t1)
         nbs.append(fit.n_basis)
+        orders.append(fit.term_basis[np.flatnonzero(np.triu_indices(6)[0] == np.triu_indices(6)[1])])
         chi2.append(fit.chi2_per_dof)
         for key, (K, sr, si) in (("spline", (fit.stiffness, fit.std_real, fit.std_imag)),
                                  ("per-line", (lines.stiffness, lines.std_real, lines.std_imag)),
@@ -148,10 +149,11 @@ def main(argv=None):
             out[key][1].append(c)
         if seed < 3 or seed % 10 == 9:
             e = np.median(out["spline"][0][-1], axis=0)
-            print(f"  seed {seed}: spline n_basis {fit.n_basis}, chi2/dof {fit.chi2_per_dof:.3f}, {t2 - t1:.1f} s; median error "
+            print(f"  seed {seed}: spline n_basis {fit.n_basis}, noise level from residuals {100 * np.sqrt(fit.chi2_per_dof):.3f} %, {t2 - t1:.1f} s; median error "
                   + " ".join(f"{100 * v:.3g}" for v in e) + " %", flush=True)
     print(f"\nspline fit: {np.mean(times):.1f} s per fit (median {np.median(times):.1f}); n_basis chosen "
-          + ", ".join(f"{k}: {nbs.count(k)}" for k in sorted(set(nbs))) + f"; chi2/dof {np.median(chi2):.3f}")
+          + ", ".join(f"{k}: {nbs.count(k)}" for k in sorted(set(nbs))) + f"; noise level from residuals {100 * np.sqrt(np.median(chi2)):.3f} % (median)")
+    print("coefficients per diagonal term (median over seeds): " + " ".join(f"{n}: {v:g}" for n, v in zip(names, np.median(orders, axis=0))))
     print(f"{'term':10s} " + " ".join(f"{k:>22s}" for k in out) + f" {'CRB (4 per term)':>18s}")
     print(f"{'':10s} " + " ".join(f"{'median err / cover':>22s}" for _ in out))
     for t, name in enumerate(names):

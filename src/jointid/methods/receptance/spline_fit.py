@@ -127,10 +127,14 @@ class JointSplineFit:
     term_basis: np.ndarray | None = None
 
     def describe(self) -> str:
-        """One line: the order chosen, by what, the fit's chi^2/dof and convergence."""
-        orders = ", ".join(f"{k}: {v[1]:.3g}" for k, v in sorted(self.criterion.items()))
-        return (f"every term {self.n_basis} B-spline(s) in log f, fitted to all lines jointly "
-                f"(order by AIC; chi^2/dof per order {orders}; chosen {self.chi2_per_dof:.3g})"
+        """One line: the orders chosen, by what, the fit's chi^2/dof and convergence."""
+        orders = ", ".join(f"{k}: {v[1]:.3g}" for k, v in self.criterion.items())
+        tb = self.term_basis
+        if tb is not None and "per-term" in self.criterion:
+            what = f"{tb.min()}-{tb.max()} coefficients per term (Legendre in log f, per-term orders by score test)"
+        else:
+            what = f"{self.n_basis} B-spline(s) in log f (order by AIC)"
+        return (f"every term {what}, fitted to all lines jointly; chi^2/dof per order {orders}"
                 + ("" if self.converged else "; not converged"))
 
 

@@ -1,0 +1,107 @@
+"""The joint spline fit (jointid.methods.receptance.spline_fit): exact recovery of a joint in its class, and on noisy
+FRFs of a 6-DOF mount on a Craig-Bampton frame model, bands that hold the truth and errors below the per-line estimate."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jointid.frequency import Frequency
+from jointid.frf import FRF
+from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
+from jointid.methods.receptance.spline_fit import JointSplineFit, fit_joint_spline, legendre_log_basis, log_frequency_basis
+from jointid.physics import FrameSection, Material, build_frame
+from jointid.physics.jointed_model import JointedModel
+from jointid.physics.reduction import craig_bampton
+from jointid.physics.structure import ComplexStiffness
+
+STEEL = Material(210e9, 7850.0, loss_factor=0.002, poisson_ratio=0.3)
+COMP = ("x", "y", "z", "rx", "ry", "rz")
+JOINT = tuple(f"1{c}" for c in COMP)
+MEASURED = tuple(f"{g}{c}" for g in (3, 5, 10) for c in ("x", "y", "z"))
+Z90 = 1.6448536269514722
+
+
+def _K0():
+    K0 = np.diag([3e6, 2e6, 4e6, 8e3, 6e3, 5e3])
+    for a, b, v in (("x", "ry", 2e4), ("y", "rx", -1.5e4), ("x", "y", 4e5)):
+        K0[COMP.index(a), COMP.index(b)] = K0[COMP.index(b), COMP.index(a)] = v
+    return K0
+
+
+def power_law(f):
+    """Power-law modulus, loss factor 0.08 (translations), 0.2 (rotations): not exactly in the spline class."""
+    eta = np.where(np.arange(6) < 3, 0.08, 0.2)
+    return (np.asarray(f) / 50.0)[:, None, None] ** 0.15 * (_K0() * (1 + 0.5j * (eta[:, None] + eta[None, :])))
+
+
+def quadratic_log(f):
+    """A joint in the class of 3 coefficients per term: K0 times a complex quadratic in log f."""
+    u = np.log(np.asarray(f) / 20.0)
+    s = (1.0 + 0.12 * u + 0.01 * u ** 2) + 1j * (0.1 + 0.02 * u - 0.004 * u ** 2)
+    return s[:, None, None] * _K0()
+
+
+@pytest.fixture(scope="module")
+def case():
+    nodes = {1: (0.0, 0.0, 0.0), 2: (0.8, 0.0, 0.0), 3: (0.8, 0.5, 0.0), 4: (0.0, 0.5, 0.0), 5: (0.8, 0.0, 0.3)}
+    tube, box = FrameSection.circle(0.04, 0.032), FrameSection.rectangle(0.03, 0.05)
+    members = [(1, 2, tube, STEEL, 4), (2, 3, box, STEEL, 4), (3, 4, tube, STEEL, 4), (4, 1, box, STEEL, 4), (2, 5, tube, STEEL, 2)]
+    fm = build_frame(nodes, members)
+    free = craig_bampton(fm.mass, fm.stiffness, fm.dofs, JOINT + MEASURED, cutoff_hz=2000.0, loss_factor=0.002).free_model()
+    freq = Frequency.from_range(2.0, 150.0, 2.0)
+    Y = free.receptance(freq, MEASURED + JOINT, JOINT + MEASURED)
+    m, n = len(MEASURED), len(JOINT)
+    return free, freq, (Y[:, :m, :n], Y[:, m:, :n], Y[:, m:, n:], Y[:, :m, n:])
+
+
+def _data(case, function):
+    free, freq, _ = case
+    H = JointedModel(free, [ComplexStiffness(JOINT, function, "mount")]).receptance(freq, MEASURED, MEASURED)
+    return H, function(freq.hz)
+
+
+def test_bases_span_the_same_polynomials():
+    f = np.geomspace(2.0, 150.0, 30)
+    for nb in (1, 2, 3, 4):
+        B, L = log_frequency_basis(f, nb), legendre_log_basis(f, nb)
+        coef = np.linalg.lstsq(B, L, rcond=None)[0]
+        assert np.abs(B @ coef - L).max() < 1e-12
+    assert np.allclose(log_frequency_basis(f, 4).sum(axis=1), 1.0)  # a partition of unity
+
+
+def test_exact_data_of_a_joint_in_the_class_recovered_to_its_conditioning(case):
+    freq = case[1]
+    Ymn, Ynn, Yne, Yme = case[2]
+    H, truth = _data(case, quadratic_log)
+    fit = fit_joint_spline(freq.hz, Ymn, Ynn, Yne, Yme, H, np.abs(H) ** 2, max_basis=4)
+    assert isinstance(fit, JointSplineFit) and fit.converged
+    d = np.arange(6)
+    scale = np.sqrt(np.abs(truth[:, d, d][:, :, None] * truth[:, d, d][:, None, :]))
+    err = np.abs(fit.stiffness - truth) / scale
+    # the whitened residual of exact data is round-off (~1e-16 of |H|); the coefficients are determined to
+    # that times the condition of the fit, which the predicted std (scaled by the residual) states
+    assert fit.chi2_per_dof < 1e-20
+    assert err.max() < 1e-6, err.max()
+    rel_std = np.hypot(fit.std_real, fit.std_imag) / scale
+    assert np.all(err <= 20 * rel_std + 1e-12)
+    assert fit.stiffness.shape == (freq.size, 6, 6) and np.allclose(fit.stiffness, fit.stiffness.transpose(0, 2, 1))
+
+
+def test_noisy_mount_bands_hold_the_truth_and_beat_the_per_line_estimate(case):
+    free, freq, (Ymn, Ynn, Yne, Yme) = case
+    H0, truth = _data(case, power_law)
+    rng = np.random.default_rng(3)
+    H = H0 * (1 + 0.01 * (rng.standard_normal(H0.shape) + 1j * rng.standard_normal(H0.shape)) / np.sqrt(2))
+    lines = identify_joint_coupling(free, FRF(freq, H, MEASURED, MEASURED), JOINT, CouplingOptions(smoothing="none"))
+    fit = fit_joint_spline(freq.hz, Ymn, Ynn, Yne, Yme, H, np.abs(H) ** 2, initial=lines.per_line)
+    assert abs(np.sqrt(fit.chi2_per_dof) - 0.01) < 0.001  # the noise level, measured from the residuals
+    assert fit.describe().startswith("every term")
+    d = np.arange(6)
+    dK = fit.stiffness[:, d, d] - truth[:, d, d]
+    err = np.median(np.abs(dK) / np.abs(truth[:, d, d]), axis=0)
+    err_lines = np.median(np.abs(lines.per_line[:, d, d] - truth[:, d, d]) / np.abs(truth[:, d, d]), axis=0)
+    assert np.all(err < 0.2 * err_lines), (err, err_lines)
+    assert np.all(err[:3] < 0.005) and np.all(err[3:] < 0.05), err
+    inside = np.r_[np.abs(dK.real) <= Z90 * fit.std_real[:, d, d], np.abs(dK.imag) <= Z90 * fit.std_imag[:, d, d]]
+    assert inside.mean() > 0.75 and inside.mean(axis=0).min() > 0.4, inside.mean(axis=0)
