@@ -164,7 +164,7 @@ def _load_error(tmp_path, **kw) -> str:
 def test_bad_axes_are_one_exact_line(tmp_path):
     w = "[[joint]] 'bush' [joint.model]"
     assert _load_error(tmp_path, axes='["ry", "z"]') == (
-        f"{w}.axes: expected [translation, rotation] playing (w, theta), such as [\"z\", \"ry\"], got ['ry', 'z']"
+        f"{w}.axes: expected [translation, rotation] playing (w, theta), such as [\"z\", \"ry\"] or [\"w\", \"theta\"], got ['ry', 'z']"
     )
     assert _load_error(tmp_path, axes='["z", "rz"]') == (
         f"{w}.axes: the rotation rz is about the translation z; theta turns about an axis across w: use e.g. [\"z\", \"ry\"]"

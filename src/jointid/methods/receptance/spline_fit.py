@@ -59,7 +59,7 @@ import numpy as np
 
 from .smoothing import bspline_basis
 
-__all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "spline_covariance", "term_variance", "MAX_ITERATIONS", "STARTS"]
+__all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "legendre_log_basis", "spline_covariance", "term_variance", "MAX_ITERATIONS", "STARTS"]
 
 #: Levenberg-Marquardt iterations per order (at most).
 MAX_ITERATIONS = 200
