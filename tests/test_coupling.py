@@ -133,7 +133,7 @@ def test_material_b_internal_resonance_survives_the_smoothing():
 
 
 @pytest.mark.parametrize("kwargs, msg", [
-    ({"smoothing": "loess"}, "smoothing must be one of ('auto', 'structured', 'gcv', 'none'), got 'loess'"),
+    ({"smoothing": "loess"}, "smoothing must be one of ('auto', 'structured', 'gcv', 'spline', 'none'), got 'loess'"),
     ({"weighting": "magic"}, "weighting must be one of ('auto', 'coherence', 'relative', 'none'), got 'magic'"),
     ({"max_relative_std": 0}, "max_relative_std must be a positive number, got 0"),
 ])

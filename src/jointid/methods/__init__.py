@@ -29,7 +29,8 @@ from .._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
-        ".receptance.coupling": ("identify_joint_coupling", "CouplingOptions", "CouplingResult"),
+        ".receptance.coupling": ("identify_joint_coupling", "CouplingOptions"),
+        ".receptance.coupling_result": ("CouplingResult",),
         ".receptance.coupling_lines": ("coupling_per_line", "LineEstimates"),
         ".receptance.smoothing": ("smooth_series", "SmoothedSeries"),
         ".hong_lee.inverse": ("identify_joint", "InverseOptions", "InverseResult", "Reliability", "check_layout"),

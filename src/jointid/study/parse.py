@@ -58,7 +58,8 @@ re-exported here. Units are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     [identification]
     method = "receptance"     # "receptance" (weighted FRF coupling, smoothed, with uncertainty) | "hong-lee"
     smoothing = "auto"        # receptance: "structured" (the joint's physics over all lines, AIC-averaged orders) for
-                              #   joints of <= 3 DOFs, else "gcv" | "structured" | "gcv" (each term alone) | "none"
+                              #   joints of <= 3 DOFs, else "gcv" | "structured" | "gcv" (each term alone) | "spline"
+                              #   (every term a few B-splines in log f, all lines at once: 6-DOF mounts) | "none"
     weighting = "auto"        # receptance: FRF variance from coherence if the file has it, else relative
                               #   (var ~ |H|^2); "coherence" | "relative" | "none" (unweighted)
     averages = 5              # averages behind the coherence (optional; the scale is taken from the residuals)
@@ -219,7 +220,7 @@ _ACCELEROMETERS = {
 }
 _IDENTIFICATION = {
     "method": _Field("str", False, "receptance", check=_choices("receptance", "hong-lee")),
-    "smoothing": _Field("str", False, "auto", check=_choices("auto", "structured", "gcv", "none")),
+    "smoothing": _Field("str", False, "auto", check=_choices("auto", "structured", "gcv", "spline", "none")),
     "weighting": _Field("str", False, "auto", check=_choices("auto", "coherence", "relative", "none")),
     "averages": _Field("int", False, None, check=lambda v: None if v >= 1 else "an integer >= 1"),
     "max_relative_std": _Field("number", False, 0.1, check=_positive),

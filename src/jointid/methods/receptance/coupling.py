@@ -65,20 +65,22 @@ from ...errors import DataError, IdentificationError
 from ...frequency import Frequency
 from ...frf import FRF
 from ...physics.free_model import as_free_model
-from .column_calibration import CALIBRATION_BASIS, ColumnCalibration, estimate_column_calibration, residual_variance
+from .column_calibration import CALIBRATION_BASIS, estimate_column_calibration, residual_variance
+from .coupling_result import CouplingResult
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
 from .junk_lines import junk_lines
 from .model_check import check_model, residual_statistics
 from .units_check import units_conclusion
 from ..frf_screening import check_visibility, floor_exact_zeros, noise_level_unknown, screen_measured
 from .frf_variance import RELATIVE_FLOOR, WEIGHTINGS, column_noise_fraction, frf_variance
-from ..estimate import JointEstimate, term_scale
+from ..estimate import term_scale
 from ..hong_lee.inverse import check_layout
 from ...terms import dof_term_labels, term_names
 from .smoothing import smooth_series
-from .structured_select import MAX_CHI2_PER_DOF, STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
+from .spline_fit import JointSplineFit, fit_joint_spline
+from .structured_select import STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
 
-__all__ = ["CouplingOptions", "CouplingResult", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "SMOOTHINGS", "AUTO_STRUCTURED_MAX_DOFS", "STRUCTURED_MIN_LINES"]
+__all__ = ["CouplingOptions", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "SMOOTHINGS", "AUTO_STRUCTURED_MAX_DOFS", "STRUCTURED_MIN_LINES"]
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
@@ -86,10 +88,8 @@ SMOOTH_MIN_RELATIVE_STD = 1e-6
 MAX_CONDITION = 1e8
 #: Gauss-Newton steps: per-line estimates relinearized around the smoothed estimate, smoothed again.
 RELINEARIZATIONS = 2
-#: A median column calibration error above this (relative) is reported as a units or sensitivity problem.
-GROSS_CALIBRATION_ERROR = 0.1
 #: Values of ``CouplingOptions.smoothing``.
-SMOOTHINGS = ("auto", "structured", "gcv", "none")
+SMOOTHINGS = ("auto", "structured", "gcv", "spline", "none")
 #: ``smoothing = "auto"`` uses the structured estimate for joints of at most this many DOFs.
 AUTO_STRUCTURED_MAX_DOFS = 3
 #: Fewest lines for the structured estimate.
@@ -115,11 +115,13 @@ class CouplingOptions:
     ----------
     symmetric : bool
         Enforce ``Du = Du^T`` (reciprocity of a passive joint).
-    smoothing : {"auto", "structured", "gcv", "none"}
+    smoothing : {"auto", "structured", "gcv", "spline", "none"}
         Over frequency: the structured joint model (one viscoelastic material, all terms and
         lines at once; falls back to "gcv" when it does not fit), each term smoothed alone
-        (P-spline, lambda by GCV), or the per-line estimates; "auto" = "structured" for a
-        symmetric joint of at most 3 DOFs, else "gcv" (module docstring).
+        (P-spline, lambda by GCV), every term a few B-splines in log f fitted to all lines
+        at once ("spline": :mod:`.spline_fit`; any joint size, symmetric; slower), or the
+        per-line estimates; "auto" = "structured" for a symmetric joint of at most 3 DOFs,
+        else "gcv" (module docstring).
     weighting : {"auto", "coherence", "relative", "none"}
         FRF variance model (:func:`~jointid.methods.receptance.frf_variance.frf_variance`).
     averages : int, optional
@@ -164,187 +166,6 @@ class CouplingOptions:
             raise IdentificationError(f"calibration must be one of {CALIBRATIONS}, got {self.calibration!r}")
         if not (isinstance(self.calibration_basis, int) and self.calibration_basis >= 4):
             raise IdentificationError(f"calibration_basis must be an integer >= 4, got {self.calibration_basis!r}")
-
-
-@dataclass(frozen=True, eq=False)
-class CouplingResult(JointEstimate):
-    """The receptance estimator's :class:`~jointid.methods.estimate.JointEstimate`: per-term uncertainty and reliability.
-
-    Attributes
-    ----------
-    frequency : Frequency
-    joint_dofs : tuple of Dof
-    stiffness : ndarray, shape (F, n, n), complex
-        The estimate (smoothed unless ``smoothing="none"``): N/m, N/rad, N*m/m, N*m/rad.
-    std_real, std_imag : ndarray, shape (F, n, n)
-        1-sigma standard deviation of the real and imaginary part of each term.
-    per_line : ndarray, shape (F, n, n), complex
-        The per-line weighted least-squares estimate before smoothing.
-    per_line_std : ndarray, shape (F, n, n)
-        Its standard deviation ``sqrt(E|dK|^2)``.
-    reliable_terms : ndarray of bool, shape (F, n, n)
-    passive : ndarray of bool, shape (F, n)
-        Loss factor of each diagonal term not significantly negative.
-    condition : ndarray, shape (F,)
-        Condition number of the weighted design per line.
-    residual_scale : ndarray, shape (F,)
-        Residual variance factor (chi^2 per degree of freedom; ~1 when the weights' scale is right).
-    weighting : str
-        The FRF variance model used.
-    smoothing_edf : dict
-        Term name -> effective degrees of freedom of the smoother (real part), or None if not smoothed.
-    options : CouplingOptions
-    calibration : ColumnCalibration or None
-        The excitation columns' force-calibration error, if it was estimated.
-    calibration_applied : bool
-        The FRFs were corrected by it (its uncertainty is in the bands).
-    structured : StructuredEstimate or None
-        The structured joint model's estimate when it was fitted (``structured.accepted``:
-        it is the result; else the P-spline is, and :meth:`findings` says why).
-    estimator_note : str
-        Why the structured model was not fitted when it was asked for or failed (a finding), else "".
-    data_notes : tuple of str
-        What the data screening found (:mod:`jointid.methods.frf_screening`): channels and junk lines left out, an
-        unknown noise level, FRFs used as they are despite the units check, the free model's misfit per band.
-    checked_unreliable : ndarray of bool, shape (F,), or None
-        Lines flagged unreliable on every term by the units or the model check (a data note says why).
-    """
-
-    std_real: np.ndarray
-    std_imag: np.ndarray
-    per_line: np.ndarray
-    per_line_std: np.ndarray
-    reliable_terms: np.ndarray
-    passive: np.ndarray
-    condition: np.ndarray
-    residual_scale: np.ndarray
-    weighting: str
-    smoothing_edf: dict
-    options: CouplingOptions
-    calibration: ColumnCalibration | None = None
-    calibration_applied: bool = False
-    structured: StructuredEstimate | None = None
-    estimator_note: str = ""
-    data_notes: tuple[str, ...] = ()
-    checked_unreliable: np.ndarray | None = None
-
-    method: ClassVar[str] = "receptance"
-
-    @property
-    def estimator(self) -> str:
-        """What made :attr:`stiffness`: ``"structured"``, ``"gcv"`` (P-spline per term) or ``"per-line"``."""
-        if self.structured is not None and self.structured.accepted:
-            return "structured"
-        return "gcv" if any(v is not None for v in self.smoothing_edf.values()) else "per-line"
-
-    def describe_estimator(self) -> str:
-        """One line: what made :attr:`stiffness` (the structured model's order, internal modes and chi^2/dof)."""
-        name = self.estimator
-        if name == "structured":
-            return self.structured.describe()
-        if name == "gcv":
-            return "each term smoothed over frequency on its own (P-spline, lambda by GCV)"
-        return "per-line estimates (not smoothed)"
-
-    def estimator_summary(self) -> dict:
-        """JSON-ready: ``estimator``, ``description`` and, when fitted, the structured model's diagnostics."""
-        out = {"estimator": self.estimator, "description": self.describe_estimator()}
-        out.update(self._structured_summary())
-        return out
-
-    def _structured_summary(self) -> dict:
-        out = {}
-        st = self.structured
-        if st is not None:
-            out["structured"] = {
-                "accepted": st.accepted,
-                "best_order": {"internal_modes": st.best.model.n_modes, "modulus_basis": st.best.model.g_basis, "residual": st.best.model.residual},
-                "chi2_per_dof": st.best.chi2_per_dof,
-                "internal_modes_hz": [float(v) for v in st.best.poles_hz()],
-                "akaike_weights": {st.fits[o].model.label: float(w) for o, w in st.weights.items()},
-                "seconds": st.seconds,
-            }
-        return out
-
-    def subset(self, indices) -> "CouplingResult":
-        """The result on a subset of the joint DOFs (e.g. one of several joints identified together).
-
-        Every (F, n, n) array is cut to the ``indices`` block and ``passive`` to
-        those diagonal terms; per-line diagnostics (condition, residual scale,
-        calibration) are those of the joint estimate. Term names follow the
-        subset's own DOFs (:func:`~jointid.terms.dof_term_labels`).
-        """
-        idx = np.asarray(list(indices), dtype=int)
-        blk = np.ix_(np.arange(self.stiffness.shape[0]), idx, idx)
-        dofs = tuple(self.joint_dofs[i] for i in idx)
-        old = {(a, b): name for a, b, name in self.term_names()}
-        edf = {}
-        for a, b, name in term_names(dofs):
-            key = old[(int(idx[a]), int(idx[b]))]
-            if key in self.smoothing_edf:
-                edf[name] = self.smoothing_edf[key]
-        return CouplingResult(
-            self.frequency, dofs, self.stiffness[blk], self.std_real[blk], self.std_imag[blk], self.per_line[blk],
-            self.per_line_std[blk], self.reliable_terms[blk], self.passive[:, idx], self.condition, self.residual_scale,
-            self.weighting, edf, self.options, self.calibration, self.calibration_applied, self.structured, self.estimator_note,
-            self.data_notes, self.checked_unreliable,
-        )
-
-    def options_summary(self) -> dict:
-        """JSON-ready: symmetric, smoothing, weighting (the variance model used), averages, max_relative_std, calibration."""
-        o = self.options
-        return {"symmetric": o.symmetric, "smoothing": o.smoothing, "weighting": self.weighting, "averages": o.averages,
-                "max_relative_std": o.max_relative_std, "calibration": o.calibration, "units_check": o.units_check,
-                "model_check": o.model_check}
-
-    def diagnostics(self) -> dict:
-        """JSON-ready: the estimator that made the result (structured model's orders), largest condition, residual scale."""
-        return {
-            "estimator": self.estimator_summary(),
-            "max_condition": float(np.max(self.condition)),
-            "median_residual_scale": float(np.nanmedian(self.residual_scale)) if np.isfinite(self.residual_scale).any() else None,
-            "smoothing_edf": {k: (None if v is None else float(v)) for k, v in self.smoothing_edf.items()},
-        }
-
-    def findings(self) -> list[str]:
-        """One line per term that the FRFs cannot determine on some lines, naming the bands and the predicted error."""
-        f = self.frequency.hz
-        out = list(self.data_notes)
-        st = self.structured
-        if st is not None and not st.accepted and st.best.chi2_per_dof > MAX_CHI2_PER_DOF:
-            out.append(f"the structured joint model does not fit these FRFs (chi^2/dof {st.best.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
-                       "not one viscoelastic material, or a model error): each term smoothed on its own instead")
-        elif st is not None and not st.accepted:
-            out.append("the structured joint model gave non-finite values on these FRFs: each term smoothed on its own instead")
-        if self.estimator_note:
-            out.append(self.estimator_note)
-        cal = self.calibration
-        if cal is not None and self.calibration_applied:
-            eps = 100 * np.median(np.abs(cal.error), axis=0)
-            why = f"F test p = {cal.p_value:.2g}" if self.options.calibration == "auto" else 'calibration = "columns"'
-            out.append(
-                "force calibration error of the excitation columns (median " + ", ".join(f"{v:.2g} %" for v in eps)
-                + f"; {why}): corrected, its uncertainty is in the bands"
-                + ("; more than force noise makes: check the hammer's sensitivity per column" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
-            )
-        rel = self.relative_std
-        done = set()
-        for a, b, name in self.term_names():
-            if (b, a) in done:
-                continue
-            done.add((a, b))
-            bad = ~self.reliable_terms[:, a, b]
-            if self.checked_unreliable is not None:  # those lines' finding is the check's
-                bad &= ~self.checked_unreliable
-            if not bad.any():
-                continue
-            edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(int), 0]))
-            spans = [(f[s], f[e - 1]) for s, e in zip(edges[::2], edges[1::2]) if e - s >= max(2, f.size // 100)]
-            median = np.nanmedian(rel[bad, a, b]) if np.isfinite(rel[bad, a, b]).any() else np.nan
-            where = "on every line" if bad.all() else ("in " + ", ".join(f"{lo:g}-{hi:g} Hz" for lo, hi in spans[:4]) + (" ..." if len(spans) > 4 else "")) if spans else f"on {int(bad.sum())} scattered lines"
-            err = f"predicted error {100 * median:.0f} %" if np.isfinite(median) else "no uncertainty: the layout has no redundancy"
-            out.append(f"{name}: not identifiable from these FRFs {where} ({err}, {100 * bad.mean():.0f} % of lines)")
-        return out
 
 
 def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: CouplingOptions | None = None) -> CouplingResult:
@@ -417,6 +238,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         notes.append(junk.finding)
     variance, source = frf_variance(H, coherence, options.weighting, options.averages)
     variance = floor_exact_zeros(variance, H, RELATIVE_FLOOR)
+    measured_H, measured_variance = H, variance  # the joint spline fit's data (it fits its own noise scale)
     # coherence identically 1 carries no noise information: the variance is measured from the residuals of the
     # per-line fit once column errors are removed (below), where each line has the redundancy for it
     unknown = source == "coherence" and noise_level_unknown(coherence)
@@ -452,13 +274,25 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         H, variance = cal.apply(H, variance)
         common = cal.x_covariance
     lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
+    spline = None
+    if options.smoothing == "spline" and not _exact(lines):  # exact data: the per-line estimates are the answer
+        if not options.symmetric:
+            raise IdentificationError('smoothing = "spline" fits a symmetric joint; use symmetric = true or another smoothing')
+        # the FRFs as measured: the fit of every line at once has its own noise scale, and a column correction
+        # estimated line by line would be a second model of the same data
+        spline = fit_joint_spline(freq.hz, Ymn, Ynn, Yne, Yme, measured_H, measured_variance, symmetric=True,
+                                  initial=lines.stiffness)
+        if not spline.converged:
+            notes.append("the joint spline fit did not converge on these FRFs (smoothing = \"spline\"): each term smoothed "
+                         "on its own instead")
+            spline = None
     stats = residual_statistics(Ymn, Yne, Yme - H, variance, options.symmetric) if options.model_check and not kron else None
     if stats is not None:  # does the free model explain the FRFs, band by band (model_check)?
         check = check_model(freq.hz, stats)
         if not check.fits:
             notes.append(check.finding(freq.hz))
             checked = check.failed_lines if checked is None else checked | check.failed_lines
-    return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes), checked)
+    return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes), checked, spline)
 
 
 def _units_check(freq: Frequency, Ymn, Yne, Yme, H, variance, cal, options: CouplingOptions, kron: bool, notes: list) -> np.ndarray | None:
@@ -521,11 +355,18 @@ def _exact(lines) -> bool:
 
 
 def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False, data_notes=(),
-            checked=None) -> CouplingResult:
-    """Estimate over frequency (structured model, or each term smoothed and relinearized), propagate the variance, set the
-    flags (every term unreliable on the ``checked`` lines: the units or the model check failed there)."""
+            checked=None, spline: JointSplineFit | None = None) -> CouplingResult:
+    """Estimate over frequency (the joint spline fit, the structured model, or each term smoothed and relinearized),
+    propagate the variance, set the flags (every term unreliable on the ``checked`` lines: the units or the model check
+    failed there)."""
     structured, note = _structured(freq, lines, options, cal, applied)
-    if structured is not None and structured.accepted:
+    if spline is not None:  # every line at once, on the FRFs as measured: its covariance from the Jacobian
+        K, var_re, var_im = spline.stiffness, spline.std_real ** 2, spline.std_imag ** 2
+        labels = dof_term_labels(n_dofs)
+        a, b = np.triu_indices(len(n_dofs))
+        edf = {f"K_{labels[i]}_{labels[j]}": (None if spline.term_basis is None else float(spline.term_basis[t]))
+               for t, (i, j) in enumerate(zip(a, b))}
+    elif structured is not None and structured.accepted:
         K, edf = structured.stiffness, {}
         var_re, var_im = structured.std_real ** 2, structured.std_imag ** 2
     else:
@@ -545,6 +386,7 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     return CouplingResult(
         freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(np.maximum(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0), 0.0)),
         reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured, note, data_notes, checked,
+        spline,
     )
 
 
