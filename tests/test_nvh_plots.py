@@ -51,7 +51,7 @@ def test_log_frequency_only_over_a_decade_and_limits_ignore_a_collapsed_band():
 
 
 def _result(f, K, rel=0.01, outlier=1e3):
-    """A stand-in CouplingResult: K with 1 % bands, per-line estimates with one wild outlier per term."""
+    """A stand-in JointEstimate: K with 1 % bands, per-line estimates with one wild outlier per term."""
     per_line = K * (1 + 0.01 * np.cos(np.arange(f.size)))[:, None, None]
     per_line[f.size // 2] *= outlier
     std = rel * np.abs(K) / np.sqrt(2)
@@ -59,8 +59,8 @@ def _result(f, K, rel=0.01, outlier=1e3):
     reliable[-5:, 1, 1] = False
     return SimpleNamespace(
         frequency=Frequency(f), joint_dofs=parse_dofs(["10w", "10theta"]), stiffness=K, std_real=std, std_imag=std,
-        per_line=per_line, reliable_terms=reliable, relative_std=np.full(K.shape, rel),
-        options=SimpleNamespace(max_relative_std=0.1), method="receptance", estimator="structured", weighting="coherence",
+        line_estimates=lambda: per_line, reliable_terms=reliable, relative_std=np.full(K.shape, rel), has_uncertainty=True,
+        options_summary=lambda: {"max_relative_std": 0.1, "weighting": "coherence"}, method="receptance", estimator="structured",
     )
 
 

@@ -200,7 +200,7 @@ def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, trut
 
     Returns
     -------
-    result : CouplingResult or InverseResult
+    result : JointEstimate
     measured : FRF
         The file as read (its ``notes`` say what was converted or skipped).
     """

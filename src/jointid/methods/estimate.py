@@ -103,6 +103,10 @@ class JointEstimate:
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.hypot(self.std_real, self.std_imag) / term_scale(self.stiffness)
 
+    def line_estimates(self) -> np.ndarray | None:
+        """The per-line estimates behind :attr:`stiffness` (F, n, n), or None when the estimate is itself per line."""
+        return None
+
     @property
     def reliable(self) -> np.ndarray:
         """Lines on which every term is reliable, shape (F,)."""
@@ -112,6 +116,11 @@ class JointEstimate:
     def findings(self) -> list[str]:
         """One line per thing the user must know about this estimate (none by default)."""
         return []
+
+    @property
+    def estimator(self) -> str:
+        """A short name of what made :attr:`stiffness` (default: the method's name)."""
+        return self.method
 
     def describe_estimator(self) -> str:
         """One line: what made :attr:`stiffness`."""

@@ -20,7 +20,7 @@ def plot_joint_matrix(result, n_frequencies: int = 4, title: str = ""):
 
     Parameters
     ----------
-    result : CouplingResult or InverseResult
+    result : JointEstimate
         Anything with ``frequency``, ``joint_dofs`` and ``stiffness`` (F, n, n).
     n_frequencies : int
         Panels, at lines spread evenly over the band (first and last included).
@@ -81,7 +81,7 @@ def plot_joint_terms(result, truth: np.ndarray | None = None, couplings: int = 4
 
     Parameters
     ----------
-    result : CouplingResult (or anything with ``frequency``, ``joint_dofs``, ``stiffness``)
+    result : JointEstimate
     truth : ndarray, shape (F, n, n), optional
     couplings : int
         How many couplings to draw.
@@ -98,8 +98,8 @@ def plot_joint_terms(result, truth: np.ndarray | None = None, couplings: int = 4
     labels = dof_term_labels(result.joint_dofs)
     fig, axes = new_figure(3, 1, figsize=(9.0, 10.0), height_ratios=[2, 1.2, 1.5])
     ax, ax_l, ax_c = axes
-    std = getattr(result, "std_real", None)
-    std_im = getattr(result, "std_imag", None)
+    std = result.std_real if result.has_uncertainty else None  # a JointEstimate: NaN where the method gives none
+    std_im = result.std_imag
     diag = K[:, range(n), range(n)]
     phase = bool(np.any(diag.real <= 0) or (truth is not None and np.any(truth[:, range(n), range(n)].real <= 0)))
     for i in range(n):

@@ -95,7 +95,7 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
 
     Parameters
     ----------
-    result : CouplingResult
+    result : JointEstimate
     truth : ndarray, shape (F, n, n), optional
     axes : array of Axes, shape (2, n_terms), optional
 
@@ -110,6 +110,7 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
 
         return plot_joint_terms(result, truth=truth)
     labels = dof_term_labels(dofs)
+    lines = result.line_estimates()  # the per-line estimates behind a smoothed result (None: it is per line)
     terms = [(i, j) for i in range(len(dofs)) for j in range(i, len(dofs))]
     own = axes is None
     if own:  # fixed margins, no layout engine: the figure of 20 000 lines draws in a fraction of the time
@@ -125,7 +126,7 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
         t = None if truth is None else truth[:, i, j]
         bad = ~result.reliable_terms[:, i, j]
         ax, ax_l = axes[:, c]
-        draw_term_magnitude(ax, f, k, sr, si, per_line=result.per_line[:, i, j], truth=t, bad=bad,
+        draw_term_magnitude(ax, f, k, sr, si, per_line=None if lines is None else lines[:, i, j], truth=t, bad=bad,
                             unit=term_unit(dofs[i], dofs[j]), name=name)
         ax.set_title(f"{name} ({100 * (~bad).mean():.0f} % of lines reliable)", y=1.0)  # y given: no search for top tick labels
         if i == j:
@@ -145,8 +146,9 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
                 place_legend(a, ncol=2 if a is ax_l and i != j else 1)
         if own:
             ax.tick_params(labelbottom=False)  # the frequency is labelled under the bottom row
-    fig.suptitle(f"joint stiffness ({result.method}, estimator: {result.estimator}, weighting: {result.weighting}); "
-                 "shaded: term unreliable")
+    o = result.options_summary()
+    how = "".join(f", {k}: {o[k]}" for k in ("weighting",) if k in o)
+    fig.suptitle(f"joint stiffness ({result.method}, estimator: {result.estimator}{how}); shaded: term unreliable")
     return fig
 
 
@@ -157,11 +159,15 @@ def _draw_predicted_errors(ax, result, labels) -> None:
     n = len(labels)
     for c, (i, j) in enumerate((i, j) for i in range(n) for j in range(i, n)):
         ax.plot(f, rel[:, i, j], lw=1.0, color=f"C{c}", label=f"K_{labels[i]}_{labels[j]}")
-    ax.axhline(result.options.max_relative_std, color="C3", ls=":", lw=1.2, label=f"threshold {result.options.max_relative_std:g}")
+    threshold = result.options_summary().get("max_relative_std")
+    if threshold is not None:
+        ax.axhline(threshold, color="C3", ls=":", lw=1.2, label=f"threshold {threshold:g}")
     ax.set_yscale("log")
     finite = rel[np.isfinite(rel) & (rel > 0)]
     if finite.size:
-        ax.set_ylim(max(np.percentile(finite, 1) / 2, 1e-6), max(np.percentile(finite, 99) * 2, 2 * result.options.max_relative_std))
+        ax.set_ylim(max(np.percentile(finite, 1) / 2, 1e-6), max(np.percentile(finite, 99) * 2, 2 * (threshold or 0.0)))
+    else:
+        ax.text(0.5, 0.5, "no per-term uncertainty from this method", transform=ax.transAxes, ha="center", va="center")
     ax.set_ylabel("predicted relative error (1 sigma)")
     ax.set_title("predicted error of each term; above the threshold: unreliable", fontsize="small", y=1.0)
     ax.grid(True, which="both", alpha=0.3)

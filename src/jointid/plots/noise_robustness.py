@@ -63,7 +63,7 @@ def plot_band_examples(panels: Sequence, methods: Mapping[str, str], title: str 
                 k = res.stiffness[:, i, j]
                 color = _COLORS.get(key, f"C{z + 3}")
                 top = z == 0
-                if top and getattr(res, "std_real", None) is not None:
+                if top and res.std_real is not None:
                     lo, hi = magnitude_band(k, res.std_real[:, i, j], res.std_imag[:, i, j])
                     ax.fill_between(f, lo, hi, color=color, alpha=0.3, lw=0, zorder=8, label=f"{methods[key]}: 90 % band")
                 ax.semilogy(f, np.abs(k), color=color, lw=1.3 if top else 0.6, alpha=1.0 if top else 0.55,

@@ -328,7 +328,7 @@ def run_part(config, case: Case, index: int, seeds: Sequence[int], progress: Pro
                 if k in inside:
                     inside[k][li, si] = within_band(r.stiffness, r.std_real, r.std_imag, truth)
                 if level == ref and s == 0:
-                    example[k] = Example(r.stiffness, getattr(r, "std_real", None), getattr(r, "std_imag", None))
+                    example[k] = Example(r.stiffness, *((r.std_real, r.std_imag) if r.has_uncertainty else (None, None)))
             progress.update()
     return _Part(index, seeds, study.grid, truth, errors, inside, exact, example)
 

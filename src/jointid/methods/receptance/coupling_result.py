@@ -96,6 +96,10 @@ class CouplingResult(JointEstimate):
 
     method: ClassVar[str] = "receptance"
 
+    def line_estimates(self) -> np.ndarray:
+        """The per-line weighted least-squares estimates before smoothing, (F, n, n)."""
+        return self.per_line
+
     @property
     def estimator(self) -> str:
         """What made :attr:`stiffness`: ``"spline"``, ``"structured"``, ``"gcv"`` (P-spline per term) or ``"per-line"``."""
