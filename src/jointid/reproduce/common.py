@@ -28,6 +28,7 @@ __all__ = [
     "layout_table",
     "SUMMARY_BAND_HZ",
     "png",
+    "config_study",
 ]
 
 #: Band of the summary error figures, Hz.
@@ -115,6 +116,24 @@ def elastomer_joint(config, material: str):
 def material_joint(config, material: str) -> ComplexStiffness:
     """The FE elastomer-cylinder joint of ``config.materials[material]`` at the joint node (w, theta), caps excluded."""
     return elastomer_joint(config, material).complex_stiffness(config.joint_node, ("w", "theta"))
+
+
+def config_study(config, node: int, material: str, observed, excited, frequency, identification, *, accelerometers=None,
+                 experiment=None, source: str = "<config>"):
+    """A :class:`~jointid.study.Study` of the configuration's beam with the elastomer joint of ``material`` at ``node``.
+
+    Built from the configuration's already validated values (no study text is written or parsed): the beam,
+    the joint ``(node w, node theta)`` with ``[joint.model] type = "elastomer"`` of the material's modulus, loss
+    factor and density, the layout (beam nodes), the frequency and identification sections given.
+    """
+    from ..dofs import Dof
+    from ..study import ExperimentSpec, JointModelSpec, JointSpec, MeasurementSpec, Study
+
+    m = config.materials[material]
+    model = JointModelSpec("elastomer", {"elastic_modulus": m.elastic_modulus, "loss_factor": m.loss_factor, "density": m.density})
+    joint = JointSpec("joint", (Dof(node, "w"), Dof(node, "theta")), (), model)
+    return Study(config.beam, (joint,), MeasurementSpec(tuple(observed), tuple(excited)), frequency, accelerometers,
+                 identification, experiment or ExperimentSpec(), source)
 
 
 def study_beam(config, scale: Mapping[str, float] | None = None):

@@ -42,8 +42,8 @@ from ..methods.receptance.coupling import Z90, CouplingOptions, identify_joint_c
 from ..physics.free_model import as_free_model
 from ..pipeline import coupling_options, free_model, identify, true_joint
 from ..report.html import Table
-from ..study import Study, parse_study
-from .common import Progress, StudyOutput, add_noise, band_errors
+from ..study import FrequencySpec, IdentificationSpec, Study
+from .common import Progress, StudyOutput, add_noise, band_errors, config_study
 
 __all__ = [
     "run", "Case", "CaseResult", "CachedReceptance", "TERMS", "METHODS", "BAND_HZ",
@@ -100,19 +100,12 @@ def band_of(config) -> Frequency:
 
 
 def case_study(config, case: Case, method: str = "receptance") -> Study:
-    """The :class:`~jointid.study.parse.Study` of ``case``: the study beam, no accelerometers, 100-1000 Hz."""
+    """The :class:`~jointid.study.Study` of ``case``: the study beam, no accelerometers, 100-1000 Hz."""
     lay = config.layouts[case.layout]
-    m = config.materials[case.material]
     f = band_of(config)
-    data = {
-        "beam": {k: v for k, v in vars(config.beam).items() if v is not None},
-        "joint": {"node": case.node, "dofs": ["w", "theta"], "model": {
-            "type": "elastomer", "elastic_modulus": m.elastic_modulus, "loss_factor": m.loss_factor, "density": m.density}},
-        "measurement": {"observed": list(lay.observed), "excited": list(lay.excited)},
-        "frequency": {"start": float(f.hz[0]), "stop": float(f.hz[-1]), "step": config.step},
-        "identification": {"method": method},
-    }
-    return parse_study(data, f"noise-robustness study, {case.label(config)}")
+    return config_study(config, case.node, case.material, lay.observed, lay.excited,
+                        FrequencySpec(float(f.hz[0]), float(f.hz[-1]), config.step), IdentificationSpec(method=method),
+                        source=f"noise-robustness study, {case.label(config)}")
 
 
 def method_options(study: Study) -> dict[str, CouplingOptions | None]:

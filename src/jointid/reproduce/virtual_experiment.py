@@ -18,29 +18,23 @@ from ..physics.synthesis import synthesize_frf
 from ..pipeline import constrained_model, experiment, identify
 from ..plots.studies import plot_terms
 from ..report.html import Table
-from ..study import Study, parse_study
-from .common import Progress, StudyOutput, band_errors, fmt, pct, png, terms_of
+from ..study import AccelerometerSpec, ExperimentSpec, FrequencySpec, IdentificationSpec, Study
+from .common import Progress, StudyOutput, band_errors, config_study, fmt, pct, png, terms_of
 
 __all__ = ["run", "experiment_study", "parts", "combine"]
 
 
 def experiment_study(config, material: str, layout: str = "model_3") -> Study:
-    """The :class:`~jointid.study.parse.Study` of the virtual experiment for ``material``."""
-    b = config.beam
+    """The :class:`~jointid.study.Study` of the virtual experiment for ``material``."""
     lay = config.layouts[layout]
-    m = config.materials[material]
-    beam = {k: v for k, v in vars(b).items() if v is not None}
-    data = {
-        "beam": beam,
-        "joint": {"node": config.joint_node, "dofs": ["w", "theta"], "model": {
-            "type": "elastomer", "elastic_modulus": m.elastic_modulus, "loss_factor": m.loss_factor, "density": m.density}},
-        "measurement": {"observed": list(lay.observed), "excited": list(lay.excited)},
-        "accelerometers": {"mass": config.accelerometer_mass, "rotary_inertia": config.accelerometer_rotary_inertia, "nodes": list(lay.observed)},
-        "identification": {"model_accelerometers": True},
-        "frequency": {"start": max(config.start, 5.0), "stop": config.stop, "step": config.step},
-        "experiment": {"force_noise": config.experiment_noise, "response_noise": config.experiment_noise, "seed": config.seed, "exponential_window": 0.5},
-    }
-    return parse_study(data, f"virtual experiment, Material {material}")
+    return config_study(
+        config, config.joint_node, material, lay.observed, lay.excited,
+        FrequencySpec(max(config.start, 5.0), config.stop, config.step), IdentificationSpec(model_accelerometers=True),
+        accelerometers=AccelerometerSpec(config.accelerometer_mass, config.accelerometer_rotary_inertia, tuple(lay.observed)),
+        experiment=ExperimentSpec(force_noise=config.experiment_noise, response_noise=config.experiment_noise, seed=config.seed,
+                                  exponential_window=0.5),
+        source=f"virtual experiment, Material {material}",
+    )
 
 
 def _material(config, mat: str) -> dict:
