@@ -13,5 +13,5 @@ __getattr__, __dir__, __all__ = attach(
         ".inverse": ("identify_joint", "InverseOptions", "InverseResult", "Reliability", "check_layout"),
         ".condition": ("pencil_condition", "ConditionNumbers"),
     },
-    submodules=("inverse", "estimation", "condition"),
+    submodules=("inverse", "estimation", "identification", "reliability", "condition"),
 )

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EstimationLayout", "estimate_qr", "estimate_svd", "svd_solve_left"]
+__all__ = ["EstimationLayout", "WeightedEstimate", "estimate_qr", "estimate_svd", "estimate_weighted", "svd_solve_left"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,3 +160,122 @@ def estimate_qr(layout: EstimationLayout, w2: np.ndarray, Ys_m: np.ndarray):
     for i in range(c - 1, -1, -1):  # back-substitution x = R^-1 y, vectorized over lines
         x[:, i] = (Ra[:, i, c:] - (Ra[:, i : i + 1, i + 1 : c] @ x[:, i + 1 :])[:, 0]) / Ra[:, i, i, None]
     return L._finish(x, Ys_m, w2)
+
+
+@dataclass(frozen=True, eq=False)
+class WeightedEstimate:
+    """The noise-weighted estimation step on a chunk of lines (scaled coordinates).
+
+    Attributes
+    ----------
+    Ys : ndarray, shape (F, N, |e|)
+        Estimated receptance ``H*[:, e]`` on every DOF, the observed rows included (fitted).
+    Cs : ndarray, shape (F, |n|, |e|)
+        Identification right-hand side ``S I[n, e] - Do_s[n, :] Ys``.
+    null : ndarray, shape (F, N, |n|)
+        Orthonormal basis ``Z`` of the null space of ``Do_s[nbar, :]``: ``Ys = Ys0 + Z g``.
+    cov : ndarray, shape (F, |e|, |n|, |n|)
+        Covariance of each column's ``g`` per unit relative FRF variance: ``(A_w^H A_w)^+``.
+    rss : ndarray, shape (F,)
+        Weighted residual sum of squares over the excited columns (dimensionless).
+    cond_w : ndarray, shape (F,)
+        Largest condition number over the columns of the weighted ``W Z[m]`` (inf if rank deficient).
+    """
+
+    Ys: np.ndarray
+    Cs: np.ndarray
+    null: np.ndarray
+    cov: np.ndarray
+    rss: np.ndarray
+    cond_w: np.ndarray
+
+
+def estimate_weighted(layout: EstimationLayout, w2: np.ndarray, Ys_m: np.ndarray, weights: np.ndarray,
+                      method: str = "qr") -> WeightedEstimate:
+    """Estimation step as the generalized least squares of the measured FRFs' noise.
+
+    The rows ``nbar`` of ``(Do + Du) H* = I`` hold exactly; only the measured ``H*[m, e]`` carry
+    noise, of standard deviation ``sigma / w_k`` per value (``weights`` ``w``, relative
+    noise ``sigma`` unknown). The right-hand side ``b = I[nbar, e] - Do[nbar, m] H*[m, e]`` of
+    the paper's left inverse therefore has the singular covariance
+    ``Do[nbar, m] diag(sigma^2 / w^2) Do[nbar, m]^H``; its best linear unbiased estimate solves
+
+        min_H  sum_k w_k^2 |H[m_k] - H*[m_k]|^2   subject to   Do[nbar, :] H = I[nbar, e]
+
+    per excited column. Every ``H`` satisfying the rows ``nbar`` is ``H0 + Z g`` with ``Z`` an
+    orthonormal basis of the null space of ``Do[nbar, :]`` (``|n|`` columns: ``g`` are the
+    joint's forces in the basis ``Z``) and ``H0`` the minimum-norm solution, so ``g`` is a
+    weighted least-squares fit of ``|m|`` values with ``|n|`` unknowns::
+
+        g = (W Z[m])^+ W (H*[m] - H0[m])
+
+    On exact data consistent with ``Do`` this is the paper's estimate (any weighting is);
+    on noisy data it weights each measured value by its noise rather than the rows by their
+    units, so it does not depend on the scaling of rotations. The measured rows of ``Ys`` are the
+    fitted ones.
+
+    Parameters
+    ----------
+    layout : EstimationLayout
+    w2 : ndarray, shape (F,)
+        Squared circular frequency, (rad/s)^2.
+    Ys_m : ndarray, shape (F, |m|, |e|), complex
+        Scaled measured receptance ``H*[m, e]``.
+    weights : ndarray, shape (F, |m|, |e|)
+        ``w_k``: inverse relative standard deviation of each measured value, 1/(m/N).
+    method : {"qr", "svd"}
+        Null space and ``H0`` from a complete Householder QR of ``Do[nbar, :]^H`` per line, or
+        from its SVD (the same subspace and ``H0``). ``g`` always comes from the SVD of the small
+        ``W Z[m]`` (|m| x |n|), so a layout whose observed points cannot tell the joint forces
+        apart gets the pseudo-inverse (minimum-norm ``g``) and an infinite ``cond_w``.
+
+    Returns
+    -------
+    WeightedEstimate
+    """
+    L = layout
+    N = L.stiffness.shape[0]
+    F, r, n = w2.size, L.nbar.size, L.n.size
+    allk = np.arange(N)
+    Z = L.stiffness[L.nbar][None] - w2[:, None, None] * L.mass[L.nbar][None]  # (F, r, N)
+    rhs = np.broadcast_to(L.loads[L.nbar], (F, r, L.e.size))
+    if method == "qr":
+        Q, R = np.linalg.qr(np.conj(np.swapaxes(Z, 1, 2)), mode="complete")  # Z^H = Q [R1; 0]
+        d = np.abs(np.diagonal(R, axis1=1, axis2=2))
+        deficient = ~(d.min(axis=1) > N * np.finfo(float).eps * d.max(axis=1))
+        if deficient.any():  # Do[nbar, :] (numerically) rank deficient: those lines by the SVD
+            ok = np.flatnonzero(~deficient)
+            out = [estimate_weighted(L, w2[i], Ys_m[i], weights[i], m) for i, m in ((ok, "qr"), (np.flatnonzero(deficient), "svd"))]
+            return WeightedEstimate(*(_merge(a, b, deficient) for a, b in zip(vars(out[0]).values(), vars(out[1]).values())))
+        R1h = np.conj(np.swapaxes(R[:, :r, :], 1, 2))  # lower triangular, (F, r, r)
+        null = Q[:, :, r:]
+        H0 = Q[:, :, :r] @ np.linalg.solve(R1h, rhs)
+    else:
+        U, s, Vh = np.linalg.svd(Z, full_matrices=True)  # Z = U S Vh[:r]
+        V = np.conj(np.swapaxes(Vh, 1, 2))
+        null = V[:, :, r:]
+        tol = s[:, :1] * N * np.finfo(float).eps
+        sinv = np.where(s > tol, 1.0 / np.where(s > tol, s, 1.0), 0.0)
+        H0 = V[:, :, :r] @ ((np.conj(np.swapaxes(U, 1, 2)) @ rhs) * sinv[..., None])
+    # per column j: weighted fit of g_j on the |m| measured values
+    Am = weights.transpose(0, 2, 1)[..., None] * null[:, None, L.m, :]  # (F, e, m, n)
+    bm = (weights * (Ys_m - H0[:, L.m])).transpose(0, 2, 1)  # (F, e, m)
+    Ua, sa, Vah = np.linalg.svd(Am, full_matrices=False)
+    tol = sa[..., :1] * max(Am.shape[-2:]) * np.finfo(float).eps
+    sinv = np.where(sa > tol, 1.0 / np.where(sa > tol, sa, 1.0), 0.0)  # (F, e, k)
+    Va = np.conj(np.swapaxes(Vah, -1, -2))
+    g = (Va @ (sinv[..., None] * (np.conj(np.swapaxes(Ua, -1, -2)) @ bm[..., None])))[..., 0]  # (F, e, n)
+    res = bm - (Am @ g[..., None])[..., 0]
+    cov = (Va * (sinv**2)[..., None, :]) @ Vah
+    with np.errstate(divide="ignore"):
+        cond_w = np.max(np.where(sa[..., -1] > tol[..., 0], sa[..., 0] / sa[..., -1], np.inf), axis=1)
+    Ys = H0 + null @ np.swapaxes(g, 1, 2)
+    Cs = L.loads[L.n][None] - L.dynamic_stiffness_times(L.n, allk, w2, Ys)
+    return WeightedEstimate(Ys, Cs, null, cov, np.sum(np.abs(res) ** 2, axis=(1, 2)), cond_w)
+
+
+def _merge(a: np.ndarray, b: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """Lines of ``a`` where ``second`` is False and of ``b`` where it is True, in line order."""
+    out = np.empty((second.size,) + a.shape[1:], np.result_type(a, b))
+    out[~second], out[second] = a, b
+    return out

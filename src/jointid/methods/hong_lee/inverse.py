@@ -24,17 +24,23 @@ Needs ``|e| >= |n|`` and ``H*[n, e]`` of rank ``|n|``.
 
 Numerics
 --------
-Neither step uses the normal equations. The estimation step is a Householder
-QR least-squares solve per line (LAPACK's ``gels`` algorithm; lines whose
-``cond_A`` may exceed 1e6 get the SVD pseudo-inverse instead), the
-identification step a small SVD per line; see
-:mod:`jointid.methods.hong_lee.estimation`. Everything is batched over frequency in
-chunks of lines run on the available cores. Rotational
-coordinates are scaled by a length ``l`` (default: the mean element length):
+Neither step uses the normal equations. The estimation step (default
+``weighting="relative"``) is the generalized least squares of the measured FRFs' noise:
+the rows ``nbar`` hold exactly, so every admissible ``H*[:, e]`` is ``H0 + Z g`` with ``Z`` the
+null space of ``Do[nbar, :]`` (a complete Householder QR per line; the SVD where that matrix is
+rank deficient), and ``g`` is fitted to the measured values weighted by ``1 / |H*[m, e]|`` (relative
+noise) by a small SVD per line and column; see :func:`~jointid.methods.hong_lee.estimation.estimate_weighted`.
+On data consistent with ``Do`` it is the paper's estimate; on noisy data it does not weight the
+rows by their units, so the rotation scale ``l`` does not change ``Du``. ``weighting="none"``
+solves the paper's ``Do[nbar, mbar] x = b`` unweighted instead (Householder QR per line, LAPACK's
+``gels`` algorithm; lines whose ``cond_A`` may exceed 1e6 by the SVD pseudo-inverse). The
+identification step is a small SVD per line (:mod:`jointid.methods.hong_lee.identification`).
+Everything is batched over frequency in chunks of lines run on the available cores.
+
+Rotational coordinates are scaled by a length ``l`` (default: the mean element length):
 moment rows are divided by ``l`` and rotation unknowns multiplied by it, so
-every equation and unknown has force/translation units. This weights the least
-squares sensibly and makes the condition numbers ``sigma_max / sigma_min``
-meaningful:
+every equation and unknown has force/translation units; this makes the condition numbers
+``sigma_max / sigma_min`` meaningful:
 
 * ``cond_A`` of ``Do[nbar, mbar]`` spikes where a combination of joint forces
   gives no response at the observed points (too few or badly placed points).
@@ -42,17 +48,22 @@ meaningful:
   subset of lines bracket it everywhere (Weyl's inequality); it is reported
   within a certified relative accuracy (default 1%, ``cond_rtol``; bound per
   line in ``cond_A_bound``), see :mod:`jointid.methods.hong_lee.condition`;
+* ``cond_W`` of the weighted fit ``W Z[m]`` (the same loss of information, seen by the weights);
 * ``cond_B`` of ``H*[n, e]`` peaks at the constrained structure's resonances
   (one mode dominates; the columns become parallel);
 * ``cond_H`` of the measured ``H*[m, e]``.
+
+Per-term predicted error: the relative FRF noise is estimated from the weighted residuals
+(``|m| - |n|`` redundant values per excited column) and propagated to first order through both
+steps (:mod:`jointid.methods.hong_lee.reliability`); a term is flagged reliable where its
+predicted relative standard deviation is small. Model error in ``Do`` is a bias outside it.
 
 ``identifiability[:, i] = |Du_ii| / |1 / Ho_ii|`` compares the joint's stiffness
 with the free beam's driving-point dynamic stiffness at ``n_i`` (``Ho = Do^-1``);
 far from 1 in either direction means the term is poorly identifiable with noisy
 data (the rotational term of a soft joint is typically ~1e-3).
 
-Options (all off by default, so the plain method stays available):
-accelerometer masses on ``Do`` (build the free structure with
+Options (off by default): accelerometer masses on ``Do`` (build the free structure with
 :meth:`~jointid.physics.structure.Structure.with_masses`, or pass
 ``accelerometers``), symmetric identification (``Du = Du^T`` enforced by least
 squares on the independent entries), Tikhonov regularization of the
@@ -74,9 +85,11 @@ from ...frf import FRF
 from ...physics.modes import DENSE_EIGEN_LIMIT, natural_modes
 from ...parallel import map_chunks
 from ...physics.structure import Structure
-from ..estimate import JointEstimate
+from ..estimate import JointEstimate, term_scale
 from .condition import pencil_condition
-from .estimation import EstimationLayout, estimate_qr, estimate_svd
+from .estimation import EstimationLayout, estimate_qr, estimate_svd, estimate_weighted
+from .identification import identify_step
+from .reliability import Reliability, pooled_noise, propagate_std
 
 __all__ = [
     "Reliability",
@@ -93,30 +106,8 @@ _QR_MAX_COND = 1e6
 
 
 @dataclass(frozen=True)
-class Reliability:
-    """Thresholds of the per-line ``reliable`` flag.
-
-    A line is reliable when ``cond_A <= max_cond_A``, ``cond_B <= max_cond_B``
-    and the translational identifiability ratio (rotational if no translation is
-    identified) lies in ``[min_ratio, max_ratio]``.
-
-    Calibration (benchmark beam, joint at mid-span, Materials A and B, layouts
-    Models 1-3, 1% complex noise on every FRF value, 1-1000 Hz): lines flagged
-    reliable had a median translational-stiffness error of 1.5-7%, the others
-    14-30%. The identifiability ratio is what separates them; the condition-number
-    limits only catch the worst spikes (a layout whose cond_A exceeds 1e5, or a
-    resonance where cond_B exceeds 100).
-    """
-
-    max_cond_A: float = 1e5
-    max_cond_B: float = 1e2
-    min_ratio: float = 0.1
-    max_ratio: float = 10.0
-
-
-@dataclass(frozen=True)
 class InverseOptions:
-    """Options of :func:`identify_joint` (all off by default: the plain method).
+    """Options of :func:`identify_joint` (the defaults are the paper's two steps, noise-weighted).
 
     Parameters
     ----------
@@ -126,20 +117,27 @@ class InverseOptions:
         Tikhonov regularization of the identification step, lambda per line by
         generalized cross-validation or by the L-curve corner.
     rotation_scale_m : float, optional
-        Length l used to scale rotations (default: :func:`rotation_scale`, the mean element length of a beam).
+        Length l used to scale rotations (default: :func:`rotation_scale`, the mean element
+        length of a beam). With ``weighting="relative"`` it changes only the condition numbers.
     reliability : Reliability
-        Thresholds of the ``reliable`` flag.
+        Thresholds of the per-term ``reliable`` flag.
+    weighting : {"relative", "none"}
+        Least-squares weights of the estimation step. ``"relative"`` (default): each measured
+        value by its relative noise, ``1 / |H*[m, e]|`` (the generalized least squares of
+        :func:`~jointid.methods.hong_lee.estimation.estimate_weighted`; independent of the
+        rotation scale; gives the per-term predicted error). ``"none"``: the rows of
+        ``Do[nbar, mbar] H*[mbar, e] = b`` unweighted in scaled units (the least squares of the
+        paper taken literally; no predicted error, so no term is flagged reliable).
     estimation : {"qr", "svd"}
         Solver of the estimation step (:mod:`jointid.methods.hong_lee.estimation`); both
-        return the least-squares solution ``Do[nbar, mbar]^+ b``. ``"qr"``
-        (default): Householder QR per line (LAPACK's least-squares algorithm);
-        lines whose ``cond_A`` may exceed 1e6 go to the SVD solver, which is
-        minimum-norm on rank-deficient lines. ``"svd"``: one SVD per line
-        everywhere (3-4x slower on 2 cores, ``benchmarks/identify.py``).
+        give the same solution. ``"qr"`` (default): Householder QR per line; with
+        ``weighting="none"`` lines whose ``cond_A`` may exceed 1e6 go to the SVD solver
+        (minimum-norm on rank-deficient lines), with ``"relative"`` lines where
+        ``Do[nbar, :]`` is rank deficient do. ``"svd"``: one SVD per line everywhere.
     cond_rtol : float
         With ``estimation="qr"``: certified relative accuracy of ``cond_A``
         (:func:`~jointid.methods.hong_lee.condition.pencil_condition`); 0 computes it by
-        an SVD on every line. The SVD solver always gives it exactly.
+        an SVD on every line.
     """
 
     symmetric: bool = False
@@ -148,6 +146,7 @@ class InverseOptions:
     reliability: Reliability = field(default_factory=Reliability)
     estimation: str = "qr"
     cond_rtol: float = 1e-2
+    weighting: str = "relative"
 
     def __post_init__(self) -> None:
         if self.regularization not in ("none", "gcv", "lcurve"):
@@ -156,6 +155,8 @@ class InverseOptions:
             )
         if self.estimation not in ("qr", "svd"):
             raise IdentificationError(f"estimation must be 'qr' or 'svd', got {self.estimation!r}")
+        if self.weighting not in ("relative", "none"):
+            raise IdentificationError(f"weighting must be 'relative' or 'none', got {self.weighting!r}")
         if not (isinstance(self.cond_rtol, (int, float)) and np.isfinite(self.cond_rtol) and 0 <= self.cond_rtol < 1):
             raise IdentificationError(f"cond_rtol must be a number in [0, 1), got {self.cond_rtol!r}")
 
@@ -164,9 +165,12 @@ class InverseOptions:
 class InverseResult(JointEstimate):
     """The Hong & Lee method's :class:`~jointid.methods.estimate.JointEstimate`: K per line, estimated FRFs, condition numbers.
 
-    The method gives no per-term uncertainty (``std_real``/``std_imag`` are NaN); its
-    reliability flag is per line (condition numbers and identifiability, :class:`Reliability`)
-    and applies to every term of that line.
+    With ``weighting="relative"`` every term has a predicted 1-sigma (the FRF noise, estimated from
+    the estimation step's residuals, propagated through both steps:
+    :mod:`jointid.methods.hong_lee.reliability`) and is flagged reliable by it
+    (:class:`~jointid.methods.hong_lee.reliability.Reliability`). Without redundant observed
+    points (``|m| = |n|``) or with ``weighting="none"`` the method gives no predicted error:
+    ``std_real``/``std_imag`` are NaN and no term is flagged reliable.
 
     Attributes
     ----------
@@ -177,14 +181,23 @@ class InverseResult(JointEstimate):
     stiffness : ndarray, shape (F, |n|, |n|), complex
         Identified ``Du``: N/m (w,w), N/rad (w,theta), N*m/m (theta,w), N*m/rad (theta,theta).
     estimated : FRF
-        Receptance ``H*[:, e]`` of the constrained structure on every free-beam DOF
-        (measured rows as measured, the rest estimated).
+        Receptance ``H*[:, e]`` of the constrained structure on every free-model DOF
+        (measured rows as fitted by the weighted estimation step, as measured without weighting).
     cond_A, cond_B, cond_H : ndarray, shape (F,)
         Condition numbers (scaled coordinates) of ``Do[nbar, mbar]``, ``H*[n, e]``, ``H*[m, e]``.
+    cond_W : ndarray, shape (F,)
+        Largest condition number over the excited columns of the weighted fit ``W Z[m]`` of the
+        estimation step (:func:`~jointid.methods.hong_lee.estimation.estimate_weighted`; NaN
+        without weighting): with ``cond_A`` it bounds the amplification of FRF errors.
     identifiability : ndarray, shape (F, |n|)
         ``|Du_ii| |Ho_ii|``.
-    reliable_lines : ndarray of bool, shape (F,)
-        The per-line flag (:class:`Reliability`); ``reliable_terms`` broadcasts it to every term.
+    std_real, std_imag : ndarray, shape (F, |n|, |n|)
+        Predicted 1-sigma of ``Re Du`` and ``Im Du`` (units of ``stiffness``; NaN: none).
+    reliable_terms : ndarray of bool, shape (F, |n|, |n|)
+        The per-term flag (:class:`~jointid.methods.hong_lee.reliability.Reliability`).
+    noise_std : ndarray, shape (F,)
+        Relative FRF noise ``sigma`` estimated from the estimation step's residuals (pooled over
+        ``Reliability.window`` lines; NaN without redundancy). Model error in ``Do`` raises it.
     regularization_lambda : ndarray, shape (F,)
         Tikhonov lambda per line (scaled units; 0 without regularization).
     options : InverseOptions
@@ -196,8 +209,12 @@ class InverseResult(JointEstimate):
     cond_A: np.ndarray
     cond_B: np.ndarray
     cond_H: np.ndarray
+    cond_W: np.ndarray
     identifiability: np.ndarray
-    reliable_lines: np.ndarray
+    std_real: np.ndarray
+    std_imag: np.ndarray
+    reliable_terms: np.ndarray
+    noise_std: np.ndarray
     regularization_lambda: np.ndarray
     options: InverseOptions
     cond_A_bound: np.ndarray
@@ -205,61 +222,66 @@ class InverseResult(JointEstimate):
     method: ClassVar[str] = "hong-lee"
 
     @property
-    def std_real(self) -> np.ndarray:
-        """NaN, shape (F, n, n): the method gives no per-term uncertainty."""
-        return np.full(self.stiffness.shape, np.nan)
-
-    std_imag = std_real
-
-    @property
-    def reliable_terms(self) -> np.ndarray:
-        """The per-line flag on every term, shape (F, n, n)."""
-        n = len(self.joint_dofs)
-        return np.broadcast_to(self.reliable_lines[:, None, None], (self.reliable_lines.size, n, n))
+    def reliable_lines(self) -> np.ndarray:
+        """Lines on which every term is reliable, shape (F,) (:attr:`reliable`)."""
+        return self.reliable
 
     def describe_estimator(self) -> str:
         """One line: the paper's two steps per line and what the flag means."""
-        return ("Hong & Lee per line (estimation step, then identification step); no per-term uncertainty: a line is "
-                "flagged by its condition numbers and the joint's identifiability")
+        if self.has_uncertainty:
+            return ("Hong & Lee per line (estimation step weighted by the FRF noise, then identification step); "
+                    "per-term predicted error: the FRF noise from the residuals propagated through both steps")
+        return "Hong & Lee per line (estimation step, then identification step); no per-term predicted error"
 
     def findings(self) -> list[str]:
-        """The method's one caveat: its flag is per line, not a predicted error per term."""
-        return [
-            "the Hong & Lee method gives no per-term uncertainty: its flag is per line (cond_A, cond_B, identifiability) "
-            "and does not say how far a term may be off; use method = \"receptance\" for per-term bands"
-        ]
+        """What the flag rests on: the predicted error (and its limits), or that there is none."""
+        if not self.has_uncertainty:
+            why = ("weighting = \"none\"" if self.options.weighting == "none" else
+                   "no observed point beyond the joint DOFs (|m| = |n|) to estimate the noise from")
+            return [f"the Hong & Lee method gives no per-term predicted error here ({why}): no term is flagged "
+                    "reliable; use method = \"receptance\" for per-term bands"]
+        sigma = float(np.nanmedian(self.noise_std))
+        return [f"Hong & Lee: predicted errors are first order in the FRF noise estimated from the estimation "
+                f"step's residuals (median {sigma:.2g} relative); they contain no bias from model error in the free "
+                "model, which shows as a larger residual noise"]
 
     def options_summary(self) -> dict:
-        """JSON-ready: symmetric, regularization, estimation, cond_rtol."""
+        """JSON-ready: symmetric, regularization, weighting, estimation, cond_rtol."""
         o = self.options
-        return {"symmetric": o.symmetric, "regularization": o.regularization, "estimation": o.estimation, "cond_rtol": o.cond_rtol}
+        return {"symmetric": o.symmetric, "regularization": o.regularization, "weighting": o.weighting,
+                "estimation": o.estimation, "cond_rtol": o.cond_rtol}
 
     def diagnostics(self) -> dict:
-        """JSON-ready: the largest condition numbers (and cond_A's certified error bound) and the flag's thresholds."""
+        """JSON-ready: the largest condition numbers (and cond_A's certified error bound), the noise estimate, the flag's thresholds."""
+        finite = np.isfinite(self.noise_std)
         return {
             "max_cond_A": float(np.max(self.cond_A)),
             "max_cond_A_relative_error_bound": float(np.max(self.cond_A_bound)),
             "max_cond_B": float(np.max(self.cond_B)),
             "max_cond_H": float(np.max(self.cond_H)),
+            "max_cond_W": float(np.nanmax(self.cond_W)) if np.isfinite(self.cond_W).any() else None,
+            "median_relative_noise": float(np.median(self.noise_std[finite])) if finite.any() else None,
             "reliability_thresholds": vars(self.options.reliability),
         }
 
     def subset(self, indices) -> "InverseResult":
         """The result on a subset of the joint DOFs (one of several joints identified together).
 
-        ``stiffness`` and ``identifiability`` are cut to the ``indices``; the per-line
-        diagnostics (condition numbers, ``reliable_lines``) and the estimated FRFs are those
-        of the joint estimate.
+        ``stiffness``, its standard deviations, flags and ``identifiability`` are cut to the
+        ``indices``; the per-line diagnostics (condition numbers, noise) and the estimated FRFs
+        are those of the joint estimate.
         """
         idx = np.asarray(list(indices), dtype=int)
+        cut = np.ix_(np.arange(self.stiffness.shape[0]), idx, idx)
         return replace(
-            self, joint_dofs=tuple(self.joint_dofs[i] for i in idx),
-            stiffness=self.stiffness[:, idx[:, None], idx[None, :]], identifiability=self.identifiability[:, idx],
+            self, joint_dofs=tuple(self.joint_dofs[i] for i in idx), stiffness=self.stiffness[cut],
+            std_real=self.std_real[cut], std_imag=self.std_imag[cut], reliable_terms=self.reliable_terms[cut],
+            identifiability=self.identifiability[:, idx],
         )
 
     def extra_columns(self) -> dict[str, np.ndarray]:
-        """``cond_A``, ``cond_B``, ``cond_H`` per line."""
-        return {"cond_A": self.cond_A, "cond_B": self.cond_B, "cond_H": self.cond_H}
+        """``cond_A``, ``cond_B``, ``cond_H`` and the relative FRF noise estimate per line."""
+        return {"cond_A": self.cond_A, "cond_B": self.cond_B, "cond_H": self.cond_H, "noise_std": self.noise_std}
 
     def plot(self, truth: np.ndarray | None = None, axes=None):
         """Magnitude (log), loss factor and condition numbers vs frequency; returns a Figure.
@@ -291,35 +313,6 @@ def _cond(A: np.ndarray) -> np.ndarray:
     s = np.linalg.svd(A, compute_uv=False)
     with np.errstate(divide="ignore"):
         return s[:, 0] / s[:, -1]
-
-
-def _tikhonov_lambda(s: np.ndarray, beta: np.ndarray, out_norm2: np.ndarray, m_eq: int, method: str) -> np.ndarray:
-    """Lambda per line for ``min ||A x - c||^2 + lambda^2 ||x||^2`` from the SVD of A.
-
-    Parameters
-    ----------
-    s : (F, k) singular values of A; beta : (F, k) |U^H c|^2 summed over right-hand sides;
-    out_norm2 : (F,) squared norm of c outside range(A); m_eq : number of equations.
-    """
-    grid = s[:, :1] * np.logspace(-4, 0, 41)[None, :]  # (F, G)
-    lam2 = grid[:, :, None] ** 2
-    s2 = s[:, None, :] ** 2
-    f = s2 / (s2 + lam2)  # filter factors (F, G, k)
-    res = np.sum(((1 - f) ** 2) * beta[:, None, :], axis=-1) + out_norm2[:, None]
-    if method == "gcv":
-        dof = m_eq - np.sum(f, axis=-1)
-        score = res / np.maximum(dof, 1e-12) ** 2
-        return grid[np.arange(s.shape[0]), np.argmin(score, axis=1)]
-    # L-curve: corner of maximum curvature of (log ||r||, log ||x||)
-    xn = np.sum((f**2) * beta[:, None, :] / s2, axis=-1)
-    x = 0.5 * np.log(np.maximum(res, 1e-300))
-    y = 0.5 * np.log(np.maximum(xn, 1e-300))
-    t = np.log(grid)
-    dx, dy = np.gradient(x, axis=1) / np.gradient(t, axis=1), np.gradient(y, axis=1) / np.gradient(t, axis=1)
-    ddx, ddy = np.gradient(dx, axis=1) / np.gradient(t, axis=1), np.gradient(dy, axis=1) / np.gradient(t, axis=1)
-    kappa = (dx * ddy - ddx * dy) / np.maximum((dx**2 + dy**2) ** 1.5, 1e-300)
-    kappa[:, [0, -1]] = -np.inf
-    return grid[np.arange(s.shape[0]), np.argmax(kappa, axis=1)]
 
 
 def identify_joint(
@@ -395,61 +388,77 @@ def identify_joint(
     )
     ho_nn = _driving_point_receptance(free, n_idx)
 
-    F = freq.size
+    F, n = freq.size, len(n_dofs)
     w2 = freq.omega**2
-    Du = np.empty((F, len(n_dofs), len(n_dofs)), complex)
+    Du = np.empty((F, n, n), complex)
     H_all = np.empty((F, N, len(e_dofs)), complex)
     condA = np.empty(F)
     condA_bound = np.zeros(F)
     condB = np.empty(F)
     lam_out = np.zeros(F)
-    ratio = np.empty((F, len(n_dofs)))
+    ratio = np.empty((F, n))
     condH = np.empty(F)
+    condW = np.full(F, np.nan)
+    rss = np.zeros(F)
+    unit_std = np.full((2, F, n, n), np.nan)  # std of Re, Im Du per unit relative noise variance
     n_scale = sc[n_idx][:, None] * sc[n_idx][None, :]
+    weighted = options.weighting == "relative"
 
     def solve(lines: np.ndarray, method: str) -> None:
         """Both steps on the given lines (chunk); writes the outputs at those lines."""
         Ys_m = H_meas[lines] / sc[m_idx][None, :, None]
         condH[lines] = _cond(H_meas[lines])
-        if method == "qr":
+        if weighted:
+            mag = np.abs(Ys_m)
+            wts = 1.0 / np.maximum(mag, 1e-12 * mag.max(axis=1, keepdims=True) + 1e-300)
+            est = estimate_weighted(layout, w2[lines], Ys_m, wts, method)
+            Ys, Cs, rss[lines], condW[lines] = est.Ys, est.Cs, est.rss, est.cond_w
+        elif method == "qr":
             Ys, Cs = estimate_qr(layout, w2[lines], Ys_m)
         else:
             Ys, Cs, condA[lines] = estimate_svd(layout, w2[lines], Ys_m)
         H_all[lines] = Ys * sc[None, :, None]
         # identification: Dus Bs = Cs (scaled), Du = S^-1 Dus S^-1
-        Dus, condB[lines], lam_out[lines] = _identify(Ys[:, n_idx], Cs, options)
+        Dus, condB[lines], lam_out[lines] = identify_step(Ys[:, n_idx], Cs, options.symmetric, options.regularization)
         Du[lines] = Dus / n_scale[None]
+        if weighted and len(m_dofs) > n:
+            P = layout.dynamic_stiffness_times(n_idx, np.arange(N), w2[lines], est.null)
+            std = propagate_std(Ys[:, n_idx], Cs, est.null[:, n_idx], P, est.cov, np.ones(lines.size),
+                                lam_out[lines], options.symmetric)
+            unit_std[:, lines] = np.stack(std) / n_scale[None, None]
         # identifiability: |Du_ii| |Ho_ii|
         ratio[lines] = np.abs(np.diagonal(Du[lines], axis1=1, axis2=2)) * np.abs(ho_nn(freq.hz[lines]))
 
     everything = np.arange(F)
-    if options.estimation == "svd":
+    rel = options.reliability
+    if options.estimation == "svd" and not weighted:
         map_chunks(solve, everything, _CHUNK_LINES, method="svd")
     else:
+        exact = options.estimation == "svd"
         cond = pencil_condition(
             *layout.estimation_blocks(),
             w2,
-            options.cond_rtol,
-            levels=(options.reliability.max_cond_A, _QR_MAX_COND),  # decisions taken on exact values
+            0.0 if exact else options.cond_rtol,
+            levels=(rel.max_cond_A, _QR_MAX_COND),  # decisions taken on exact values
         )
         condA[:], condA_bound[:] = cond.values, cond.bound
-        # (nearly) rank-deficient lines need the pseudo-inverse: the SVD solver, which also gives cond_A exactly
-        hard = ~(cond.values <= _QR_MAX_COND)
-        map_chunks(solve, everything[~hard], _CHUNK_LINES, method="qr")
-        if hard.any():
-            map_chunks(solve, everything[hard], _CHUNK_LINES, method="svd")
-            condA_bound[hard] = 0.0
+        if weighted:  # rank deficiency is in the small weighted fit, solved by SVD on every line
+            map_chunks(solve, everything, _CHUNK_LINES, method=options.estimation)
+        else:  # (nearly) rank-deficient lines need the pseudo-inverse: the SVD solver, which also gives cond_A exactly
+            hard = ~(cond.values <= _QR_MAX_COND)
+            map_chunks(solve, everything[~hard], _CHUNK_LINES, method="qr")
+            if hard.any():
+                map_chunks(solve, everything[hard], _CHUNK_LINES, method="svd")
+                condA_bound[hard] = 0.0
 
-    rel = options.reliability
-    k = next((i for i, d in enumerate(n_dofs) if d.direction == "w"), 0)
-    reliable = (
-        (condA <= rel.max_cond_A)
-        & (condB <= rel.max_cond_B)
-        & (ratio[:, k] >= rel.min_ratio)
-        & (ratio[:, k] <= rel.max_ratio)
-    )
+    sigma2 = pooled_noise(rss, (len(m_dofs) - n) * len(e_dofs), rel.window) if weighted else np.full(F, np.nan)
+    std_real, std_imag = unit_std * np.sqrt(sigma2)[None, :, None, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel_std = np.hypot(std_real, std_imag) / term_scale(Du)
+    reliable = (rel_std <= rel.max_relative_std) & (condA <= rel.max_cond_A)[:, None, None]
     estimated = FRF(freq, H_all, dofs, e_dofs, "receptance")
-    return InverseResult(freq, n_dofs, Du, estimated, condA, condB, condH, ratio, reliable, lam_out, options, condA_bound)
+    return InverseResult(freq, n_dofs, Du, estimated, condA, condB, condH, condW, ratio, std_real, std_imag, reliable,
+                         np.sqrt(sigma2), lam_out, options, condA_bound)
 
 
 def _screen(free, measured: FRF, H: np.ndarray, n_dofs) -> None:
@@ -528,47 +537,3 @@ def _driving_point_receptance(free: Structure, n_idx: np.ndarray):
         return Ho[:, n_idx, np.arange(n_idx.size)]
 
     return solved
-
-
-def _identify(B: np.ndarray, C: np.ndarray, options: InverseOptions):
-    """Solve ``Du B = C`` per line (right inverse); returns (Du, cond_B, lambda)."""
-    F, n, e = B.shape
-    # Du B = C  <=>  B^T Du^T = C^T : a least-squares problem with n unknowns per row of Du
-    At = np.swapaxes(B, -1, -2)  # (F, e, n)
-    Ct = np.swapaxes(C, -1, -2)  # (F, e, n): columns are right-hand sides
-    U, s, Vh = np.linalg.svd(At, full_matrices=False)  # U (F,e,k), s (F,k), Vh (F,k,n)
-    with np.errstate(divide="ignore"):
-        cond = s[:, 0] / s[:, -1]
-    Uh = np.conj(np.swapaxes(U, -1, -2))
-    proj = Uh @ Ct  # (F, k, n)
-    lam = np.zeros(F)
-    if options.regularization != "none":
-        beta = np.sum(np.abs(proj) ** 2, axis=-1)  # (F, k)
-        out2 = np.sum(np.abs(Ct) ** 2, axis=(-2, -1)) - np.sum(beta, axis=-1)
-        lam = _tikhonov_lambda(s, beta, np.maximum(out2, 0.0), e, options.regularization)
-    if options.symmetric and n > 1:
-        return _symmetric(B, C, lam), cond, lam  # lambda chosen on B's singular values, as for the plain solve
-    filt = s / (s**2 + lam[:, None] ** 2)
-    DuT = np.conj(np.swapaxes(Vh, -1, -2)) @ (filt[..., None] * proj)
-    return np.swapaxes(DuT, -1, -2), cond, lam
-
-
-def _symmetric(B: np.ndarray, C: np.ndarray, lam: np.ndarray) -> np.ndarray:
-    """Least-squares ``Du = Du^T`` with ``Du B = C``: unknowns are the upper triangle of Du."""
-    F, n, e = B.shape
-    pairs = [(i, j) for i in range(n) for j in range(i, n)]
-    # vec(Du B)[i, c] = sum_k Du[i, k] B[k, c]; Du[i, k] = x[p(i, k)]
-    G = np.zeros((F, n * e, len(pairs)), complex)
-    for p, (i, j) in enumerate(pairs):
-        G[:, i * e : (i + 1) * e, p] += B[:, j, :]
-        if i != j:
-            G[:, j * e : (j + 1) * e, p] += B[:, i, :]
-    rhs = C.reshape(F, n * e, 1)
-    U, s, Vh = np.linalg.svd(G, full_matrices=False)
-    filt = s / (s**2 + lam[:, None] ** 2)
-    x = (np.conj(np.swapaxes(Vh, -1, -2)) @ (filt[..., None] * (np.conj(np.swapaxes(U, -1, -2)) @ rhs)))[..., 0]
-    Du = np.empty((F, n, n), complex)
-    for p, (i, j) in enumerate(pairs):
-        Du[:, i, j] = x[:, p]
-        Du[:, j, i] = x[:, p]
-    return Du
