@@ -331,24 +331,32 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
     points = _points(mdata.get("points"), nn, m["observed"] + m["excited"]) if "points" in mdata else ()
     measurement = MeasurementSpec(m["observed"], m["excited"], m["axis"], points)
 
-    frequency = _frequency(data)
+    return _shared_sections(data, source, beam, (joint,), measurement, lambda key, nodes: _nodes_in_range("accelerometers", key, nodes, nn),
+                            lambda acc: _sensors_below_beam(acc, beam), _TRUTH)
 
+
+def _shared_sections(data: Mapping, source: str, structure, joints: tuple, measurement: MeasurementSpec, check_nodes,
+                     check_sensors, truth_fields: Mapping) -> Study:
+    """The sections every free structure shares -- ``[frequency]``, ``[accelerometers]`` (default nodes: the observed
+    ones), ``[identification]``, ``[experiment]``, ``[truth]`` (the keys the structure's spec may change) -- and the Study.
+
+    ``check_nodes(key, nodes)`` and ``check_sensors(acc)`` are the free structure's own checks (nodes it has, sensors
+    lighter than it)."""
+    frequency = _frequency(data)
     acc = None
     if "accelerometers" in data:
         a = _section(data["accelerometers"], "accelerometers", _ACCELEROMETERS)
         if a["nodes"] is None:
-            a["nodes"] = measurement.observed
-        _nodes_in_range("accelerometers", "nodes", a["nodes"], nn)
+            a["nodes"] = tuple(dict.fromkeys(d.node for d in measurement.observed_dofs))
+        check_nodes("nodes", a["nodes"])
         acc = AccelerometerSpec(**a)
-        _sensors_below_beam(acc, beam)
+        check_sensors(acc)
     ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
     if ident.model_accelerometers and acc is None:
         raise StudyError("[identification].model_accelerometers = true needs an [accelerometers] section")
     exp = _experiment(data, frequency)
-    truth = None
-    if "truth" in data:
-        truth = TruthSpec(**{k: v for k, v in _section(data["truth"], "truth", _TRUTH).items()})
-    return Study(beam, (joint,), measurement, frequency, acc, ident, exp, source, truth)
+    truth = TruthSpec(**_section(data["truth"], "truth", truth_fields)) if "truth" in data else None
+    return Study(structure, joints, measurement, frequency, acc, ident, exp, source, truth)
 
 
 def _sensors_below_beam(acc: AccelerometerSpec, beam: BeamSpec) -> None:
@@ -442,25 +450,14 @@ def _parse_structure_study(data: Mapping[str, Any], source: str) -> Study:
         nodes = tuple(d.node for d in dofs["observed"] + dofs["excited"])
         points = _points(mdata["points"], int(structure.dof_array.node.max()), nodes)
     measurement = MeasurementSpec(dofs["observed"], dofs["excited"], "+Z", points)
-    frequency = _frequency(data)
-    acc = None
-    if "accelerometers" in data:
-        a = _section(data["accelerometers"], "accelerometers", _ACCELEROMETERS)
-        if a["nodes"] is None:
-            a["nodes"] = tuple(dict.fromkeys(d.node for d in measurement.observed_dofs))
-        known = set(structure.dof_array.node.tolist())
-        for n in a["nodes"]:
+    known = set(structure.dof_array.node.tolist())
+
+    def check_nodes(key, nodes):
+        for n in nodes:
             if n not in known:
-                raise StudyError(f"[accelerometers].nodes: node {n} has no DOF in the structure ({structure.dofs})")
-        acc = AccelerometerSpec(**a)
-    ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
-    if ident.model_accelerometers and acc is None:
-        raise StudyError("[identification].model_accelerometers = true needs an [accelerometers] section")
-    exp = _experiment(data, frequency)
-    truth = None
-    if "truth" in data:
-        truth = TruthSpec(**_section(data["truth"], "truth", _STRUCTURE_TRUTH))
-    return Study(structure, joints, measurement, frequency, acc, ident, exp, source, truth)
+                raise StudyError(f"[accelerometers].{key}: node {n} has no DOF in the structure ({structure.dofs})")
+
+    return _shared_sections(data, source, structure, joints, measurement, check_nodes, lambda acc: None, _STRUCTURE_TRUTH)
 
 
 def _points(table: Any, n_nodes: int, used: tuple[int, ...]) -> tuple[tuple[int, int], ...]:
