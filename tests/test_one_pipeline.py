@@ -229,3 +229,28 @@ def test_frame_with_5g_accelerometers_identified_with_and_without_them_in_the_mo
     err_ignored = np.median(np.abs(ignored.stiffness - test.truth) / scale)
     assert err_exact < 1e-7  # exact data and the model that made them: round-off of the Woodbury coupling
     assert err_ignored > 1e3 * err_exact and err_ignored > 1e-4  # 45 g of sensors left out of Do is a model error
+
+
+# --------------------------------------------------------------------------- a joint given as a table
+def test_a_joint_table_simulates_the_joint_it_was_written_from(tmp_path):
+    """``[joint.model] type = "matrix"``: the true_joint.csv of one simulation is the joint of another, the same FRFs."""
+    from jointid.cli.main import main
+    from jointid.io.frf_files import read_frf
+
+    from study_texts import beam_study_toml
+
+    text = beam_study_toml(start=20.0, stop=400.0, step=20.0)
+    (tmp_path / "a.toml").write_text(text)
+    assert main(["simulate", str(tmp_path / "a.toml"), "--out", str(tmp_path / "sim")]) == 0
+    head, tail = text.split("[joint.model]", 1)
+    rest = tail.split("\n[", 1)[1]
+    (tmp_path / "b.toml").write_text(head + '[joint.model]\ntype = "matrix"\nfile = "sim/true_joint.csv"\n\n[' + rest)
+    b = load_study(tmp_path / "b.toml")
+    assert b.joint.model.type == "matrix" and b.joint.model.parameters["stiffness"].shape == (20, 2, 2)
+    assert main(["simulate", str(tmp_path / "b.toml"), "--out", str(tmp_path / "sim_b")]) == 0
+    a_frf, b_frf = read_frf(tmp_path / "sim" / "frf.uff"), read_frf(tmp_path / "sim_b" / "frf.uff")
+    # the table holds the joint to the digits the CSV writes (repr of a double: exact), the FRFs as UFF58 text
+    assert np.abs(b_frf.data / a_frf.data - 1).max() < 1e-9
+    outside = tmp_path / "c.toml"
+    outside.write_text((tmp_path / "b.toml").read_text().replace("stop = 400.0", "stop = 600.0"))
+    assert main(["simulate", str(outside), "--out", str(tmp_path / "sim_c")]) == 2  # lines beyond the table: refused

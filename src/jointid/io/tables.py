@@ -12,7 +12,7 @@ import numpy as np
 
 from .atomic import atomic_write_text
 
-__all__ = ["write_csv", "format_csv"]
+__all__ = ["write_csv", "format_csv", "read_csv_columns"]
 
 
 def _fmt(v) -> str:
@@ -69,3 +69,37 @@ def write_csv(path: str | os.PathLike, columns: Mapping[str, Sequence]) -> Path:
     The text is that of :func:`format_csv`; returns the path.
     """
     return atomic_write_text(path, format_csv(columns))
+
+
+def read_csv_columns(path: str | os.PathLike, what: str = "table") -> dict[str, np.ndarray]:
+    """The numeric columns of a comma-separated table with one header line (``write_csv``'s layout), by name.
+
+    Empty cells are NaN; ``true``/``false`` read as 1/0. Returns name -> float array, shape (rows,).
+
+    Raises
+    ------
+    DataError
+        The file cannot be read or decoded, has no header or no rows, a row of another length, or a cell
+        that is not a number (one line naming the file, the line and the column).
+    """
+    from ..errors import DataError
+    from .text import check_separator, read_utf8
+
+    text = read_utf8(path, what)
+    rows = list(csv.reader(text.splitlines()))
+    rows = [r for r in rows if r and not r[0].startswith("#")]
+    if len(rows) < 2:
+        raise DataError(f"{path}: the {what} needs a header line and at least one row")
+    header = [h.strip() for h in rows[0]]
+    check_separator(path, header)
+    out = {h: np.empty(len(rows) - 1) for h in header}
+    for i, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise DataError(f"{path} line {i}: {len(row)} cells for {len(header)} columns")
+        for h, cell in zip(header, row):
+            c = cell.strip().lower()
+            try:
+                out[h][i - 2] = np.nan if c == "" else (1.0 if c == "true" else 0.0 if c == "false" else float(c))
+            except ValueError:
+                raise DataError(f"{path} line {i}, column {h}: {cell!r} is not a number") from None
+    return out

@@ -12,6 +12,10 @@ grounded) or on ``dofs + other`` (between two parts). :data:`JOINT_MODELS` maps 
     The beam study's shorthand for a mount on ``(node w, node theta)``: ``k_w_w`` (N/m),
     ``k_theta_theta`` (N*m/rad), ``k_w_theta`` (N/rad) and the same frequency law (the formula
     lives once, in :class:`~jointid.physics.mount.MountModel`).
+``"matrix"``
+    A joint given as a table (a measured or computed one, e.g. a previous identification):
+    ``frequency_hz`` (F0,) and ``stiffness`` (F0, k, k) complex, interpolated linearly in
+    frequency (real and imaginary parts) on the lines asked for, which must lie in the table's band.
 ``"elastomer"``
     The elastomer cylinder's FE model (:mod:`jointid.physics.elastomer_joint`) on one
     (translation, rotation) pair of the joint's DOFs (``pair``, ``sigma``;
@@ -120,11 +124,33 @@ def _elastomer(dofs, other, p, name) -> ComplexStiffness:
     return fe.complex_stiffness(dofs[0].node, tuple(d.direction for d in dofs), name=name)
 
 
+def _matrix(dofs, other, p, name) -> ComplexStiffness:
+    f0 = np.asarray(p["frequency_hz"], float)
+    K0 = np.asarray(p["stiffness"], complex)
+    k = len(dofs) + len(other)
+    if K0.shape != (f0.size, k, k) or f0.size < 2 or not np.all(np.diff(f0) > 0):
+        raise ModelError(f"{name}: a joint table needs increasing frequencies and a {k} x {k} matrix on each, got {K0.shape}")
+    if not np.all(np.isfinite(K0)):
+        raise ModelError(f"{name}: the joint table has values that are not finite")
+
+    def stiffness(f_hz: np.ndarray) -> np.ndarray:
+        f = np.atleast_1d(np.asarray(f_hz, float))
+        if f.size and (f.min() < f0[0] or f.max() > f0[-1]):
+            raise ModelError(f"{name}: lines at {f.min():g}-{f.max():g} Hz reach outside the joint table's {f0[0]:g}-{f0[-1]:g} Hz")
+        flat = K0.reshape(f0.size, -1)
+        re = np.stack([np.interp(f, f0, c) for c in flat.real.T], axis=1)
+        im = np.stack([np.interp(f, f0, c) for c in flat.imag.T], axis=1)
+        return (re + 1j * im).reshape(f.size, k, k)
+
+    return ComplexStiffness(tuple(dofs) + tuple(other), stiffness, name)
+
+
 #: ``[joint.model] type`` -> ``build(dofs, other, parameters, name) -> ComplexStiffness``.
 JOINT_MODELS: dict[str, Callable[..., ComplexStiffness]] = {
     "mount": _mount,
     "parametric": _parametric,
     "elastomer": _elastomer,
+    "matrix": _matrix,
 }
 
 

@@ -143,7 +143,7 @@ from ..schema import choices as _choices
 from ..schema import nonneg as _nonneg
 from ..schema import positive as _positive
 from ..schema import section as _section
-from .structures import ELASTOMER_MATERIAL_FIELDS, parse_dof_list_key, parse_joints, parse_structure_table
+from .structures import ELASTOMER_MATERIAL_FIELDS, matrix_joint_model, parse_dof_list_key, parse_joints, parse_structure_table
 from .sections import (
     TRUTH_KEYS,
     AccelerometerSpec,
@@ -316,10 +316,14 @@ def _parse(data: Mapping[str, Any], source: str) -> Study:
             params = _section(mdata, "joint.model", _PARAMETRIC)
         elif mtype == "elastomer":
             params = _section(mdata, "joint.model", _ELASTOMER)
+        elif mtype != "matrix":
+            raise StudyError(f"[joint.model].type: expected 'parametric', 'elastomer' or 'matrix', got {mtype!r}")
+        if mtype == "matrix":
+            base = Path(source).parent if not source.startswith("<") else Path(".")
+            model = matrix_joint_model("[joint.model]", mdata, tuple(Dof(j["node"], d) for d in dofs), base)
         else:
-            raise StudyError(f"[joint.model].type: expected 'parametric' or 'elastomer', got {mtype!r}")
-        params.pop("type")
-        model = JointModelSpec(mtype, {k: v for k, v in params.items() if v is not None})
+            params.pop("type")
+            model = JointModelSpec(mtype, {k: v for k, v in params.items() if v is not None})
     joint = JointSpec("joint", tuple(Dof(j["node"], d) for d in dofs), (), model)
 
     mdata = data["measurement"]
@@ -424,7 +428,7 @@ def _parse_structure_study(data: Mapping[str, Any], source: str) -> Study:
     base = Path(source).parent if not source.startswith("<") else Path(".")
     structure = parse_structure_table(data["structure"], base)
     model_name = f"structure ({structure.dofs})"
-    joints = parse_joints(data["joint"], structure.dof_array, model_name)
+    joints = parse_joints(data["joint"], structure.dof_array, model_name, base)
     mdata = data["measurement"]
     if not isinstance(mdata, Mapping):
         raise StudyError(f"[measurement] must be a table, got {mdata!r}")

@@ -75,6 +75,8 @@ from pathlib import Path
 from typing import Any, Mapping
 
 
+import numpy as np
+
 from ..dofs import Dof, DofArray, parse_dof
 from .sections import JointModelSpec, JointSpec
 from ..errors import DataError, DofError, ModelError, StudyError
@@ -83,7 +85,7 @@ from ..schema import (
 )
 
 __all__ = [
-    "MatrixStructureSpec", "parse_structure_table", "parse_joints", "parse_dof_list_key",
+    "MatrixStructureSpec", "parse_structure_table", "parse_joints", "parse_dof_list_key", "matrix_joint_model",
     "MOUNT_KEYS", "ELASTOMER_KEYS", "ELASTOMER_MATERIAL_FIELDS",
 ]
 
@@ -329,7 +331,7 @@ def parse_dof_list_key(where: str, value: Any, model: DofArray, model_name: str,
     return tuple(out)
 
 
-def parse_joints(data: Any, model: DofArray, model_name: str) -> tuple[JointSpec, ...]:
+def parse_joints(data: Any, model: DofArray, model_name: str, base: Path = Path(".")) -> tuple[JointSpec, ...]:
     """Validate ``[[joint]]`` (or one ``[joint]`` table) of a structure study.
 
     Raises
@@ -372,19 +374,58 @@ def parse_joints(data: Any, model: DofArray, model_name: str) -> tuple[JointSpec
                     + "; a DOF belongs to one joint only"
                 )
             owner[d] = name
-        model_spec = _joint_model(f"{where} [joint.model]", t["model"], dofs, other) if "model" in t else None
+        model_spec = _joint_model(f"{where} [joint.model]", t["model"], dofs, other, base) if "model" in t else None
         joints.append(JointSpec(name, dofs, other, model_spec))
     return tuple(joints)
 
 
-def _joint_model(where: str, data: Any, dofs: tuple[Dof, ...], other: tuple[Dof, ...]) -> JointModelSpec:
+def _joint_model(where: str, data: Any, dofs: tuple[Dof, ...], other: tuple[Dof, ...], base: Path) -> JointModelSpec:
     if not isinstance(data, Mapping):
         raise StudyError(f"{where} must be a table")
     if data.get("type") == "elastomer":
         return _elastomer(where, data, dofs, other)
+    if data.get("type") == "matrix":
+        return matrix_joint_model(where, data, dofs + other, base)
     if data.get("type") != "mount":
-        raise StudyError(f"{where}.type: expected 'mount' or 'elastomer' for a joint of a [structure] study, got {data.get('type')!r}")
+        raise StudyError(f"{where}.type: expected 'mount', 'elastomer' or 'matrix' for a joint of a [structure] study, got {data.get('type')!r}")
     return _mount(where, data, dofs)
+
+
+def matrix_joint_model(where: str, data: Mapping, joint_dofs: tuple[Dof, ...], base: Path) -> JointModelSpec:
+    """``[joint.model] type = "matrix"``: the joint as a table, ``file`` (relative to the study file) in the layout
+    ``jointid identify`` writes (``frequency_hz``, ``K_{i}_{j}_real``/``_imag`` in N/m, N/rad, N*m/m, N*m/rad;
+    term labels of :func:`jointid.terms.dof_term_labels` on the joint's DOFs).
+
+    Raises
+    ------
+    StudyError
+        An unknown key, a file that cannot be read, a missing term column, non-finite values (one line).
+    """
+    from ..io.tables import read_csv_columns
+    from ..terms import term_names
+
+    unknown = [k for k in data if k not in ("type", "file")]
+    if unknown or not isinstance(data.get("file"), str) or not data["file"].strip():
+        raise StudyError(f"{where}: a joint table is type = \"matrix\" and file = \"NAME.csv\" (a joint_stiffness.csv of "
+                         f"jointid identify)" + (f"; unknown key {unknown[0]!r}" if unknown else ""))
+    path = Path(data["file"]) if Path(data["file"]).is_absolute() else base / data["file"]
+    try:
+        cols = read_csv_columns(path, "joint table")
+    except DataError as exc:
+        raise StudyError(f"{where}.file: {exc}") from None
+    k = len(joint_dofs)
+    names = term_names(joint_dofs)
+    missing = [f"{name}_{part}" for _, _, name in names for part in ("real", "imag") if f"{name}_{part}" not in cols]
+    if "frequency_hz" not in cols or missing:
+        raise StudyError(f"{where}.file: {path} has no column {('frequency_hz' if 'frequency_hz' not in cols else missing[0])!r}; "
+                         f"it needs frequency_hz and K_i_j_real/_imag for the joint's DOFs ({', '.join(map(str, joint_dofs))})")
+    f = cols["frequency_hz"]
+    K = np.empty((f.size, k, k), complex)
+    for a, b, name in names:
+        K[:, a, b] = cols[f"{name}_real"] + 1j * cols[f"{name}_imag"]
+    if not (np.all(np.isfinite(K)) and np.all(np.isfinite(f)) and f.size >= 2 and np.all(np.diff(f) > 0)):
+        raise StudyError(f"{where}.file: {path}: the table needs increasing frequencies and finite values on at least two lines")
+    return JointModelSpec("matrix", {"file": str(path), "frequency_hz": f, "stiffness": K})
 
 
 def _elastomer(where: str, data: Mapping, dofs: tuple[Dof, ...], other: tuple[Dof, ...]) -> JointModelSpec:
