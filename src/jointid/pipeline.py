@@ -84,13 +84,15 @@ def simulate(study: Study, frequency: Frequency | None = None) -> VirtualTest:
 
 
 def inverse_options(study: Study) -> InverseOptions:
-    """The :class:`InverseOptions` of the study's ``[identification]`` section."""
+    """The :class:`InverseOptions` of the study's ``[identification]`` section (``weighting = "none"``: the paper's
+    unweighted pseudo-inverses; any other: the estimation step weighted by the FRFs' relative noise)."""
     spec = study.identification
     return InverseOptions(
         symmetric=bool(spec.symmetric),
         regularization=spec.regularization,
         estimation=spec.estimation,
         cond_rtol=spec.cond_rtol,
+        weighting="none" if spec.weighting == "none" else "relative",  # "none": the paper's unweighted two steps
     )
 
 

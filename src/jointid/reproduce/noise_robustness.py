@@ -40,7 +40,7 @@ from ..frequency import Frequency
 from ..frf import FRF
 from ..methods.receptance.coupling import Z90, CouplingOptions, identify_joint_coupling
 from ..physics.free_model import as_free_model
-from ..pipeline import coupling_options, free_model, identify, true_joint
+from ..pipeline import coupling_options, free_model, identify, inverse_options, true_joint
 from ..report.html import Table
 from ..study import FrequencySpec, IdentificationSpec, Study
 from .common import Progress, StudyOutput, add_noise, band_errors, config_study
@@ -109,7 +109,8 @@ def case_study(config, case: Case, method: str = "receptance") -> Study:
 
 
 def method_options(study: Study) -> dict[str, CouplingOptions | None]:
-    """Options per method key (None: Hong-Lee through the study's ``method = "hong-lee"``)."""
+    """Options per method key (None: Hong-Lee as the paper states it -- unweighted pseudo-inverses of its two steps --
+    through the study's ``method = "hong-lee"``)."""
     return {
         "hong-lee": None,
         "receptance": coupling_options(study),  # the default [identification]
@@ -298,9 +299,11 @@ def run_part(config, case: Case, index: int, seeds: Sequence[int], progress: Pro
     hl_study = case_study(config, case, method="hong-lee")
     options = method_options(study)
 
+    paper = replace(inverse_options(hl_study), weighting="none")  # the paper's unweighted two steps
+
     def solve(method, frf):
         if options[method] is None:
-            return identify(hl_study, frf)
+            return identify(hl_study, frf, paper)
         return identify_joint_coupling(cached, frf, study.joint.joint_dofs, options[method])
 
     exact = None

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["identify_step"]
+__all__ = ["identify_step", "symmetric_design"]
 
 
 def _tikhonov_lambda(s: np.ndarray, beta: np.ndarray, out_norm2: np.ndarray, m_eq: int, method: str) -> np.ndarray:
@@ -78,7 +78,7 @@ def identify_step(B: np.ndarray, C: np.ndarray, symmetric: bool = False, regular
 def _symmetric(B: np.ndarray, C: np.ndarray, lam: np.ndarray) -> np.ndarray:
     """Least-squares ``Du = Du^T`` with ``Du B = C``: unknowns are the upper triangle of Du."""
     F, n, e = B.shape
-    G, pairs = _symmetric_design(B)
+    G, pairs = symmetric_design(B)
     rhs = C.reshape(F, n * e, 1)
     U, s, Vh = np.linalg.svd(G, full_matrices=False)
     filt = s / (s**2 + lam[:, None] ** 2)
@@ -90,7 +90,7 @@ def _symmetric(B: np.ndarray, C: np.ndarray, lam: np.ndarray) -> np.ndarray:
     return Du
 
 
-def _symmetric_design(B: np.ndarray):
+def symmetric_design(B: np.ndarray):
     """``G`` (F, |n| |e|, p) with ``vec(Du B) = G x``, ``x`` the upper triangle of ``Du`` (row-major ``vec``); and the pairs."""
     F, n, e = B.shape
     pairs = [(i, j) for i in range(n) for j in range(i, n)]

@@ -165,10 +165,10 @@ def _symmetric_jacobians(B, C, Nn, P):
     ``dc - dG x = vec(dC - Du dB) = -vec(T dg_j e_j^T)`` and, for ``dB = u e_j^T``, entry ``(a, b)``
     of ``dG^H r`` is ``conj(u_b) r[a, j] + conj(u_a) r[b, j]`` (``a != b``).
     """
-    from .identification import _symmetric_design
+    from .identification import symmetric_design
 
     F, n, e = B.shape
-    G, pairs = _symmetric_design(B)
+    G, pairs = symmetric_design(B)
     Gp = np.linalg.pinv(G)  # (F, p, n e)
     Du = identify_step(B, C, True)[0]
     T = P + Du @ Nn
