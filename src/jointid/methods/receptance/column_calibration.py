@@ -6,7 +6,8 @@ column ``H[:, j]`` by ``1 + eps_j(f)``, a factor common to every response and
 smooth over frequency (the force window is short, so its noise spectrum varies
 on a scale of ``1 / window``). Such an error does not average out over the
 responses, and the joint's rotational term is nearly indistinguishable from
-it: on the benchmark a 0.07 % column error moves ``K_theta_theta`` by ~15 %.
+it: a column error far below the noise of a single value moves ``K_theta_theta`` by
+many times its own size.
 
 Model, with ``delta_j = eps_j / (1 + eps_j)`` so that the true FRF is
 ``H (1 - delta)`` exactly::
@@ -35,18 +36,18 @@ regressor ``G``, so its noise enters the normal equations twice: with ``h`` the
 leverage of value ``(r, j)`` in its line's fit and ``s^2`` the residual variance,
 ``E[Z^H r0]`` carries ``-s^2 sum_r (1 - h_rj)`` per line and column, and
 ``E[Z^H Z]`` ``+s^2`` the same. Second order per line, it does not average out over
-the lines as the noise does: uncorrected it biased the benchmark's column error by
-about the relative noise variance (~2e-4) and moved K_ww at mid-span by 0.06 %
-(3 sigma). Both are subtracted (bias-compensated least squares). With the true
-noise variance as weights the coefficients' errors then match ``s^2 N^-1``
-(mean Mahalanobis 0.94-1.3 per coefficient over 6 tests; with the split weights
-and no compensation it was 1.7-2.4, with the compensation 1.15-1.7).
+the lines as the noise does: uncorrected it biases the column error by about the
+relative noise variance, and the joint's terms by a few of their standard deviations.
+Both are subtracted (bias-compensated least squares). With the true noise variance
+as weights the coefficients' errors then match ``s^2 N^-1`` (mean Mahalanobis
+distance ~1 per coefficient); with weights that are only roughly right (the
+coherence split below) they are larger.
 
 **Weights after the correction** (:func:`residual_variance`). The coherence of a
 test with force noise mixes the column error with the response noise; the split of
 :func:`~jointid.methods.receptance.frf_variance.column_noise_fraction` separates them only as well
-as its noise model holds (log-scale std 0.6 against the true response-noise
-variance on the benchmark). Once the column error is removed, the residuals of the
+as its noise model holds (a floor per channel over a force spectrum per column),
+which is only roughly. Once the column error is removed, the residuals of the
 per-line fit measure the noise left in each value directly, and the calibration
 and the joint are estimated again with those weights
 (:func:`jointid.methods.receptance.coupling.identify_joint_coupling`).
@@ -75,8 +76,8 @@ CALIBRATION_BASIS = 16
 CALIBRATION_P_VALUE = 1e-3
 #: ... and its F statistic above this: the column error explains at least this many times the
 #: residual variance per parameter. The F test alone assumes exactly right weights; weights from
-#: coherence are right to a factor ~1.5, which moves F by as much (1.2-1.9 on the benchmark's
-#: virtual hammer test without force noise; 420-820 with 1 % force noise).
+#: coherence are right only to a factor (~1.5), which moves F by as much; a real column error
+#: (force noise) moves it by orders of magnitude.
 CALIBRATION_MIN_F = 4.0
 #: ... and a median column error above this (relative): below it, on exact or nearly exact
 #: data, the F test only measures round-off.
@@ -244,10 +245,11 @@ def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, vari
 
     over the ``lines`` lines around ``f`` (running sums). It needs no model of the
     noise: what is left once the column calibration has removed the column-common
-    error is measured directly. On the benchmark's virtual hammer test with 1 % force
-    noise the coherence split's variance is off the true response-noise variance by a
-    log-scale std of 0.6; with these weights K_ww's bands at mid-span hold the truth on
-    0.87 of the lines instead of 0.67-0.72 (50 tests).
+    error is measured directly. The coherence split's variance
+    (:func:`~jointid.methods.receptance.frf_variance.column_noise_fraction`) is only as
+    right as its noise model; with force noise, bands from these weights hold the truth
+    on more of the lines than bands from the split's (``benchmarks/robust_identification.py
+    --hammer-seeds N`` prints the default's band coverage per term).
 
     Caveats: the ``change`` must be free of column errors (corrected); the running sums
     smear a variance that changes within ``lines`` lines (a relative error ``~|H|^2``

@@ -26,10 +26,12 @@ The default inverse method of jointid. Three steps, each documented where it liv
    :data:`AUTO_STRUCTURED_MAX_DOFS` DOFs on the exact per-line path, with at least
    :data:`STRUCTURED_MIN_LINES` lines and noisy data, else ``"gcv"`` (a study of several
    joints uses ``"gcv"``: :func:`jointid.pipeline.coupling_options`).
-   Measured on the benchmark's virtual roving-hammer test (1 % response and force
-   noise, 100-1000 Hz): K_theta_theta 0.2-2.7 % median error against 36-56 % with
-   ``"gcv"``. A term whose per-line estimates are already exact to 1e-6 (exact
-   data) is left as it is: any smoother could only add its approximation error.
+   For a weakly seen term (K_theta_theta) it is far more accurate than ``"gcv"``,
+   which has only that term's own noisy lines to average; ``benchmarks/structured_fit.py``
+   and ``benchmarks/robust_identification.py`` print the default's median error per term
+   (the latter on the virtual roving-hammer test, 1 % response and force noise).
+   A term whose per-line estimates are already exact to 1e-6 (exact data) is left as
+   it is: any smoother could only add its approximation error.
    With ``calibration = "auto"`` (default) a force-calibration error common to each
    excitation column (:mod:`jointid.methods.receptance.column_calibration`) is tested for,
    and corrected with its uncertainty added to the bands when it is significant.
@@ -49,7 +51,8 @@ uncertainty matters; the plain per-line Hong & Lee method
 (:func:`jointid.methods.hong_lee.inverse.identify_joint`, ``method = "hong-lee"``) to
 reproduce the paper, to see its conditioning diagnostics (``cond_A``, ``cond_B``)
 or to estimate the unobserved FRFs (rotations) of the constrained structure.
-Both recover the joint from exact FRFs to ~1e-9.
+Both recover the joint from exact FRFs to round-off (``benchmarks/readme_figures.py``
+prints the default's largest error per term).
 """
 
 from __future__ import annotations

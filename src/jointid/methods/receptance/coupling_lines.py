@@ -45,7 +45,8 @@ spectrum per hit). With ``A = Wr^(1/2) Y[m,n]`` (m x n), ``B = Y[n,e] Wc^(1/2)``
 Its covariance is a Kronecker product, ``E[dX_ab conj(dX_cd)] = s^2 Gr[a,c] Gc[b,d]``
 with ``Gr = (A^H A)^-1`` and ``Gc = conj((B B^H)^-1)``. The symmetric constraint is
 imposed *optimally* (the constrained weighted fit, not the plain projection
-``(X_u + X_u^T)/2``, which on the benchmark layout was 14x less accurate) in the
+``(X_u + X_u^T)/2``, which ignores that the two entries of a pair have different
+variances and is markedly less accurate) in the
 basis that decorrelates it: with ``Gc = Lc Lc^H`` (Cholesky, after a symmetric
 diagonal equilibration) and ``Lc^-1 Gr Lc^-H = W diag(mu) W^H``, ``U = Lc W`` gives
 ``Gr = U diag(mu) U^H`` and ``Gc = U U^H``, so ``Z = U^-1 X_u U^-T`` has independent
@@ -71,15 +72,15 @@ only in the weights, the separable part of ``1 / var``: the estimate is
 unbiased; with separable variances it *is* the exact path's constrained
 weighted fit, estimate and variance (to 1e-11, tests/test_coupling_kronecker.py);
 otherwise its variance is computed as if the separable weights were the true
-ones, which misstates it somewhat. Measured on the large-model benchmark (24
-joint DOFs, 48 x 36 FRFs, 0.1 % noise plus a floor per hit, 10 lines where
-both paths run): rms error 0.049 vs the exact path's 0.046 (of
-``sqrt|Du_ii Du_jj|``), rms of error / predicted std 1.22 vs 0.99; on the
-4-DOF test case with relative weights 1/|H|^2: 0.35 vs 0.32, and 1.21 vs 0.86.
+ones, which misstates it somewhat, and the estimate is a little less accurate than
+the exact path's with the true weights. ``benchmarks/large_model.py`` prints both paths'
+rms error (of ``sqrt|Du_ii Du_jj|``) and rms of error / predicted std (~1 when the
+variance is right) on noisy lines where both run.
 The column force-calibration estimate needs the full design and is not
 available on this path. ``condition`` is that of the unconstrained
-column-equilibrated design, ``cond(A Da) cond(Db B)``. Cost on that benchmark:
-under 3 s cpu for 2000 lines, ~50 MB, against ~0.5 s per line and 17 GB.
+column-equilibrated design, ``cond(A Da) cond(Db B)``. Memory: n x n arrays per
+line instead of the exact path's ``|m||e| x p`` design; ``benchmarks/large_model.py``
+prints the time and peak memory of both paths.
 
 Caveats: the linearization holds while the predicted relative error of a term
 is small (say < 30 %); ``Du`` is an inverse of ``X^-1 - Y[n,n]``, so a term far
@@ -395,8 +396,8 @@ def relinearize(lines: LineEstimates, around: np.ndarray) -> LineEstimates:
     """Per-line estimates of Du linearized around a smooth estimate instead of at each noisy line.
 
     ``Du = (X^-1 - Y[n,n])^-1`` is nonlinear in the estimated X: where a line's
-    relative error is large (the rotational term of a soft joint: 100 % and
-    more per line) the per-line ``Du`` is biased and heavy-tailed, and its
+    relative error is large (the rotational term of a soft joint, whose per-line
+    error can exceed the term itself) the per-line ``Du`` is biased and heavy-tailed, and its
     variance, linearized at the noisy estimate itself, is wrong. Around a
     smooth estimate ``D0`` (close to the truth after smoothing), one
     Gauss-Newton step gives pseudo-observations that are linear in the FRF

@@ -23,8 +23,9 @@ high by chance. The expected variance of an FRF value is smooth over frequency
 (a flat noise floor divided by a smooth force spectrum, or a relative force
 error times ``|H|^2``), so the coherence-based variance is averaged in log
 scale over :data:`COHERENCE_SMOOTHING_LINES` neighbouring lines (running
-mean, per FRF value); on the benchmark's virtual hammer test this lowers the
-median K_theta_theta error at mid-span from 3.9 % to 1.6 %.
+mean, per FRF value), which matters most for the weakly seen rotational term
+(``benchmarks/robust_identification.py`` prints the default's error per term on the
+virtual hammer test).
 
 **Column-common noise** (:func:`column_noise_fraction`). In a roving-hammer test
 every response of a column shares that column's force record, so noise in the
@@ -35,10 +36,10 @@ noise-to-signal ratio of value ``(r, j)``, ``(1 - g^2) / g^2 = (1 + a_j)(1 + b_r
 error ``H[:, j] eps_j`` common to the column, which the column calibration
 (:mod:`jointid.methods.receptance.column_calibration`) estimates and removes. Once it has,
 the variance left in each value is the ``b`` part only; weighting by the total
-variance then treats the column error as if it were still there, and on the
-benchmark's virtual hammer test with 1 % force noise gave K_theta_theta 11 %
-median error with bands that held the truth on 0.65-0.75 of the lines
-(material B at the beam end, 50 tests; 5.8 % and 0.85-0.93 with the split).
+variance then treats the column error as if it were still there: it costs
+K_theta_theta accuracy and leaves its bands too narrow
+(``benchmarks/robust_identification.py --hammer-seeds 50 --cases B1`` prints the
+default's error and band coverage, with the split, on a hammer test with force noise).
 The split uses that response noise is a floor per channel over a force spectrum
 per column: ``b_rj = s_r t_j / |H_rj|^2``, so per line::
 

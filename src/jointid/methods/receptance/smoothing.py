@@ -78,7 +78,7 @@ def smooth_series(x: np.ndarray, y: np.ndarray, variance: np.ndarray, n_basis: i
     Notes
     -----
     Every matrix is K x K or banded (K <= 200), so BLAS runs on one thread: its
-    threads only contend on such sizes (measured 20x slower on a loaded 2-core machine).
+    threads only contend on such sizes (many times slower on a loaded machine).
     """
     with single_threaded_blas():
         return _smooth(np.asarray(x, float), y, variance, n_basis)

@@ -10,12 +10,12 @@ or ``"structured"``) runs instead of per-term smoothing:
    constant -> spline of 4 -> 6) started from the current fit, and moves while AIC
    improves. With a column force calibration estimated as a nuisance, ``g`` stays
    constant: a frequency-dependent ``g`` and a smooth calibration error are nearly
-   confounded (measured: K_theta_theta 17 % with the spline against 2.7 % without).
+   confounded (with the spline, K_theta_theta loses most of its accuracy).
    For the same reason only orders with the residual term ``E`` are kept then: with
    the calibration free, a model without ``E`` (e.g. a spurious second mode in the
-   band instead) fits about as well but pins K_ww to a band 3x narrower than the
-   data support (benchmark, material A at mid-span: K_ww coverage 0.13 for such a
-   model, 0.91 for one with ``E``, on the same test).
+   band instead) fits about as well but pins K_ww to a band several times narrower
+   than the data support (its 90 % band misses the truth on most lines, where a model
+   with ``E`` holds it).
    With more than :data:`SELECT_MAX_LINES` lines the order is chosen on an evenly
    spaced subset and the retained models are refitted on every line (up to
    :data:`REFIT_MAX_LINES`; above, the subset's fits are evaluated on every line and
@@ -23,18 +23,18 @@ or ``"structured"``) runs instead of per-term smoothing:
 2. **Model averaging** (Buckland, Burnham & Augustin 1997): the fits are averaged
    with Akaike weights ``exp(-dAIC / 2)``, and the spread between them is added to
    each term's variance, so the bands carry the uncertainty of the order too (the
-   selected model's own bands alone covered 0.53-0.92 on the benchmark; the
-   average 0.80-1.00).
+   selected model's own bands alone are too narrow: they ignore that the order was
+   chosen from the data). ``benchmarks/structured_fit.py`` prints the averaged bands'
+   coverage per term.
 3. **Test**: the estimate is used only when the best model fits the per-line
    estimates within their covariance, ``chi^2/dof <=`` :data:`MAX_CHI2_PER_DOF`;
    otherwise (a joint outside the class: several materials, a modulus varying
    faster than the spline) the caller falls back to per-term smoothing and says so.
 
 Caveats: ``chi^2/dof`` has little power against a joint just outside the class
-whose misfit is below the noise (measured: 0.97-1.04 for a fractional-Zener modulus
-and for two materials in parallel); the estimate is then still better than per-term
-smoothing (K_theta_theta 0.9-8 % against 3-14 %), but its bands are too narrow
-(coverage 0.25-0.84).
+whose misfit is below the noise (a fractional-Zener modulus, two materials in
+parallel: ``chi^2/dof`` stays near 1); the estimate is then usually still more accurate
+than per-term smoothing, but its bands are too narrow (they do not carry the misfit).
 """
 
 from __future__ import annotations
@@ -162,8 +162,8 @@ def model_average(fits: dict) -> tuple:
     A fit whose bands are :data:`DEGENERATE_BAND_RATIO` times wider than the lowest-AIC fit's on
     some term (median over lines) is left out: its parameters are not determined by the data (a
     flat direction of its likelihood, e.g. a modulus spline confounded with a mode), which AIC does
-    not penalize, and its bands would swamp the average (measured: material A at the beam end,
-    response noise only, one test with K_ww bands of +-108 % around an error of 0.007 %).
+    not penalize, and its bands would swamp the average (e.g. K_ww bands wider than the term
+    itself around an estimate that is right).
     """
     ic = {o: f.aic for o, f in fits.items() if f is not None and np.isfinite(f.aic)}
     ref = _band_width(fits[min(ic, key=ic.get)])
