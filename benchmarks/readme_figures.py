@@ -143,7 +143,7 @@ def main(argv=None) -> int:
             res = jointid.identify(st, data)
             errs.append(relative_errors(res.stiffness, truth))
             cov.append(coverage(res, truth))
-            hl = jointid.identify(st, data, InverseOptions())
+            hl = jointid.identify(st, data, InverseOptions(weighting="none"))  # the paper's unweighted two steps
             errs_hl.append(relative_errors(hl.stiffness, truth))
             print(f"noise {level:g}, seed {seed}: done", file=sys.stderr, flush=True)
         med = np.median(np.concatenate(errs), axis=0)

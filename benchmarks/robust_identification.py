@@ -69,7 +69,7 @@ def experiments() -> None:
                 t = time.perf_counter()
                 new = identify(st, frf)
                 dt = time.perf_counter() - t
-                plain = identify(st, frf, InverseOptions())
+                plain = identify(st, frf, InverseOptions(weighting="none"))
                 truth = ex.truth[ex.frf.frequency.mask(100, 1000)]
                 rel, e_new = errors(new.stiffness, truth)
                 _, e_hl = errors(plain.stiffness, truth)
@@ -115,7 +115,7 @@ def seeds(n: int, cases=CASES, hammer: bool = False, force_noise: float = 0.01) 
             inside.append(within_band(r.stiffness, r.std_real, r.std_imag, truth))
             flags.append(np.stack([r.reliable_terms[:, i, j] for _, i, j in TERMS], axis=-1))
             if s < 3:
-                hl.append(term_errors(identify(st, frf, InverseOptions()).stiffness, truth))
+                hl.append(term_errors(identify(st, frf, InverseOptions(weighting="none")).stiffness, truth))
         rels, inside, hl, flags = np.array(rels), np.array(inside), np.array(hl), np.array(flags)  # (seeds, F, 3), (seeds, 2, F, 3)
         med = list(100 * np.median(np.median(rels, axis=1), axis=0))
         p90 = list(100 * np.percentile(rels, 90, axis=(0, 1)))
