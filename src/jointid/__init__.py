@@ -54,7 +54,8 @@ __getattr__, __dir__, __all__ = attach(
         ".measurement.virtual_hammer": ("simulate_hits", "HammerSettings"),
         # methods: inverse, direct
         ".methods.hong_lee.inverse": ("identify_joint", "InverseOptions", "InverseResult"),
-        ".methods.receptance.coupling": ("identify_joint_coupling", "CouplingOptions"),
+        ".methods.receptance.coupling": ("identify_joint_coupling",),
+        ".methods.receptance.options": ("CouplingOptions",),
         ".methods.receptance.coupling_result": ("CouplingResult",),
         ".methods.direct.material_fit": ("fit_material", "MaterialFit", "static_estimate", "fit_zener"),
         ".methods.direct.master_curve": ("build_master_curve", "MasterCurve", "TemperatureCurve"),

@@ -21,7 +21,8 @@ from .errors import DataError, StudyError
 from .frequency import Frequency
 from .frf import FRF
 from .methods.estimate import JointEstimate, estimate_joint
-from .methods.hong_lee.inverse import InverseOptions, check_layout
+from .methods.estimate import check_layout
+from .methods.hong_lee.inverse import InverseOptions
 from .methods.receptance.coupling import CouplingOptions
 from .models import constrained_model, free_model, true_joint, true_joint_matrix  # the study-to-model translation (re-exported)
 from .physics.synthesis import model_frf

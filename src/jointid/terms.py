@@ -18,7 +18,10 @@ from .dofs import Dof
 from .errors import IdentificationError
 from .frequency import Frequency
 
-__all__ = ["dof_term_labels", "term_names", "term_unit", "term_units", "joint_term", "stiffness_columns"]
+__all__ = ["dof_term_labels", "term_names", "term_unit", "term_units", "joint_term", "stiffness_columns", "Z90"]
+
+#: Two-sided 90 % normal quantile: a term's 90 % band is +-Z90 sigma of its real and imaginary parts.
+Z90 = 1.6448536269514722
 
 
 def dof_term_labels(joint_dofs: Sequence[Dof]) -> list[str]:

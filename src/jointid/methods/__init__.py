@@ -8,7 +8,7 @@ The main API, re-exported here (imported on first use)::
   ``CouplingOptions``, ``CouplingResult``; per-line fits, FRF variance, column calibration, smoothing,
   the structured joint model;
 * :mod:`.hong_lee` -- the paper's method: ``identify_joint``, ``InverseOptions``, ``InverseResult``,
-  ``Reliability``, ``check_layout``; ``pencil_condition``, ``ConditionNumbers``;
+  ``Reliability``; ``pencil_condition``, ``ConditionNumbers``;
 * :mod:`.direct` -- fits of direct-test data: ``fit_material``, ``static_estimate``,
   ``complex_modulus_per_line``, ``fit_zener``; ``build_master_curve``, ``fit_wlf``, ``fit_arrhenius``;
   ``fit_kraus``, ``fit_kraus_loss``, ``fit_preload``;
@@ -29,17 +29,19 @@ from .._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
-        ".receptance.coupling": ("identify_joint_coupling", "CouplingOptions"),
+        ".receptance.coupling": ("identify_joint_coupling",),
+        ".receptance.options": ("CouplingOptions",),
         ".receptance.coupling_result": ("CouplingResult",),
         ".receptance.coupling_lines": ("coupling_per_line", "LineEstimates"),
         ".receptance.smoothing": ("smooth_series", "SmoothedSeries"),
-        ".hong_lee.inverse": ("identify_joint", "InverseOptions", "InverseResult", "Reliability", "check_layout"),
+        ".hong_lee.inverse": ("identify_joint", "InverseOptions", "InverseResult", "Reliability"),
         ".hong_lee.condition": ("pencil_condition", "ConditionNumbers"),
         ".direct.material_fit": (
             "fit_material", "MaterialFit", "static_estimate", "StaticEstimate",
             "complex_modulus_per_line", "ComplexModulus", "fit_zener", "ZenerFit",
         ),
         ".fit_statistics": ("ParameterEstimate",),
+        ".estimate": ("JointEstimate", "estimate_joint", "ESTIMATORS", "check_layout"),
         ".design.layout": ("design_layout", "LayoutDesign", "LayoutPredictor", "Sensors"),
         ".updating.fit": ("update_free_model", "UpdateOptions", "UpdateResult", "ModelFamily"),
         ".updating.scaled_matrices": ("ScaledMatrixFamily",),
@@ -47,5 +49,5 @@ __getattr__, __dir__, __all__ = attach(
         ".direct.shift_laws": ("fit_wlf", "fit_arrhenius", "WLFFit", "ArrheniusFit"),
         ".direct.amplitude_dependence": ("fit_kraus", "KrausFit", "fit_kraus_loss", "KrausLossFit", "fit_preload", "PreloadFit"),
     },
-    submodules=("receptance", "hong_lee", "direct", "updating", "design", "frf_screening", "fit_statistics"),
+    submodules=("receptance", "hong_lee", "direct", "updating", "design", "estimate", "frf_screening", "fit_statistics"),
 )

@@ -32,9 +32,9 @@ import numpy as np
 from ..dofs import Dof
 from ..errors import IdentificationError
 from ..frequency import Frequency
-from ..terms import joint_term, stiffness_columns, term_names, term_units
+from ..terms import Z90, joint_term, stiffness_columns, term_names, term_units
 
-__all__ = ["JointEstimate", "ESTIMATORS", "estimator", "estimate_joint", "term_scale", "COUPLING_SCALE_FLOOR"]
+__all__ = ["JointEstimate", "ESTIMATORS", "estimator", "estimate_joint", "term_scale", "COUPLING_SCALE_FLOOR", "check_layout", "Z90"]
 
 
 #: Off-diagonal terms are judged against at least this fraction of ``sqrt(|K_ii K_jj|)`` (see :func:`term_scale`).
@@ -54,6 +54,20 @@ def term_scale(K: np.ndarray) -> np.ndarray:
     n = K.shape[-1]
     floor[..., np.arange(n), np.arange(n)] = 0.0
     return np.maximum(np.abs(K), floor)
+
+
+def check_layout(n_joint: int, observed: Sequence, excited: Sequence) -> None:
+    """Raise :class:`IdentificationError` unless ``|m| >= |n|`` and ``|e| >= |n|``."""
+    if len(observed) < n_joint:
+        raise IdentificationError(
+            f"{len(observed)} observed coordinate(s) for {n_joint} joint DOFs: the estimation step needs "
+            f"at least as many observed coordinates as joint DOFs (|m| >= |n|); observe more points"
+        )
+    if len(excited) < n_joint:
+        raise IdentificationError(
+            f"{len(excited)} excited coordinate(s) for {n_joint} joint DOFs: the identification step needs "
+            f"at least as many excited coordinates as joint DOFs (|e| >= |n|); excite more points"
+        )
 
 
 @dataclass(frozen=True, eq=False)

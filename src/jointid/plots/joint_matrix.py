@@ -90,7 +90,7 @@ def plot_joint_terms(result, truth: np.ndarray | None = None, couplings: int = 4
     -------
     Figure
     """
-    from ..methods.receptance.coupling import Z90
+    from ..terms import Z90
 
     f = result.frequency.hz
     K = result.stiffness

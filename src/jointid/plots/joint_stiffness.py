@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..methods.receptance.coupling import Z90 as _Z90
+from ..terms import Z90 as _Z90
 from ..terms import dof_term_labels, term_unit
 from .nvh_axes import loss_or_phase, loss_or_phase_std, magnitude_band, robust_limits, robust_log_limits, set_frequency_axis
 from .fast_axes import fixed_margins, place_legend, plain_log_ticks

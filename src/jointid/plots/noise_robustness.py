@@ -7,7 +7,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from matplotlib.ticker import NullFormatter
 
-from ..methods.receptance.coupling import Z90 as _Z90
+from ..terms import Z90 as _Z90
 from .inverse import TERM_UNITS
 from .nvh_axes import set_frequency_axis
 from .style import new_figure

@@ -38,7 +38,8 @@ from ..dofs import parse_dofs
 from ..errors import StudyError
 from ..frequency import Frequency
 from ..frf import FRF
-from ..methods.receptance.coupling import Z90, CouplingOptions, identify_joint_coupling
+from ..methods.estimate import Z90
+from ..methods.receptance.coupling import CouplingOptions, identify_joint_coupling
 from ..physics.free_model import as_free_model
 from ..pipeline import coupling_options, free_model, identify, inverse_options, true_joint
 from ..report.html import Table

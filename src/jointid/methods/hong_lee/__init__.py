@@ -1,6 +1,6 @@
 """The Hong & Lee inverse method as the paper states it: estimation step (left inverse), identification step (right inverse).
 
-* :mod:`.inverse` -- ``identify_joint``, ``InverseOptions``, ``InverseResult``, ``Reliability``, ``check_layout``;
+* :mod:`.inverse` -- ``identify_joint``, ``InverseOptions``, ``InverseResult``, ``Reliability``;
 * :mod:`.estimation` -- the estimation step's least-squares solvers (QR, SVD);
 * :mod:`.condition` -- ``pencil_condition``, ``ConditionNumbers``.
 """
@@ -10,7 +10,7 @@ from ..._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
-        ".inverse": ("identify_joint", "InverseOptions", "InverseResult", "Reliability", "check_layout"),
+        ".inverse": ("identify_joint", "InverseOptions", "InverseResult", "Reliability"),
         ".condition": ("pencil_condition", "ConditionNumbers"),
     },
     submodules=("inverse", "estimation", "identification", "reliability", "condition"),

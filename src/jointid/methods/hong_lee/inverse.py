@@ -85,7 +85,7 @@ from ...frf import FRF
 from ...physics.modes import DENSE_EIGEN_LIMIT, natural_modes
 from ...parallel import map_chunks
 from ...physics.structure import Structure
-from ..estimate import JointEstimate, term_scale
+from ..estimate import JointEstimate, check_layout, term_scale
 from .condition import pencil_condition
 from .estimation import EstimationLayout, estimate_qr, estimate_svd, estimate_weighted
 from .identification import identify_step
@@ -97,7 +97,6 @@ __all__ = [
     "InverseResult",
     "identify_joint",
     "rotation_scale",
-    "check_layout",
 ]
 
 _CHUNK_LINES = 250
@@ -293,20 +292,6 @@ class InverseResult(JointEstimate):
         from ...plots.inverse import plot_identification
 
         return plot_identification(self, truth=truth)
-
-
-def check_layout(n_joint: int, observed: Sequence, excited: Sequence) -> None:
-    """Raise :class:`IdentificationError` unless ``|m| >= |n|`` and ``|e| >= |n|``."""
-    if len(observed) < n_joint:
-        raise IdentificationError(
-            f"{len(observed)} observed coordinate(s) for {n_joint} joint DOFs: the estimation step needs "
-            f"at least as many observed coordinates as joint DOFs (|m| >= |n|); observe more points"
-        )
-    if len(excited) < n_joint:
-        raise IdentificationError(
-            f"{len(excited)} excited coordinate(s) for {n_joint} joint DOFs: the identification step needs "
-            f"at least as many excited coordinates as joint DOFs (|e| >= |n|); excite more points"
-        )
 
 
 def _cond(A: np.ndarray) -> np.ndarray:

@@ -58,7 +58,6 @@ prints the default's largest error per term).
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
 from typing import ClassVar, Sequence
 
 import numpy as np
@@ -68,22 +67,22 @@ from ...errors import DataError, IdentificationError
 from ...frequency import Frequency
 from ...frf import FRF
 from ...physics.free_model import as_free_model
-from .column_calibration import CALIBRATION_BASIS, estimate_column_calibration, residual_variance
+from .column_calibration import estimate_column_calibration, residual_variance
 from .coupling_result import CouplingResult
+from .options import CouplingOptions
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
 from .junk_lines import junk_lines
 from .model_check import check_model, residual_statistics
 from .units_check import units_conclusion
 from ..frf_screening import check_visibility, floor_exact_zeros, noise_level_unknown, screen_measured
-from .frf_variance import RELATIVE_FLOOR, WEIGHTINGS, column_noise_fraction, frf_variance
-from ..estimate import term_scale
-from ..hong_lee.inverse import check_layout
+from .frf_variance import RELATIVE_FLOOR, column_noise_fraction, frf_variance
+from ..estimate import Z90, check_layout, term_scale
 from ...terms import dof_term_labels, term_names
 from .smoothing import smooth_series
 from .spline_fit import JointSplineFit, fit_joint_spline
 from .structured_select import STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
 
-__all__ = ["CouplingOptions", "identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "Z90", "CALIBRATIONS", "SMOOTHINGS", "AUTO_STRUCTURED_MAX_DOFS", "STRUCTURED_MIN_LINES"]
+__all__ = ["identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "AUTO_STRUCTURED_MAX_DOFS", "STRUCTURED_MIN_LINES"]
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
@@ -91,8 +90,6 @@ SMOOTH_MIN_RELATIVE_STD = 1e-6
 MAX_CONDITION = 1e8
 #: Gauss-Newton steps: per-line estimates relinearized around the smoothed estimate, smoothed again.
 RELINEARIZATIONS = 2
-#: Values of ``CouplingOptions.smoothing``.
-SMOOTHINGS = ("auto", "structured", "gcv", "spline", "none")
 #: ``smoothing = "auto"`` uses the structured estimate for joints of at most this many DOFs.
 AUTO_STRUCTURED_MAX_DOFS = 3
 #: Fewest lines for the structured estimate.
@@ -104,71 +101,6 @@ RESIDUAL_MIN_REDUNDANCY = 10
 UNITS_BASIS = 4
 #: Fewest residual equations per line (``m e`` minus the joint's parameters) for the units check.
 UNITS_MIN_REDUNDANCY = 6
-#: Values of ``CouplingOptions.calibration``.
-CALIBRATIONS = ("auto", "columns", "none")
-#: Two-sided 90 % normal quantile: the bands drawn and the passivity test are +-Z90 sigma.
-Z90 = 1.6448536269514722
-
-
-@dataclass(frozen=True)
-class CouplingOptions:
-    """Options of :func:`identify_joint_coupling`.
-
-    Parameters
-    ----------
-    symmetric : bool
-        Enforce ``Du = Du^T`` (reciprocity of a passive joint).
-    smoothing : {"auto", "structured", "gcv", "spline", "none"}
-        Over frequency: the structured joint model (one viscoelastic material, all terms and
-        lines at once; falls back to "gcv" when it does not fit), each term smoothed alone
-        (P-spline, lambda by GCV), every term a few B-splines in log f fitted to all lines
-        at once ("spline": :mod:`.spline_fit`; any joint size, symmetric; slower), or the
-        per-line estimates; "auto" = "structured" for a symmetric joint of at most 3 DOFs,
-        else "gcv" (module docstring).
-    weighting : {"auto", "coherence", "relative", "none"}
-        FRF variance model (:func:`~jointid.methods.receptance.frf_variance.frf_variance`).
-    averages : int, optional
-        Averages behind the coherence (only scales; the scale comes from the residuals).
-    max_relative_std : float
-        Largest predicted relative standard deviation of a reliable term (default 0.1).
-    n_basis : int, optional
-        B-spline basis functions of the smoother (default ``min(F // 2, 200)``).
-    calibration : {"auto", "columns", "none"}
-        Force-calibration error per excitation column: corrected when the F test finds it
-        ("auto"), always estimated and corrected ("columns"), or ignored ("none").
-    calibration_basis : int
-        B-spline functions per column for that error over the band.
-    units_check : bool
-        FRFs off by one gross factor in every excitation column (e.g. 1/9.81: g/N read as SI) are
-        refused (:class:`~jointid.errors.DataError`); False: used as they are, with a finding and
-        every term flagged unreliable (:mod:`jointid.methods.receptance.units_check`).
-    model_check : bool
-        Test per octave band whether the free model explains the FRFs; where not, every term is
-        flagged unreliable with a finding (:mod:`jointid.methods.receptance.model_check`).
-    """
-
-    symmetric: bool = True
-    smoothing: str = "auto"
-    weighting: str = "auto"
-    averages: int | None = None
-    max_relative_std: float = 0.1
-    n_basis: int | None = None
-    calibration: str = "auto"
-    calibration_basis: int = CALIBRATION_BASIS
-    units_check: bool = True
-    model_check: bool = True
-
-    def __post_init__(self) -> None:
-        if self.smoothing not in SMOOTHINGS:
-            raise IdentificationError(f"smoothing must be one of {SMOOTHINGS}, got {self.smoothing!r}")
-        if self.weighting not in WEIGHTINGS:
-            raise IdentificationError(f"weighting must be one of {WEIGHTINGS}, got {self.weighting!r}")
-        if not (isinstance(self.max_relative_std, (int, float)) and self.max_relative_std > 0):
-            raise IdentificationError(f"max_relative_std must be a positive number, got {self.max_relative_std!r}")
-        if self.calibration not in CALIBRATIONS:
-            raise IdentificationError(f"calibration must be one of {CALIBRATIONS}, got {self.calibration!r}")
-        if not (isinstance(self.calibration_basis, int) and self.calibration_basis >= 4):
-            raise IdentificationError(f"calibration_basis must be an integer >= 4, got {self.calibration_basis!r}")
 
 
 def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: CouplingOptions | None = None) -> CouplingResult:

@@ -8,7 +8,7 @@ estimates), the per-line fit, the calibration and the data checks are kept for t
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
@@ -17,11 +17,9 @@ from ...frequency import Frequency
 from ...terms import term_names
 from ..estimate import JointEstimate
 from .column_calibration import ColumnCalibration
+from .options import CouplingOptions
 from .spline_fit import JointSplineFit
 from .structured_select import MAX_CHI2_PER_DOF, StructuredEstimate
-
-if TYPE_CHECKING:  # the options' module makes these results: no import at run time
-    from .coupling import CouplingOptions
 
 __all__ = ["CouplingResult", "GROSS_CALIBRATION_ERROR"]
 

@@ -14,5 +14,5 @@ __getattr__, __dir__, __all__ = attach(
         ".fit": ("update_free_model", "UpdateOptions", "UpdateResult", "ModelFamily"),
         ".scaled_matrices": ("ScaledMatrixFamily",),
     },
-    submodules=("fit", "parameters", "check", "scaled_matrices"),
+    submodules=("fit", "parameters", "check", "resonances", "scaled_matrices"),
 )

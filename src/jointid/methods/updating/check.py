@@ -34,7 +34,7 @@ the jointed structure leave it above :data:`MISFIT_FLOOR` and many times
 Resonances
 ----------
 The measured peaks are matched to the updated model's natural frequencies
-(:func:`~jointid.methods.updating.fit.frequency_scale`, the update's stage 1): a
+(:func:`~jointid.methods.updating.resonances.frequency_scale`, the update's stage 1): a
 scale more than :data:`MAX_FREQUENCY_SHIFT` away from 1 means the resonances
 are left misaligned.
 """
@@ -85,7 +85,7 @@ def judge_update_fit(residual: np.ndarray, measured, model_hz: np.ndarray | None
     str or None
         ``"these FRFs do not look like a free-free test of the study's structure (<described>): ..."``.
     """
-    from .fit import frequency_scale
+    from .resonances import frequency_scale
 
     misfit = float(np.median(np.abs(residual)))
     sigma = noise_level(residual)

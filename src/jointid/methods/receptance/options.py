@@ -1,0 +1,77 @@
+"""Options of the receptance estimator (:func:`jointid.methods.receptance.coupling.identify_joint_coupling`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ...errors import IdentificationError
+from .column_calibration import CALIBRATION_BASIS
+from .frf_variance import WEIGHTINGS
+
+__all__ = ["CouplingOptions", "SMOOTHINGS", "CALIBRATIONS"]
+
+#: Values of ``CouplingOptions.smoothing``.
+SMOOTHINGS = ("auto", "structured", "gcv", "spline", "none")
+#: Values of ``CouplingOptions.calibration``.
+CALIBRATIONS = ("auto", "columns", "none")
+
+
+@dataclass(frozen=True)
+class CouplingOptions:
+    """Options of :func:`identify_joint_coupling`.
+
+    Parameters
+    ----------
+    symmetric : bool
+        Enforce ``Du = Du^T`` (reciprocity of a passive joint).
+    smoothing : {"auto", "structured", "gcv", "spline", "none"}
+        Over frequency: the structured joint model (one viscoelastic material, all terms and
+        lines at once; falls back to "gcv" when it does not fit), each term smoothed alone
+        (P-spline, lambda by GCV), every term a few B-splines in log f fitted to all lines
+        at once ("spline": :mod:`.spline_fit`; any joint size, symmetric; slower), or the
+        per-line estimates; "auto" = "structured" for a symmetric joint of at most 3 DOFs,
+        else "gcv" (module docstring).
+    weighting : {"auto", "coherence", "relative", "none"}
+        FRF variance model (:func:`~jointid.methods.receptance.frf_variance.frf_variance`).
+    averages : int, optional
+        Averages behind the coherence (only scales; the scale comes from the residuals).
+    max_relative_std : float
+        Largest predicted relative standard deviation of a reliable term (default 0.1).
+    n_basis : int, optional
+        B-spline basis functions of the smoother (default ``min(F // 2, 200)``).
+    calibration : {"auto", "columns", "none"}
+        Force-calibration error per excitation column: corrected when the F test finds it
+        ("auto"), always estimated and corrected ("columns"), or ignored ("none").
+    calibration_basis : int
+        B-spline functions per column for that error over the band.
+    units_check : bool
+        FRFs off by one gross factor in every excitation column (e.g. 1/9.81: g/N read as SI) are
+        refused (:class:`~jointid.errors.DataError`); False: used as they are, with a finding and
+        every term flagged unreliable (:mod:`jointid.methods.receptance.units_check`).
+    model_check : bool
+        Test per octave band whether the free model explains the FRFs; where not, every term is
+        flagged unreliable with a finding (:mod:`jointid.methods.receptance.model_check`).
+    """
+
+    symmetric: bool = True
+    smoothing: str = "auto"
+    weighting: str = "auto"
+    averages: int | None = None
+    max_relative_std: float = 0.1
+    n_basis: int | None = None
+    calibration: str = "auto"
+    calibration_basis: int = CALIBRATION_BASIS
+    units_check: bool = True
+    model_check: bool = True
+
+    def __post_init__(self) -> None:
+        if self.smoothing not in SMOOTHINGS:
+            raise IdentificationError(f"smoothing must be one of {SMOOTHINGS}, got {self.smoothing!r}")
+        if self.weighting not in WEIGHTINGS:
+            raise IdentificationError(f"weighting must be one of {WEIGHTINGS}, got {self.weighting!r}")
+        if not (isinstance(self.max_relative_std, (int, float)) and self.max_relative_std > 0):
+            raise IdentificationError(f"max_relative_std must be a positive number, got {self.max_relative_std!r}")
+        if self.calibration not in CALIBRATIONS:
+            raise IdentificationError(f"calibration must be one of {CALIBRATIONS}, got {self.calibration!r}")
+        if not (isinstance(self.calibration_basis, int) and self.calibration_basis >= 4):
+            raise IdentificationError(f"calibration_basis must be an integer >= 4, got {self.calibration_basis!r}")
