@@ -10,6 +10,7 @@ The main API, re-exported here (matplotlib is imported on first use, not by ``im
 * :mod:`.studies` -- ``plot_terms``, ``plot_conditions``;
 * :mod:`.design` -- ``plot_layout_design`` (also ``LayoutDesign.plot()``);
 * :mod:`.noise_robustness` -- ``plot_band_examples``, ``plot_error_vs_noise``;
+* :mod:`.real_world` -- ``plot_case_terms`` (the real-world study);
 * :mod:`.joint_stiffness` -- ``plot_joint_stiffness`` (also ``CouplingResult.plot()``);
 * :mod:`.campaign` -- temperature curves, master curve, shift factors, amplitude and preload dependence;
 * :mod:`.nvh_axes` -- log frequency axes, ``|K|`` bands, loss factor or phase, robust limits;
@@ -29,10 +30,11 @@ __getattr__, __dir__, __all__ = attach(
         ".studies": ("plot_terms", "plot_conditions"),
         ".design": ("plot_layout_design",),
         ".noise_robustness": ("plot_band_examples", "plot_error_vs_noise"),
+        ".real_world": ("plot_case_terms",),
         ".campaign": ("plot_temperature_curves", "plot_master_fit", "plot_shift_factors", "plot_amplitude_dependence",
                       "plot_preload_dependence"),
         ".nvh_axes": ("set_frequency_axis", "loss_or_phase", "magnitude_band"),
         ".style": ("new_figure", "save_figure", "figure_png"),
     },
-    submodules=("frf", "campaign", "impact", "inverse", "joint_stiffness", "nvh_axes", "direct", "studies", "design", "noise_robustness", "style"),
+    submodules=("frf", "campaign", "impact", "inverse", "joint_stiffness", "nvh_axes", "direct", "studies", "design", "noise_robustness", "real_world", "style"),
 )

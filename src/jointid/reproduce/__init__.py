@@ -30,5 +30,6 @@ __getattr__, __dir__, __all__ = attach(
         "accelerometers",
         "virtual_experiment",
         "noise_robustness",
+        "real_world",
     ),
 )

@@ -54,7 +54,7 @@ if TYPE_CHECKING:
 __all__ = ["Layout", "ReproduceConfig", "load_config", "STUDY_NAMES"]
 
 #: Study names in report order (``--only`` takes a comma-separated subset).
-STUDY_NAMES = ("direct", "conditioning", "verification", "model-error", "accelerometers", "experiment", "noise-robustness")
+STUDY_NAMES = ("direct", "conditioning", "verification", "model-error", "accelerometers", "experiment", "noise-robustness", "real-world")
 
 
 @dataclass(frozen=True)

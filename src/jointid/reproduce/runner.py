@@ -49,6 +49,7 @@ STUDY_MODULES = {
     "accelerometers": "accelerometers",
     "experiment": "virtual_experiment",
     "noise-robustness": "noise_robustness",
+    "real-world": "real_world",
 }
 
 
