@@ -164,8 +164,13 @@ def craig_bampton(
 
 
 def _fixed_modes(Kii, Mii, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest ``k`` mass-normalized modes of ``(K_ii, M_ii)`` (shift-invert at 0)."""
-    lam, Phi = spla.eigsh(sp.csc_array(Kii), k=k, M=sp.csc_array(Mii), sigma=0.0, which="LM")
+    """Lowest ``k`` mass-normalized modes of ``(K_ii, M_ii)`` (shift-invert at 0).
+
+    The Lanczos start vector is fixed (all ones): ARPACK's default is random, which made the basis, and so the
+    reduced model, differ from one process to the next at round-off level.
+    """
+    v0 = np.ones(Kii.shape[0])
+    lam, Phi = spla.eigsh(sp.csc_array(Kii), k=k, M=sp.csc_array(Mii), sigma=0.0, which="LM", v0=v0)
     order = np.argsort(lam)
     lam, Phi = lam[order], Phi[:, order]
     Phi = Phi / np.sqrt(np.einsum("ir,ir->r", Phi, Mii @ Phi))
