@@ -187,12 +187,13 @@ def hammer_noise(study: Study, noise: float) -> float:
     return float(x.response_noise / math.sqrt(max(1, x.averages) * lines))
 
 
-def dof_candidates(study: Study, candidates: Sequence | None = None) -> tuple[Dof, ...]:
+def dof_candidates(study: Study, candidates: Sequence | None = None, free=None) -> tuple[Dof, ...]:
     """The candidate DOFs of a design on DOF labels (any free structure but the beam shorthand), checked against the model.
 
     Default: every translational DOF (x, y, z) the model has at the nodes that
     ``[measurement]`` observes or excites. Given: DOF labels (``"12x"``) or
-    :class:`~jointid.dofs.Dof`, each a DOF of the structure.
+    :class:`~jointid.dofs.Dof`, each a DOF of the structure. ``free``: the study's free model when the
+    caller has built it (default: built here).
 
     Raises
     ------
@@ -200,8 +201,8 @@ def dof_candidates(study: Study, candidates: Sequence | None = None) -> tuple[Do
         A label that is not a DOF, a DOF not in the structure, none, or more than
         :data:`MAX_CANDIDATES` (one line each).
     """
-    dofs = free_model(study, with_accelerometers=False).dofs
-    dof_array = DofArray.from_dofs(dofs)
+    free = free if free is not None else free_model(study, with_accelerometers=False)
+    dof_array = getattr(free, "dof_array", None) or DofArray.from_dofs(free.dofs)
     if candidates is None:
         m = study.measurement
         nodes = sorted({d.node for d in m.observed_dofs + m.excited_dofs})
@@ -259,7 +260,8 @@ def _design_on_dofs(
             raise StudyError(
                 f"{study.source}: [[joint]] {j.name!r} has no [joint.model] table; a design needs the expected stiffness of every joint"
             )
-    cands = dof_candidates(study, candidates)
+    free = free_model(study, with_accelerometers=False)  # built once: its DOFs for the candidates, then the design
+    cands = dof_candidates(study, candidates, free)
     joints = true_joints(study)
     m = study.measurement
     spec = study.identification
@@ -268,7 +270,7 @@ def _design_on_dofs(
     else:
         scenarios = _beam_scenarios(study, noise)
     return design_layout(
-        free_model(study, with_accelerometers=False),
+        free,
         lambda f_hz: assemble_joints(joints, f_hz),
         study.joint_dofs,
         design_band(study, band_hz),

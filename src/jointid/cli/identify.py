@@ -73,7 +73,7 @@ def summary(result, study, source: Path) -> dict:
     if study.beam is not None:
         out["options"]["elements_per_segment"] = study.beam.mesh_refinement(study.frequency.stop)
     for (name, part), joint in zip(split_joints(study, result).items(), study.joints):
-        j = part.to_json()
+        j = whole if part is result else part.to_json()  # one joint: the estimate itself, summarized once
         out["joints"][name] = {
             "file": stiffness_file(study, name),
             "dofs": [str(d) for d in joint.dofs],
