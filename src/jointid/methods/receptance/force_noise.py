@@ -39,9 +39,9 @@ freedom, independently. Pooled over the band (each line normalized by its own sm
     F = (sum_f |c_f|^2 / a_f / (e F)) / (sum_f |r_perp,f|^2 / a_f / ((|m||e| - p - e) F))
 
 is ``F(2 e F, 2 (|m||e| - p - e) F)`` distributed without column-common noise: the force noise
-is significant when its p-value is below :data:`FORCE_NOISE_P_VALUE` and ``F`` above
+is significant when its p-value is below :data:`FORCE_NOISE_P_VALUE`, ``F`` above
 :data:`FORCE_NOISE_MIN_F` (an effect size: weights of slightly wrong shape move ``F`` by a
-little, force noise by much more). ``a`` and ``b`` are estimated per line by moments over
+little, force noise by much more) and its level above :data:`FORCE_NOISE_MIN_LEVEL` (round-off). ``a`` and ``b`` are estimated per line by moments over
 :data:`FORCE_NOISE_LINES` neighbouring lines (running sums): ``a`` from ``r_perp``, ``b`` by
 least squares of ``c c^H - a I`` on ``R_z diag(b) R_z^H`` (clipped at 0).
 
@@ -70,13 +70,16 @@ from scipy.special import fdtrc
 from ...parallel import single_threaded_blas
 from .coupling_lines import LineEstimates, symmetric_parametrization, whitened_line_design
 
-__all__ = ["ForceNoise", "detect_force_noise", "FORCE_NOISE_P_VALUE", "FORCE_NOISE_MIN_F", "FORCE_NOISE_LINES"]
+__all__ = ["ForceNoise", "detect_force_noise", "FORCE_NOISE_P_VALUE", "FORCE_NOISE_MIN_F", "FORCE_NOISE_MIN_LEVEL", "FORCE_NOISE_LINES"]
 
 #: Force noise is significant when the F test's p-value is below this ...
 FORCE_NOISE_P_VALUE = 1e-3
 #: ... and F above this: the column directions carry at least this many times the residual variance per
 #: degree of freedom (weights of a slightly wrong shape move F by a few per cent; 1 % force noise by ~x3).
 FORCE_NOISE_MIN_F = 1.2
+#: ... and the largest column's median level above this (relative): below it, on exact or nearly exact data,
+#: the test only measures round-off.
+FORCE_NOISE_MIN_LEVEL = 1e-5
 #: Lines of the running sums of the per-line estimates of ``a`` and ``b`` (odd; at most a quarter of the lines).
 FORCE_NOISE_LINES = 101
 
@@ -105,8 +108,10 @@ class ForceNoise:
 
     @property
     def significant(self) -> bool:
-        """p-value below :data:`FORCE_NOISE_P_VALUE` and F above :data:`FORCE_NOISE_MIN_F`."""
-        return bool(self.p_value < FORCE_NOISE_P_VALUE and self.f_statistic > FORCE_NOISE_MIN_F)
+        """p-value below :data:`FORCE_NOISE_P_VALUE`, F above :data:`FORCE_NOISE_MIN_F` and a level above
+        :data:`FORCE_NOISE_MIN_LEVEL`."""
+        big = float(np.max(self.level)) > FORCE_NOISE_MIN_LEVEL
+        return bool(self.p_value < FORCE_NOISE_P_VALUE and self.f_statistic > FORCE_NOISE_MIN_F and big)
 
     @property
     def level(self) -> np.ndarray:
