@@ -26,15 +26,27 @@ or ``"structured"``) runs instead of per-term smoothing:
    selected model's own bands alone are too narrow: they ignore that the order was
    chosen from the data). ``benchmarks/structured_fit.py`` prints the averaged bands'
    coverage per term.
-3. **Test**: the estimate is used only when the best model fits the per-line
-   estimates within their covariance, ``chi^2/dof <=`` :data:`MAX_CHI2_PER_DOF`;
-   otherwise (a joint outside the class: several materials, a modulus varying
-   faster than the spline) the caller falls back to per-term smoothing and says so.
+3. **Test** of membership in the class: the estimate is used only when the
+   best model fits the per-line estimates within their covariance,
+   ``chi^2/dof <=`` :data:`MAX_CHI2_PER_DOF`, *and* its whitened residuals are white
+   over frequency (:mod:`jointid.methods.receptance.structured_membership`: pooled
+   autocorrelation at lags 1-4, ``Z <=`` :data:`~jointid.methods.receptance.structured_membership.MAX_WHITENESS_Z`).
+   Otherwise (a joint outside the class: several materials, a modulus law the spline
+   does not follow, a term with its own frequency law or damping, or a free-model
+   error) the caller falls back to per-term smoothing, and :attr:`StructuredEstimate.finding`
+   says which test failed and by how much. ``chi^2/dof`` alone has little power against
+   a joint just outside the class (a fractional-Zener modulus, two materials in parallel,
+   a power law on one term: ``chi^2/dof`` 1.1-1.4, within its tolerance for an estimated
+   covariance scale), where the fit is accepted with bands 3-10 times too narrow;
+   ``benchmarks/out_of_class.py`` prints both tests' decisions on such joints.
+4. **Repeatability**: each added internal mode starts from every local minimum of a
+   40-pole grid (:data:`MODE_STARTS` of them) and, once the order is chosen, the chosen
+   order is refitted from the starts of the other paths (:func:`polish_best`), so that a
+   seed of the same data does not end in another local minimum of the same order.
 
-Caveats: ``chi^2/dof`` has little power against a joint just outside the class
-whose misfit is below the noise (a fractional-Zener modulus, two materials in
-parallel: ``chi^2/dof`` stays near 1); the estimate is then usually still more accurate
-than per-term smoothing, but its bands are too narrow (they do not carry the misfit).
+Caveats: the whiteness test assumes independent errors from line to line (module
+:mod:`~jointid.methods.receptance.structured_membership`); with strongly correlated
+neighbouring lines it rejects joints of the class (the fallback is then conservative).
 """
 
 from __future__ import annotations
@@ -47,6 +59,7 @@ import numpy as np
 
 from ...parallel import single_threaded_blas
 from .structured_fit import StructuredFit, fit_structured, refit
+from .structured_membership import MAX_WHITENESS_Z, Membership, membership
 
 __all__ = ["StructuredEstimate", "structured_estimate", "select_structured", "model_average", "MAX_CHI2_PER_DOF", "MAX_MODES", "SELECT_MAX_LINES", "REFIT_MAX_LINES", "STRUCTURED_MAX_DOFS", "POLE_LIST_FACTOR", "DEGENERATE_BAND_RATIO"]
 
@@ -85,8 +98,11 @@ class StructuredEstimate:
     fits : dict
         Order -> every StructuredFit tried.
     accepted : bool
-        ``best.chi2_per_dof <= MAX_CHI2_PER_DOF`` and every value and band finite.
+        ``best.chi2_per_dof <= MAX_CHI2_PER_DOF``, the best fit's residuals white over frequency
+        (``membership.passed``) and every value and band finite.
     seconds : float
+    membership : Membership or None
+        The whiteness test of the best fit's residuals (None: not run).
     """
 
     stiffness: np.ndarray
@@ -97,6 +113,27 @@ class StructuredEstimate:
     fits: dict
     accepted: bool
     seconds: float
+    membership: Membership | None = None
+
+    @property
+    def finding(self) -> str:
+        """Why the estimate was rejected (one line naming the test, the class tried and the figures), else ""."""
+        if self.accepted:
+            return ""
+        b = self.best
+        cls = f"{b.model.label}; chi^2/dof {b.chi2_per_dof:.2f}"
+        m = self.membership
+        if m is not None and not m.passed:
+            iu = np.triu_indices(b.model.n)
+            i, j = int(iu[0][m.worst_term()]), int(iu[1][m.worst_term()])
+            return (f"the structured joint model ({cls}) misses the shape of these FRFs: its residuals are correlated over "
+                    f"frequency (whiteness Z {m.z:.1f} > {MAX_WHITENESS_Z}, most in term ({i}, {j})): not one viscoelastic "
+                    "material (e.g. a term with its own frequency law or damping, two materials, a modulus law the model does "
+                    "not follow) or a free-model error; each term smoothed on its own instead")
+        if b.chi2_per_dof > MAX_CHI2_PER_DOF:
+            return (f"the structured joint model does not fit these FRFs (chi^2/dof {b.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
+                    "not one viscoelastic material, or a model error): each term smoothed on its own instead")
+        return "the structured joint model gave non-finite values on these FRFs: each term smoothed on its own instead"
 
     def describe(self) -> str:
         """One line: the chosen model, its internal modes, chi^2/dof and the averaging."""
@@ -105,7 +142,8 @@ class StructuredEstimate:
         near, far = poles[poles <= top], int(np.sum(poles > top))
         modes = f"; internal modes at {', '.join(f'{p:.0f}' for p in near)} Hz" if near.size else ""
         modes += f"; {far} far above the band" if far else ""
-        return (f"structured joint model ({self.best.model.label}{modes}; chi^2/dof {self.best.chi2_per_dof:.3f}), "
+        white = f"; residual whiteness Z {self.membership.z:.1f}" if self.membership is not None else ""
+        return (f"structured joint model ({self.best.model.label}{modes}; chi^2/dof {self.best.chi2_per_dof:.3f}{white}), "
                 f"Akaike-weighted average of {len(self.weights)} order(s)")
 
 
@@ -236,4 +274,6 @@ def _estimate(hz, lines, common, t0) -> StructuredEstimate:
     K, sr, si, w = model_average(fits)
     best = fits[max(w, key=w.get)]
     finite = bool(np.all(np.isfinite(K)) and np.all(np.isfinite(sr)) and np.all(np.isfinite(si)))
-    return StructuredEstimate(K, sr, si, w, best, fits, bool(finite and best.chi2_per_dof <= MAX_CHI2_PER_DOF), time.perf_counter() - t0)
+    member = membership(best, hz, lines, common)
+    ok = finite and best.chi2_per_dof <= MAX_CHI2_PER_DOF and member.passed
+    return StructuredEstimate(K, sr, si, w, best, fits, bool(ok), time.perf_counter() - t0, member)
