@@ -98,7 +98,7 @@ def summary(result, study, source: Path) -> dict:
     return out
 
 
-def write_identification(out: OutputSet, result, study, source: Path, plots: bool = True, truth=None, notes=()) -> None:
+def write_identification(out: OutputSet, result, study, source: Path, plots: bool = True, truth=None, notes=(), worker=None) -> None:
     """Stage the joint stiffness CSV(s), ``summary.json``, ``report.html`` and (``plots``) the figures in ``out``.
 
     A beam study, or a structure study with one joint: ``joint_stiffness.csv``
@@ -110,19 +110,19 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
     is drawn dashed. ``report.html`` (:func:`jointid.report.identification_report`)
     holds the findings, the figures (embedded), what to trust and the inputs
     (``notes``: the FRF file's unit conversions and skipped records). The files
-    appear when ``out`` commits.
+    appear when ``out`` commits. ``worker``: a
+    :class:`~jointid.plots.figure_worker.FigureWorker` that draws the joint stiffness figures
+    while this process writes the CSV and summary (the same PNG bytes; None: drawn here).
     """
     from ..pipeline import split_joints
     from ..report.identification import identification_report
 
-    figures = []  # (file name, PNG bytes, caption) for the report
+    figures = []  # (file name, PNG bytes or a PendingFigure, caption) for the report
 
     def figure(name: str, fig, caption: str) -> None:
         from ..plots.style import figure_png
 
-        png = figure_png(fig)
-        out.write_bytes(name, png)
-        figures.append((name, png, caption))
+        figures.append((name, figure_png(fig), caption))
 
     caption = "|K| with its 90 % band (log axis), loss factor or phase of the diagonal terms; shaded: term unreliable"
     i = 0
@@ -133,7 +133,13 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
         if plots:
             t = None if truth is None else truth[:, i:i + k, i:i + k]
             title = f"joint {name}: " if len(study.joints) > 1 else ""
-            figure(csv.replace(".csv", ".png"), part.plot(truth=t), f"{title}{caption}")
+            name_png = csv.replace(".csv", ".png")
+            if worker is not None and k <= 3:  # drawn by the worker while the CSV and summary are written here
+                from ..plots.joint_stiffness import JointStiffnessData
+
+                figures.append((name_png, worker.submit("joint_stiffness", JointStiffnessData.of(part), truth=t), f"{title}{caption}"))
+            else:
+                figure(name_png, part.plot(truth=t), f"{title}{caption}")
             if k > 2:
                 from ..plots.joint_matrix import plot_joint_matrix
 
@@ -145,6 +151,9 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
     lines = identification_lines(result, study, max_findings=None)
     if truth is not None:  # a virtual test: how far the identification is from the true joint
         lines += truth_error_lines(study, result, truth)
+    figures = [(name, png if isinstance(png, bytes) else png.result(), caption) for name, png, caption in figures]
+    for name, png, _ in figures:
+        out.write_bytes(name, png)
     out.write_text("report.html", identification_report(info, lines, notes, figures))
 
 
@@ -178,7 +187,7 @@ def truth_error_lines(study, result, truth) -> list[str]:
     return lines
 
 
-def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, truth=None, shown: Path | None = None):
+def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, truth=None, shown: Path | None = None, worker=None):
     """The ``jointid identify`` path: read ``path`` as the study describes it, identify, stage the outputs in ``out``.
 
     One function for ``identify`` and ``experiment`` (which runs it on the
@@ -194,6 +203,8 @@ def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, trut
         The FRF file to read (for ``experiment``: the staged file).
     shown : Path, optional
         The name of the file in messages, ``summary.json`` and the report (default ``path``).
+    worker : FigureWorker, optional
+        Draws the joint stiffness figures in a second process (:func:`write_identification`).
     truth : ndarray, shape (F_file, n, n), optional
         True joint stiffness on the file's lines, drawn dashed in the figures
         (cut here to the lines identified).
@@ -213,7 +224,7 @@ def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, trut
     result = identify(study, measured)
     if truth is not None:
         truth = np.asarray(truth)[np.isin(measured.frequency.hz, result.frequency.hz)]
-    write_identification(out, result, study, shown, plots=plots, truth=truth, notes=measured.notes)
+    write_identification(out, result, study, shown, plots=plots, truth=truth, notes=measured.notes, worker=worker)
     return result, measured
 
 
@@ -275,9 +286,18 @@ def output_files(study) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    study = study_from_args(args)
-    with OutputSet(args.out, command="identify") as out:
-        result, _ = identify_file(study, args.frf, out, plots=not args.no_plots)
+    import contextlib
+
+    from ..plots.figure_worker import FigureWorker
+
+    # the figure's process starts first: it imports matplotlib while this one reads and identifies
+    worker = None if args.no_plots else FigureWorker.start()
+    with contextlib.ExitStack() as stack:
+        if worker is not None:
+            stack.enter_context(worker)
+        study = study_from_args(args)
+        with OutputSet(args.out, command="identify") as out:
+            result, _ = identify_file(study, args.frf, out, plots=not args.no_plots, worker=worker)
     for line in identification_lines(result, study, wrote=[out.path(x) for x in output_files(study)]):
         print(line)
     return 0

@@ -86,7 +86,6 @@ CALIBRATION_MIN_ERROR = 1e-5
 RESIDUAL_VARIANCE_LINES = 41
 
 
-@dataclass(frozen=True, eq=False)
 class ColumnCalibration:
     """Estimated relative force-calibration error of each excitation column.
 
@@ -103,14 +102,39 @@ class ColumnCalibration:
     f_statistic, p_value : float
         F test of the residual reduction against "no calibration error".
     n_basis : int
+
+    ``x_covariance`` and ``x_factor`` are either given or, from :func:`estimate_column_calibration`,
+    formed on first use from their factors (``_factors``): an error that is not corrected needs
+    neither, and the (F, p, e n_basis) factor is the largest array of the estimate.
     """
 
-    delta: np.ndarray
-    x_covariance: np.ndarray
-    f_statistic: float
-    p_value: float
-    n_basis: int
-    x_factor: np.ndarray | None = None
+    def __init__(self, delta: np.ndarray, x_covariance: np.ndarray | None, f_statistic: float, p_value: float,
+                 n_basis: int, x_factor: np.ndarray | None = None, *, _factors: "_XFactors | None" = None):
+        self.delta = delta
+        self.f_statistic = f_statistic
+        self.p_value = p_value
+        self.n_basis = n_basis
+        self._x_covariance = x_covariance
+        self._x_factor = x_factor
+        self._factors = _factors
+
+    def __repr__(self) -> str:
+        return (f"ColumnCalibration(F={self.delta.shape[0]}, e={self.delta.shape[1]}, n_basis={self.n_basis}, "
+                f"f_statistic={self.f_statistic:.4g}, p_value={self.p_value:.3g})")
+
+    @property
+    def x_covariance(self) -> np.ndarray | None:
+        """Covariance added to the per-line coupling parameters x, shape (F, p, p), complex."""
+        if self._x_covariance is None and self._factors is not None:
+            self._x_covariance = self._factors.covariance()
+        return self._x_covariance
+
+    @property
+    def x_factor(self) -> np.ndarray | None:
+        """``G`` (F, p, e n_basis), complex, with ``G_f G_g^H`` the covariance of ``x_f`` and ``x_g`` (class docstring)."""
+        if self._x_factor is None and self._factors is not None:
+            self._x_factor = self._factors.factor()
+        return self._x_factor
 
     @property
     def error(self) -> np.ndarray:
@@ -128,6 +152,61 @@ class ColumnCalibration:
         """Corrected receptance ``H (1 - delta)`` and its variance, shapes (F, m, e)."""
         g = 1.0 - self.delta[:, None, :]
         return H * g, variance * np.abs(g) ** 2
+
+
+@dataclass(frozen=True, eq=False)
+class _XFactors:
+    """What ``x_covariance`` and ``x_factor`` are formed from: ``G_f = U_f (I_e (x) b_f^T) L``.
+
+    Attributes
+    ----------
+    R : ndarray, shape (F, p, p), complex
+        R of the per-line QR of the weighted, column-equilibrated design.
+    QhG : ndarray, shape (F, p, e), complex
+        ``Q^H G_w`` per line.
+    cs : ndarray, shape (F, p)
+        Column equilibration.
+    basis : scipy.sparse CSR, shape (F, nb)
+        The B-spline basis ``b_f`` of the column errors.
+    pairs : scipy.sparse CSR, shape (F, nb nb)
+        ``b_f (x) b_f`` (:func:`_pair_products`).
+    L : ndarray, shape (e nb, e nb), complex
+        ``L L^H = s^2 N^-1`` (:func:`_hermitian_factor`).
+    """
+
+    R: np.ndarray
+    QhG: np.ndarray
+    cs: np.ndarray
+    basis: object
+    pairs: object
+    L: np.ndarray
+
+    def _u(self) -> np.ndarray:
+        """``U = R^-1 Q^H G_w / cs``: d x / d delta per line, shape (F, p, e)."""
+        return np.linalg.solve(self.R, self.QhG) / self.cs[:, :, None]
+
+    def covariance(self) -> np.ndarray:
+        """``G_f G_f^H = U_f M_f U_f^H`` with ``M_f[j, l] = sum_bc b_f[b] b_f[c] (L L^H)[(j, b), (l, c)]``, (F, p, p).
+
+        The same matrix as ``x_factor @ x_factor^H`` (summed in another order: they differ by
+        round-off, ``~ (e nb) eps |G_f|^2``) without forming the (F, p, e nb) factor.
+        """
+        U = self._u()
+        F, p, e = U.shape
+        nb = self.basis.shape[1]
+        C = self.L @ np.conj(self.L.T)
+        C4 = C.reshape(e, nb, e, nb).transpose(1, 3, 0, 2).reshape(nb * nb, e * e)
+        M = np.asarray(self.pairs @ C4).reshape(F, e, e)
+        return (U @ M) @ np.conj(np.swapaxes(U, 1, 2))
+
+    def factor(self) -> np.ndarray:
+        """``G_f = U_f Lb_f`` with ``Lb_f[j] = sum_b b_f[b] L[(j, b)]``, shape (F, p, e nb)."""
+        U = self._u()
+        F, p, e = U.shape
+        nb = self.basis.shape[1]
+        K = self.L.shape[1]
+        Lr = self.L.reshape(e, nb, K).transpose(1, 0, 2).reshape(nb, e * K)
+        return U @ np.asarray(self.basis @ Lr).reshape(F, e, K)
 
 
 def estimate_column_calibration(
@@ -169,7 +248,12 @@ def estimate_column_calibration(
 
 
 def _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis) -> ColumnCalibration | None:
-    """:func:`estimate_column_calibration`'s computation (its docstring)."""
+    """:func:`estimate_column_calibration`'s computation (its docstring).
+
+    ``G_w`` (column j of the weighted ``H`` in the rows ``(r, j)``) is diagonal in the column:
+    only its nonzeros ``h_w`` (F, m, e) are held. The sums over the lines use the banded basis
+    (:func:`_pair_products`): each line adds to the 4 x 4 block of its knot interval.
+    """
     F, m, n = Ymn.shape
     e = Yne.shape[2]
     p = symmetric_parametrization(n, symmetric).shape[1]
@@ -178,40 +262,39 @@ def _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis) -> ColumnCa
     if nb < 4 or F < 2 * nb or dof <= 0:
         return None
     sw, cs, Q, R = whitened_line_design(Ymn, Yne, variance, symmetric)
-    Qh = np.conj(np.swapaxes(Q, 1, 2))
-    # G: column j of H enters the rows (r, j) with the coefficient delta_j
-    Gw = np.zeros((F, m, e, e), complex)
+    Q4 = Q.reshape(F, m, e, p)
+    hw = H * sw.reshape(F, m, e)  # the nonzeros of G_w: column j of H enters the rows (r, j) with delta_j
+    dw = change.reshape(F, m * e) * sw
+    QhG = np.conj(np.einsum("frjp,frj->fpj", Q4, np.conj(hw)))  # Q^H G_w, (F, p, e)
+    Z = -(Q @ QhG).reshape(F, m, e, e)  # (I - Q Q^H) G_w, (F, m e, e)
     idx = np.arange(e)
-    Gw[:, :, idx, idx] = H
-    Gw = Gw.reshape(F, m * e, e) * sw[:, :, None]
-    dw = (change.reshape(F, m * e) * sw)[:, :, None]
-    QhG = Qh @ Gw
-    Z = Gw - Q @ QhG  # (F, m e, e)
-    r0 = dw - Q @ (Qh @ dw)  # (F, m e, 1)
-    # B is banded (cubic: 4 functions per line), so the sums over lines are sparse products B^T (...)
+    Z[:, :, idx, idx] += hw
+    Z = Z.reshape(F, m * e, e)
+    r0 = dw - (Q @ np.conj(np.einsum("frp,fr->fp", Q, np.conj(dw)))[:, :, None])[:, :, 0]  # (I - Q Q^H) d_w, (F, m e)
+    Zt = np.swapaxes(Z, 1, 2)
+    ZZ = np.conj(Zt @ np.conj(Z))  # Z^H Z, (F, e, e)
+    v = np.conj((Zt @ np.conj(r0)[:, :, None])[:, :, 0])  # Z^H r0 per line, (F, e)
     Bs = bspline_basis(np.asarray(hz, float), nb)  # (F, nb) CSR, uniform knots over the band
-    Bt = Bs.T.tocsr()
-    Bd = Bs.toarray()
-    ZZ = np.conj(np.swapaxes(Z, 1, 2)) @ Z  # (F, e, e)
+    pairs = _pair_products(Bs)
     # N[(i,b),(j,c)] = sum_f ZZ[f,i,j] B[f,b] B[f,c]
-    N = _gram(Bt, ZZ.reshape(F, e * e), Bd).reshape(nb, e, e, nb).transpose(1, 0, 2, 3).reshape(e * nb, e * nb)
-    v = (np.conj(np.swapaxes(Z, 1, 2)) @ r0)[:, :, 0]  # (F, e): Z^H r0 per line
-    rhs = -np.asarray(Bt @ v).T.reshape(e * nb)
+    N = _gram(pairs, ZZ.reshape(F, e * e), nb).reshape(nb, e, e, nb).transpose(1, 0, 2, 3).reshape(e * nb, e * nb)
+    rhs = -np.asarray(Bs.T @ v).T.reshape(e * nb)
     try:
         Ninv = np.linalg.inv(N)
     except np.linalg.LinAlgError:
         return None
-    rss0 = float(np.sum(np.abs(r0) ** 2))
+    rss0 = float(np.sum(r0.real ** 2 + r0.imag ** 2))
     c = Ninv @ rhs
     s2 = max(rss0 - float(np.real(np.vdot(c, N @ c))), np.finfo(float).tiny) / dof
     # errors in variables: H is in the regressor G and in the data d, so E[G^H P d] carries -s^2 sum_r (1 - h_rj)
     # per line and column (h: leverage of the per-line fit), E[G^H P G] +s^2 the same; removed (bias-compensated LS)
-    lev = np.sum(Q.real ** 2 + Q.imag ** 2, axis=2).reshape(F, m, e)
+    Qf = Q.view(float)  # (F, m e, 2 p): real and imaginary parts
+    lev = np.einsum("fij,fij->fi", Qf, Qf).reshape(F, m, e)
     d = np.sum(1.0 - lev, axis=1)  # (F, e)
     Dm = np.zeros((e, nb, e, nb))
-    Dm[idx, :, idx, :] = _gram(Bt, d, Bd).transpose(1, 0, 2)  # sum_f d[f,j] B[f,b] B[f,c]
+    Dm[idx, :, idx, :] = _gram(pairs, d, nb).transpose(1, 0, 2)  # sum_f d[f,j] B[f,b] B[f,c]
     Nc = N - s2 * Dm.reshape(e * nb, e * nb)
-    rhs_c = rhs - s2 * np.asarray(Bt @ d).T.reshape(e * nb)
+    rhs_c = rhs - s2 * np.asarray(Bs.T @ d).T.reshape(e * nb)
     try:
         c = np.linalg.solve(Nc, rhs_c)
     except np.linalg.LinAlgError:
@@ -225,12 +308,9 @@ def _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis) -> ColumnCa
     # F(k, 2 dof) survival function (scipy.stats.f.sf, which is 1 for F <= 0, without importing scipy.stats)
     p_value = float(fdtrc(k, 2 * dof, max(f_stat, 0.0)))
     delta = np.asarray(Bs @ c.reshape(e, nb).T)
-    # d x / d c per line: x = (R^-1 Q^H (dw + Gw delta)) / cs
-    U = np.linalg.solve(R, QhG) / cs[:, :, None]  # (F, p, e)
-    T = (U[:, :, :, None] * Bd[:, None, None, :]).reshape(F * p, e * nb)
-    G = (T @ _hermitian_factor(s2 * Ninv)).reshape(F, p, e * nb)  # one BLAS product for all lines
-    Cx = G @ np.conj(np.swapaxes(G, 1, 2))
-    return ColumnCalibration(delta, Cx, float(f_stat), p_value, nb, G)
+    # d x / d c per line: x = (R^-1 Q^H (dw + Gw delta)) / cs; its covariance and factor are formed on first use
+    factors = _XFactors(R, QhG, cs, Bs, pairs, _hermitian_factor(s2 * Ninv))
+    return ColumnCalibration(delta, None, float(f_stat), p_value, nb, _factors=factors)
 
 
 def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, variance: np.ndarray, symmetric: bool = True,
@@ -291,14 +371,36 @@ def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, vari
     return np.where(np.isfinite(v) & (v > 0), v, variance.reshape(F, m * e)).reshape(F, m, e)
 
 
-def _gram(Bt, values: np.ndarray, Bd: np.ndarray) -> np.ndarray:
-    """``out[b, k, c] = sum_f values[f, k] B[f, b] B[f, c]`` for a banded ``B`` (``Bt``: B^T as CSR, ``Bd``: B dense).
+def _pair_products(Bs):
+    """``b_f (x) b_f`` of every line as CSR, shape (F, nb nb): row f holds ``B[f, b] B[f, c]`` at column ``b nb + c``.
 
-    One sparse product over the lines, ``B^T (values (x) B)``: (F, K) values, (F, nb) basis -> (nb, K, nb).
+    A cubic B-spline basis has 4 functions per line, so 16 entries per row: the sums over the
+    lines of :func:`_gram` and of ``x_covariance`` are sparse products of F 16 terms each.
     """
-    F, K = values.shape
-    nb = Bd.shape[1]
-    return np.asarray(Bt @ (values[:, :, None] * Bd[:, None, :]).reshape(F, K * nb)).reshape(nb, K, nb)
+    from scipy.sparse import csr_matrix
+
+    Bs = Bs.tocsr()
+    F, nb = Bs.shape
+    counts = np.diff(Bs.indptr)
+    k = max(int(counts.max()), 1) if F else 1
+    row = np.repeat(np.arange(F), counts)
+    slot = np.arange(Bs.indices.size) - np.repeat(Bs.indptr[:-1], counts)
+    idx = np.zeros((F, k), np.int64)
+    val = np.zeros((F, k))
+    idx[row, slot] = Bs.indices
+    val[row, slot] = Bs.data
+    cols = (idx[:, :, None] * nb + idx[:, None, :]).reshape(F, k * k)
+    data = (val[:, :, None] * val[:, None, :]).reshape(F, k * k)
+    return csr_matrix((data.ravel(), cols.ravel(), np.arange(0, F * k * k + 1, k * k)), shape=(F, nb * nb))
+
+
+def _gram(pairs, values: np.ndarray, nb: int) -> np.ndarray:
+    """``out[b, k, c] = sum_f values[f, k] B[f, b] B[f, c]`` for a banded ``B``; ``pairs``: :func:`_pair_products` of B.
+
+    One sparse product over the lines, ``(B (x) B)^T values``: (F, K) values -> (nb, K, nb).
+    """
+    K = values.shape[1]
+    return np.asarray(pairs.T @ values).reshape(nb, nb, K).transpose(0, 2, 1)
 
 
 def _hermitian_factor(C: np.ndarray) -> np.ndarray:
