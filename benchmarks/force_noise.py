@@ -21,8 +21,12 @@ Per estimator and term: the 90 % band coverage over all lines and over the lines
 reliable, the median error of the reliable lines, the fraction flagged reliable, the fraction
 of reliable lines beyond 3 sigma and beyond 10 % error; medians over ``--seeds``; the
 findings with their counts; the detection rate of the force noise (also with ``--force 0``:
-the false-positive rate). Not a test:
-``nice python benchmarks/force_noise.py [--seeds 50] [--force 0.01] [--runs before,after]``.
+the false-positive rate). ``--hammer-seeds N``: also the virtual roving-hammer test
+(:func:`jointid.pipeline.experiment`, periodic, 5 averages; its response noise is a floor, not
+relative) with the coherence dropped, with and without its 1 % force noise: the test's F, its
+detections and the default's coverage before/after (weights of the wrong shape: the test's
+false-positive margin). Not a test:
+``nice python benchmarks/force_noise.py [--seeds 50] [--force 0.01] [--runs before,after] [--hammer-seeds 4]``.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib.util
+import subprocess
 import sys
 import time
 from collections import Counter
@@ -68,16 +73,43 @@ def scratch_coupling():
     """``coupling.py`` with :data:`SNIPPET` in place of :data:`REPLACED`, loaded as a module of the package (not written)."""
     if SCRATCH in sys.modules:
         return sys.modules[SCRATCH]
-    src = Path(coupling_module.__file__).read_text()
+    path = Path(coupling_module.__file__)
+    try:  # the working tree's coupling.py; while another edit is half done there, the last commit's
+        mod = _load(path.read_text())
+    except ImportError as exc:
+        head = subprocess.run(["git", "show", "HEAD:src/jointid/methods/receptance/coupling.py"], cwd=path.parents[4],
+                              capture_output=True, text=True, check=True).stdout
+        print(f"(coupling.py in the working tree does not import: {exc}; the last commit's is patched instead)")
+        mod = _load(head)
+    detect = mod.detect_force_noise
+
+    def recorded(*args, **kwargs):  # every test's result, for the detection rate and the F statistics
+        out = detect(*args, **kwargs)
+        TESTS.append(out)
+        return out
+
+    mod.detect_force_noise = recorded
+    return mod
+
+
+def _load(src: str):
+    """``src`` (coupling.py) with the snippet, executed as :data:`SCRATCH`."""
     if src.count(REPLACED) != 1:
         raise SystemExit("coupling.py has changed: the line the snippet replaces is not there once")
     src = src.replace(REPLACED, SNIPPET).replace("from .column_calibration import", IMPORT + "from .column_calibration import", 1)
-    spec = importlib.util.spec_from_loader(SCRATCH, loader=None)
-    mod = importlib.util.module_from_spec(spec)
+    mod = importlib.util.module_from_spec(importlib.util.spec_from_loader(SCRATCH, loader=None))
     mod.__file__ = coupling_module.__file__
     sys.modules[SCRATCH] = mod
-    exec(compile(src, "<scratch coupling.py>", "exec"), mod.__dict__)
+    try:
+        exec(compile(src, "<scratch coupling.py>", "exec"), mod.__dict__)
+    except ImportError:
+        del sys.modules[SCRATCH]
+        raise
     return mod
+
+
+#: The force-noise tests of the scratch copy's runs (the default estimator's and the gcv run's).
+TESTS: list = []
 
 
 def use(after: bool) -> None:
@@ -132,7 +164,9 @@ def run(data: Data, rng, force: float, after: bool):
     use(after)
     st, frf, truth = data.case(rng, force)
     out = {}
+    TESTS.clear()
     r = identify(st, frf)
+    test = TESTS[0] if TESTS else None
     out["auto"] = scores(r.stiffness, r.std_real, r.std_imag, truth, r.reliable_terms)
     s = r.per_line_std / np.sqrt(2)  # circular: half the variance in each part
     with np.errstate(divide="ignore", invalid="ignore"):  # the per-line estimates' own flags: predicted relative std
@@ -140,10 +174,10 @@ def run(data: Data, rng, force: float, after: bool):
     out["per-line"] = scores(r.per_line, s, s, truth, ok)
     g = identify(st, frf, dataclasses.replace(coupling_options(st), smoothing="gcv"))
     out["gcv"] = scores(g.stiffness, g.std_real, g.std_imag, truth, g.reliable_terms)
-    return out, r.findings()
+    return out, r.findings(), test
 
 
-def report(name, rows, notes, seeds, elapsed):
+def report(name, rows, notes, seeds, elapsed, tests=()):
     print(f"\n{name} ({seeds} seeds, {elapsed:.0f} s)")
     for est in rows[0]:
         a = np.array([r[est] for r in rows])  # (seeds, terms, 6)
@@ -156,6 +190,38 @@ def report(name, rows, notes, seeds, elapsed):
         print(f"  [{count}/{seeds}] {text}")
     named = sum(c for t, c in notes.items() if t.startswith("the excitation columns share"))
     print(f"  force noise named: {named}/{seeds}")
+    tests = [t for t in tests if t is not None]
+    if tests:
+        f = np.array([t.f_statistic for t in tests])
+        lv = np.array([t.level for t in tests])
+        print(f"  force-noise test: detected {sum(t.significant for t in tests)}/{len(tests)}; F median {np.median(f):.3g} "
+              f"(range {f.min():.3g}-{f.max():.3g}); level per column median {np.median(lv, axis=0).round(5).tolist()} "
+              f"(5-95 %: {np.percentile(lv, 5):.2g}-{np.percentile(lv, 95):.2g})")
+
+
+def hammer(seeds: int) -> None:
+    """The virtual roving-hammer test without its coherence (module docstring)."""
+    from jointid.pipeline import experiment
+
+    base = study()
+    for force in (0.0, base.experiment.force_noise):
+        st = dataclasses.replace(base, experiment=dataclasses.replace(base.experiment, force_noise=force))
+        t = time.perf_counter()
+        print(f"\nvirtual hammer test, {100 * force:g} % force noise, coherence dropped ({seeds} seeds)")
+        for seed in range(seeds):
+            ex = experiment(st, seed=seed, periodic=True)
+            frf = dataclasses.replace(ex.frf, coherence=None)
+            cov = []
+            for after in (False, True):
+                use(after)
+                TESTS.clear()
+                r = identify(st, frf)
+                cov.append(scores(r.stiffness, r.std_real, r.std_imag, ex.truth, r.reliable_terms)[:, 0])
+            fn = TESTS[0]
+            print(f"  seed {seed}: F {fn.f_statistic:.3g}, level {np.round(100 * fn.level, 3).tolist()} %, "
+                  f"{'detected' if fn.significant else 'not detected'}; coverage before {np.round(cov[0], 2).tolist()}, "
+                  f"after {np.round(cov[1], 2).tolist()}", flush=True)
+        print(f"  ({time.perf_counter() - t:.0f} s)")
 
 
 def main() -> None:
@@ -163,18 +229,22 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=50)
     ap.add_argument("--force", type=float, default=FORCE_NOISE, help="force noise rms (0: only response noise)")
     ap.add_argument("--runs", default="before,after")
+    ap.add_argument("--hammer-seeds", type=int, default=0)
     args = ap.parse_args()
     data = Data()
-    for which in args.runs.split(","):
+    for which in filter(None, args.runs.split(",")):
         t = time.perf_counter()
-        rows, notes = [], Counter()
+        rows, notes, tests = [], Counter(), []
         for seed in range(args.seeds):
-            res, found = run(data, np.random.default_rng(seed), args.force, which == "after")
+            res, found, test = run(data, np.random.default_rng(seed), args.force, which == "after")
             rows.append(res)
+            tests.append(test)
             for f in found:
                 notes[f.split(" (")[0][:110]] += 1
         report(f"{which}: {100 * RESPONSE_NOISE:g} % response + {100 * args.force:g} % force noise, no coherence",
-               rows, notes, args.seeds, time.perf_counter() - t)
+               rows, notes, args.seeds, time.perf_counter() - t, tests)
+    if args.hammer_seeds:
+        hammer(args.hammer_seeds)
 
 
 if __name__ == "__main__":
