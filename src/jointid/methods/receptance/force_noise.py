@@ -132,8 +132,8 @@ class ForceNoise:
         """One line naming the force noise as the cause (whether significant or not: check :attr:`significant`)."""
         lv = ", ".join(f"{100 * v:.2g}" for v in self.level)
         return (f"the excitation columns share a random error line by line (force noise, ~{lv} % per column; "
-                f"F test F = {self.f_statistic:.3g}, p = {self.p_value:.2g}): it is in the variance model, so the per-line "
-                "covariance and the bands include it; with no coherence in the file it is measured from the residuals")
+                f"F test F = {self.f_statistic:.3g}, p = {self.p_value:.2g}), measured from the residuals: not a joint or "
+                "model error; it is in the variance model, so the per-line covariance and the bands include it")
 
     def variance(self, variance: np.ndarray) -> np.ndarray:
         """Response (independent) variance of each value, ``a_f * variance``, shape (F, m, e)."""
