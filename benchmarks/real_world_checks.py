@@ -9,7 +9,11 @@ with 0.5 % complex relative noise on exact accelerances (``jointid.simulate``):
 - ``junk lines``: a study from 0 Hz with coherence ``1 / (1 + 0.005^2)`` and, on the four
   lines at 1-4 Hz, coherence 0.2 and 200 % noise;
 - ``junk, coherence, no junk``: the same data without the junk lines (5-1000 Hz): the reference;
-- ``wrong free model``: data from a 3x finer mesh, the study's E 2 % high and density 1 % low.
+- ``wrong free model``: data from a finer mesh (16 elements per segment; the model's converged mesh has 8),
+  the study's E 2 % high and density 1 % low;
+- ``updated`` / ``updated, no [uncertainty]``: the same FRFs, identified after updating E, density and loss
+  factor from a virtual free-free test of the true beam (1 % noise), with the fit's standard errors and
+  correlation as ``[uncertainty]`` (what ``jointid update`` writes) and without them.
 
 Per case and term: the median error of the lines flagged reliable, the fraction flagged
 reliable, the 90 % band coverage on those lines, the fraction of reliable lines off by more
@@ -28,13 +32,16 @@ import numpy as np
 
 from jointid.benchmark import benchmark_study
 from jointid.errors import JointIdError
-from jointid.pipeline import identify, simulate
+from jointid.pipeline import identify, simulate, simulate_free, update
+from jointid.study import TruthSpec, UncertaintySpec
 from jointid.reproduce.noise_robustness import TERMS, term_errors, within_band
 
 NOISE = 0.005
-CASES = ("clean", "gN", "gsi", "junk", "junkref", "model")
+CASES = ("clean", "gN", "gsi", "junk", "junkref", "model", "updated", "updated0")
 NAMES = {"clean": "clean", "gN": "g/N unlabelled", "gsi": "g label on SI", "junk": "junk lines",
-         "junkref": "junk, coherence, no junk", "model": "wrong free model"}
+         "junkref": "junk, coherence, no junk", "model": "wrong free model", "updated": "updated",
+         "updated0": "updated, no [uncertainty]"}
+TRUE_MESH = 16
 
 
 def study(start: float = 5.0, **beam):
@@ -57,8 +64,9 @@ class Data:
         self.vt = simulate(self.st)
         self.st0 = study(start=0.0)
         self.vt0 = simulate(self.st0)
-        self.fine = simulate(study(elements_per_segment=3))
+        self.fine = simulate(study(elements_per_segment=TRUE_MESH))
         b = self.st.structure
+        self.true = {"elastic_modulus": b.elastic_modulus, "density": b.density}
         self.wrong = study(elastic_modulus=b.elastic_modulus * 1.02, density=b.density * 0.99)
 
     def case(self, name, rng):
@@ -80,7 +88,19 @@ class Data:
                 keep = hz >= 5
                 return self.st, f.band(5.0, 1000.0), v.truth[keep]
             return self.st0, f, v.truth
-        return self.wrong, noisy(self.fine.frf, rng), self.fine.truth
+        frf = noisy(self.fine.frf, rng)
+        if name in ("updated", "updated0"):
+            seed = int(rng.integers(2 ** 31))
+            free = simulate_free(dataclasses.replace(self.wrong, truth=TruthSpec(**self.true, elements_per_segment=TRUE_MESH)),
+                                 noise=0.01, seed=seed)
+            up = update(self.wrong, free)
+            unc = up.uncertainty() if name == "updated" else {}
+            corr = unc.pop("correlation", None)
+            st = dataclasses.replace(self.wrong, structure=dataclasses.replace(self.wrong.structure, **{
+                k: v for k, v in up.values.items() if "." not in k}),
+                uncertainty=UncertaintySpec(unc, None if corr is None else tuple(map(tuple, corr))) if unc else None)
+            return st, frf, self.fine.truth
+        return self.wrong, frf, self.fine.truth
 
 
 def run(data: Data, name: str, rng):

@@ -105,7 +105,13 @@ def test_updated_study_keeps_the_text_and_carries_the_values(chain):
     for name, p in report["parameters"].items():
         assert getattr(updated.beam, name) == p["value"]
     original = load_study(chain / "study.toml")
-    assert replace(updated, structure=original.beam, source=original.source) == original
+    assert replace(updated, structure=original.beam, source=original.source, uncertainty=None) == original
+    # the fit's standard errors and correlation, for identify's bands
+    names = list(report["parameters"])
+    assert list(updated.uncertainty.std) == names
+    for name, p in report["parameters"].items():
+        assert updated.uncertainty.std[name] == p["std"]
+    assert np.array_equal(np.array(updated.uncertainty.correlation), np.array(report["correlation"]["matrix"], dtype=float))
     assert (chain / "upd" / "update.png").stat().st_size > 10_000
 
 

@@ -29,7 +29,7 @@ from .physics.structure import ComplexStiffness, Structure
 from .study import Study
 
 __all__ = [
-    "free_model", "true_joint", "true_joints", "build_true_joint", "true_joint_matrix",
+    "free_model", "uncertain_free_model", "true_joint", "true_joints", "build_true_joint", "true_joint_matrix",
     "constrained_model", "config_elastomer_joint", "config_beam",
 ]
 
@@ -61,6 +61,63 @@ def free_model(study: Study, with_accelerometers: bool | None = None, refined: b
     if with_accelerometers and acc is not None:
         model = model.with_masses(acc.nodes, acc.mass, acc.rotary_inertia)
     return model
+
+
+class _FamilyMember:
+    """One member (parameter ``values``) of an update model family as a free model (``dofs``, ``receptance``)."""
+
+    def __init__(self, family, values: Mapping[str, float]) -> None:
+        self.family, self.values = family, dict(values)
+
+    @property
+    def dofs(self):
+        return tuple(self.family.dofs(self.values))
+
+    def receptance(self, frequency, rows, cols) -> np.ndarray:
+        return self.family.receptance(self.values, frequency, rows, cols)
+
+
+def uncertain_free_model(study: Study, free):
+    """``free`` with the study's ``[uncertainty]`` as models at ``p -+ v_i`` per direction of the parameters' covariance.
+
+    The parameterized model is the one ``jointid update`` fits (``study.structure.update_model``); the
+    directions ``v_i`` are the covariance's eigenvectors times the square roots of their eigenvalues
+    (directions of zero variance are left out). Returns ``free`` itself without ``[uncertainty]``, else a
+    :class:`~jointid.physics.free_model.UncertainFreeModel`.
+
+    Raises
+    ------
+    StudyError
+        An ``[uncertainty]`` parameter of the accelerometers on a study that does not model them.
+    """
+    spec = study.uncertainty
+    if spec is None:
+        return free
+    from .physics.free_model import StructureModel, UncertainFreeModel, as_free_model
+
+    acc = study.accelerometers if study.identification.model_accelerometers else None
+    names, cov = spec.covariance()
+    build, initial, _, _ = study.structure.update_model(acc, study.frequency.stop)
+    missing = [k for k in names if k not in initial]
+    if missing:
+        raise StudyError(f"{study.source}: [uncertainty].{missing[0]}: this study's free model has no such parameter "
+                         "(accelerometer parameters need [accelerometers] and [identification] model_accelerometers = true)")
+    lam, vec = np.linalg.eigh(cov)
+    keep = lam > lam.max() * 1e-12 if lam.max() > 0 else np.zeros(lam.size, bool)
+    steps = vec[:, keep] * np.sqrt(lam[keep])  # (parameters, directions)
+
+    def member(values):
+        return StructureModel(build(values)) if callable(build) else _FamilyMember(build, values)
+
+    directions = []
+    for v in steps.T:
+        pair = []
+        for sign in (-1.0, 1.0):
+            values = dict(initial)
+            values.update({k: initial[k] + sign * dv for k, dv in zip(names, v)})
+            pair.append(member(values))
+        directions.append(tuple(pair))
+    return UncertainFreeModel(as_free_model(free), tuple(directions), f"the free model's parameter uncertainty ([uncertainty]: {', '.join(names)})")
 
 
 def build_true_joint(joint, source: str = "<study>") -> ComplexStiffness:

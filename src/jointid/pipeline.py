@@ -24,7 +24,7 @@ from .methods.estimate import JointEstimate, estimate_joint
 from .methods.estimate import check_layout
 from .methods.hong_lee.inverse import InverseOptions
 from .methods.receptance.coupling import CouplingOptions
-from .models import constrained_model, free_model, true_joint, true_joint_matrix  # the study-to-model translation (re-exported)
+from .models import constrained_model, free_model, true_joint, true_joint_matrix, uncertain_free_model  # the study-to-model translation (re-exported)
 from .physics.synthesis import model_frf
 from .study import Study
 
@@ -201,7 +201,7 @@ def identify(study: Study, measured: FRF, options: InverseOptions | CouplingOpti
         options = coupling_options(study) if method == "receptance" else inverse_options(study)
     method = "receptance" if isinstance(options, CouplingOptions) else "hong-lee"
     if method == "receptance":
-        free = free_model(study)
+        free = uncertain_free_model(study, free_model(study))
     else:
         try:
             free = study.structure.dense_model(study.frequency.stop)

@@ -15,7 +15,7 @@ from ..methods.updating.parameters import (
     DEFAULT_MAX_EVALUATIONS, DEFAULT_PARAMETERS, DEFAULT_STRUCTURE_PARAMETERS, PARAMETERS, STRUCTURE_PARAMETERS,
     check_parameter_names,
 )
-from ..study.edit import replace_study_values
+from ..study.edit import replace_study_table, replace_study_values
 from .common import add_out_argument, add_study_argument, study_from_args
 
 __all__ = ["add_parser", "run", "parse_parameters", "structure_paths_for"]
@@ -115,6 +115,11 @@ def run(args: argparse.Namespace) -> int:
             header = header + ["No parameter was determined: the study is unchanged" + (" (but for its file names)." if edits else ".")]
         new_text = replace_study_values(text, edits, header, source=str(args.study)) if edits else \
             "".join(f"# {h}\n" for h in header) + text
+        std = result.uncertainty()
+        if std:  # the fit's covariance: identify propagates it into the joint's bands
+            new_text = replace_study_table(new_text, "uncertainty", std, (
+                "1-sigma of the updated parameters and their correlation (jointid update's fit); `jointid identify`",
+                "adds their effect to the joint's bands (remove this table to leave it out)"), source=str(args.study))
         report = result.to_dict()
         report.update({"study": study.source, "frf_file": str(args.frf), "fitted": list(names)})
         out.write_text("update.json", json_text(report))

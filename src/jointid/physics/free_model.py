@@ -26,7 +26,7 @@ from .modes import DENSE_EIGEN_LIMIT, Modes, natural_modes
 from .structure import Structure
 from .synthesis import check_zero_frequency, receptance_direct, receptance_modal_refined
 
-__all__ = ["FreeModel", "StructureModel", "as_free_model"]
+__all__ = ["FreeModel", "StructureModel", "UncertainFreeModel", "as_free_model"]
 
 
 @runtime_checkable
@@ -91,6 +91,45 @@ class StructureModel:
         if self.modes is not None:
             return receptance_modal_refined(self.structure, frequency, rows, cols, self.modes)
         return receptance_direct(self.structure, frequency, rows, cols)
+
+
+@dataclass(frozen=True, eq=False)
+class UncertainFreeModel:
+    """A free model with a stated parameter uncertainty: its receptance and the receptance's deviation per direction.
+
+    The parameters' covariance ``C = sum_i v_i v_i^T`` (``v_i``: eigenvectors scaled by the square root of
+    their eigenvalue) is carried as one pair of models per direction, built at ``p - v_i`` and ``p + v_i``;
+    :meth:`receptance_deviations` gives the central differences ``dY_i = (Y(p + v_i) - Y(p - v_i)) / 2``, so a
+    quantity ``q(Y)`` has the linearized variance ``sum_i (dq/dY dY_i)^2``. Caveat: linear in the parameters over
+    one standard deviation (the central difference is exact to second order).
+
+    Parameters
+    ----------
+    model : FreeModel
+        The nominal free model (its receptance is :meth:`receptance`).
+    directions : tuple of (FreeModel, FreeModel)
+        The models at ``p - v_i`` and ``p + v_i``, one pair per direction.
+    described : str
+        What the uncertainty is, for findings (e.g. ``"[uncertainty]: elastic_modulus, density"``).
+    """
+
+    model: FreeModel
+    directions: tuple[tuple[FreeModel, FreeModel], ...]
+    described: str = "the free model's parameter uncertainty"
+
+    @property
+    def dofs(self) -> tuple[Dof, ...]:
+        """The nominal model's DOFs."""
+        return self.model.dofs
+
+    def receptance(self, frequency, rows: Iterable, cols: Iterable) -> np.ndarray:
+        """The nominal model's receptance ``Y[rows, cols]``, shape (F, r, c)."""
+        return self.model.receptance(frequency, rows, cols)
+
+    def receptance_deviations(self, frequency, rows: Iterable, cols: Iterable) -> np.ndarray:
+        """``dY_i[rows, cols]`` per direction, shape (D, F, r, c), in the receptance's units."""
+        return np.stack([(plus.receptance(frequency, rows, cols) - minus.receptance(frequency, rows, cols)) / 2.0
+                         for minus, plus in self.directions])
 
 
 def as_free_model(model) -> FreeModel:

@@ -60,8 +60,9 @@ CASES = {
 NOISE = 0.005
 #: The study's free model against the true beam: parameter -> factor on the true value.
 NOMINAL_ERROR = {"elastic_modulus": 1.02, "density": 0.99, "loss_factor": 1.02}
-#: Elements per beam segment of the true beam (the study's model: the default mesh).
-TRUE_MESH = 3
+#: Elements per beam segment of the true beam: twice the model's (its mesh converged at 1000 Hz: 8), so the true
+#: structure is the finer of the two.
+TRUE_MESH = 16
 #: Relative complex noise rms of the virtual free-free test.
 FREE_TEST_NOISE = 0.01
 #: Lowest line of the model cases, Hz (the benchmark's band starts there).
@@ -96,7 +97,7 @@ def beam_study(config, start: float, source: str = "real-world study"):
 
 def off_study(config):
     """:func:`beam_study` from :data:`MODEL_START_HZ` with the model off by :data:`NOMINAL_ERROR`; its ``[truth]``
-    is the configuration's beam on a :data:`TRUE_MESH` times finer mesh."""
+    is the configuration's beam on :data:`TRUE_MESH` elements per segment (finer than the model's)."""
     from ..study import TruthSpec
 
     st = beam_study(config, max(config.start, MODEL_START_HZ))
@@ -106,10 +107,17 @@ def off_study(config):
     return replace(st, structure=model, truth=TruthSpec(**true, elements_per_segment=TRUE_MESH))
 
 
-def _updated(study, values: dict):
-    """``study`` with the updated parameter ``values`` (``jointid update``'s names) in its beam and accelerometers."""
+def _updated(study, values: dict, uncertainty: dict | None = None):
+    """``study`` with the updated parameter ``values`` (``jointid update``'s names) in its beam and accelerometers, and
+    the fit's standard errors and correlation (:meth:`UpdateResult.uncertainty`) as its ``[uncertainty]``."""
+    from ..study import UncertaintySpec
+
     beam = {f.name for f in fields(study.structure)}
     st = replace(study, structure=replace(study.structure, **{k: v for k, v in values.items() if k in beam}))
+    if uncertainty:
+        std = {k: v for k, v in uncertainty.items() if k != "correlation"}
+        corr = uncertainty.get("correlation")
+        st = replace(st, uncertainty=UncertaintySpec(std, None if corr is None else tuple(tuple(r) for r in corr)))
     acc = {k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("accelerometers.")}
     if st.accelerometers is not None and acc:
         st = replace(st, accelerometers=replace(st.accelerometers, **acc))
@@ -186,7 +194,7 @@ def run_case(config, case: str, realization: int = 0) -> dict:
             up = update(study, simulate_free(study, noise=FREE_TEST_NOISE, seed=seed))
             true = {k: float(getattr(study.true_study().structure, k)) for k in NOMINAL_ERROR}
             extra = {"parameter_error": {k: up.values[k] / v - 1.0 for k, v in true.items()}, "update_finding": up.finding}
-            study = _updated(study, up.values)
+            study = _updated(study, up.values, up.uncertainty())
         est = identify(study, frf)
         return _result(case, realization, est, _on_lines(test.truth, test.frf.frequency.hz, est), extra=extra)
     # junk: a study from 0 Hz; data from one step (the 0 Hz line is not identified), the first lines junk

@@ -10,12 +10,12 @@
 from .parse import MAX_AVERAGES, MAX_LINES, MAX_NODES, MAX_RECORD_SAMPLES, load_study, parse_study
 from .sections import (
     AccelerometerSpec, BeamSpec, ExperimentSpec, FrequencySpec, IdentificationSpec, JointModelSpec, JointSpec,
-    MeasurementSpec, Study, TruthSpec,
+    MeasurementSpec, Study, TruthSpec, UncertaintySpec,
 )
 from .structures import MatrixStructureSpec
 
 __all__ = [
     "Study", "BeamSpec", "MatrixStructureSpec", "JointSpec", "JointModelSpec", "MeasurementSpec", "AccelerometerSpec",
-    "IdentificationSpec", "FrequencySpec", "ExperimentSpec", "TruthSpec",
+    "IdentificationSpec", "FrequencySpec", "ExperimentSpec", "TruthSpec", "UncertaintySpec",
     "load_study", "parse_study", "MAX_NODES", "MAX_LINES", "MAX_RECORD_SAMPLES", "MAX_AVERAGES",
 ]

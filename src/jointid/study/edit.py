@@ -18,7 +18,7 @@ from typing import Mapping, Sequence
 
 from ..errors import StudyError
 
-__all__ = ["study_key", "replace_study_values"]
+__all__ = ["study_key", "replace_study_values", "replace_study_table"]
 
 _HEADER = re.compile(r"^\s*\[\s*([A-Za-z0-9_.\-\s\"]+?)\s*\]\s*(#.*)?$")
 _ARRAY_HEADER = re.compile(r"^\s*\[\[")
@@ -118,4 +118,51 @@ def replace_study_values(
             f"{source}: could not write {', '.join(values)} into this study's text without changing anything else "
             "(dotted keys or inline tables?); set the values of update.json by hand"
         )
+    return out
+
+
+def _value_text(value) -> str:
+    """A number, string or (nested) list of numbers as TOML text."""
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_value_text(v) for v in value) + "]"
+    return _format(value)
+
+
+def replace_study_table(text: str, table: str, entries: Mapping[str, object], comment: Sequence[str] = (),
+                        source: str = "<study>") -> str:
+    """``text`` with the top-level table ``[table]`` replaced by ``entries`` (appended when it has none).
+
+    Every other line is kept as written. ``comment`` lines go above the new table. Values: numbers,
+    strings, lists (of lists) of numbers.
+
+    Raises
+    ------
+    StudyError
+        The table is given in a form this editor does not change (inline or dotted), or the result does not
+        read back as the input with only that table replaced.
+    """
+    lines = text.splitlines(keepends=True)
+    newline = "\r\n" if lines and lines[0].endswith("\r\n") else "\n"
+    keep, inside = [], False
+    for line in lines:
+        m = _HEADER.match(line.rstrip("\r\n"))
+        if m or _ARRAY_HEADER.match(line):
+            inside = bool(m) and m.group(1).replace(" ", "").replace('"', "") == table
+        if not inside:
+            keep.append(line)
+    if keep and not keep[-1].endswith(("\n", "\r")):
+        keep[-1] += newline
+    block = [newline] + [f"# {c}{newline}" for c in comment] + [f"[{table}]{newline}"]
+    block += [f"{k} = {_value_text(v)}{newline}" for k, v in entries.items()]
+    out = "".join(keep) + "".join(block)
+    try:
+        expected = tomllib.loads(text)
+        data = tomllib.loads(out)
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyError(f"{source}: could not write [{table}] into this study's text ({exc}); edit it by hand") from None
+    expected[table] = {k: ([list(r) if isinstance(r, (list, tuple)) else r for r in v] if isinstance(v, (list, tuple)) else v)
+                       for k, v in entries.items()}
+    if data != expected:
+        raise StudyError(f"{source}: could not write [{table}] into this study's text without changing anything else "
+                         f"(an inline or dotted {table} table?); write it by hand")
     return out

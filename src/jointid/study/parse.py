@@ -145,6 +145,7 @@ from ..schema import positive as _positive
 from ..schema import section as _section
 from .structures import ELASTOMER_MATERIAL_FIELDS, matrix_joint_model, parse_dof_list_key, parse_joints, parse_structure_table
 from .sections import (
+    UncertaintySpec,
     TRUTH_KEYS,
     AccelerometerSpec,
     BeamSpec,
@@ -255,7 +256,8 @@ _STRUCTURE_TRUTH = {
     "mass_scale": _Field("number", False, None, check=_positive, bounds=SCALE),
     "loss_factor": _Field("number", False, None, check=_nonneg, bounds=LOSS_FACTOR),
 }
-_TOP = ("beam", "structure", "joint", "measurement", "frequency", "accelerometers", "identification", "experiment", "truth")
+_TOP = ("beam", "structure", "joint", "measurement", "frequency", "accelerometers", "identification", "experiment", "truth",
+        "uncertainty")
 
 
 def parse_study(data: Mapping[str, Any], source: str = "<study>") -> Study:
@@ -360,7 +362,43 @@ def _shared_sections(data: Mapping, source: str, structure, joints: tuple, measu
         raise StudyError("[identification].model_accelerometers = true needs an [accelerometers] section")
     exp = _experiment(data, frequency)
     truth = TruthSpec(**_section(data["truth"], "truth", truth_fields)) if "truth" in data else None
-    return Study(structure, joints, measurement, frequency, acc, ident, exp, source, truth)
+    uncertainty = _uncertainty(data["uncertainty"], structure) if "uncertainty" in data else None
+    return Study(structure, joints, measurement, frequency, acc, ident, exp, source, truth, uncertainty)
+
+
+def _uncertainty(table: Any, structure) -> UncertaintySpec:
+    """``[uncertainty]``: 1-sigma per parameter ``jointid update`` knows for this structure, and an optional correlation."""
+    if not isinstance(table, Mapping):
+        raise StudyError("[uncertainty] must be a table of parameter = standard deviation")
+    known, _ = structure.update_parameter_names()
+    std: dict[str, float] = {}
+    for key, value in table.items():
+        if key == "correlation":
+            continue
+        if key not in known:
+            raise StudyError(f"[uncertainty].{key}: not a parameter of this free model; use one of {', '.join(sorted(known))}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0 or value == float("inf"):
+            raise StudyError(f"[uncertainty].{key}: expected a standard deviation >= 0 in the parameter's unit, got {value!r}")
+        std[key] = float(value)
+    if not std:
+        raise StudyError("[uncertainty] gives no parameter: add e.g. elastic_modulus = 2e8 (1-sigma, Pa), or remove the table")
+    corr = table.get("correlation")
+    if corr is not None:
+        n = len(std)
+        ok = isinstance(corr, list) and len(corr) == n and all(
+            isinstance(r, list) and len(r) == n and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in r) for r in corr)
+        if not ok:
+            raise StudyError(f"[uncertainty].correlation: expected a {n} x {n} matrix (lists of numbers) in the order of "
+                             f"the parameters given ({', '.join(std)})")
+        corr = tuple(tuple(float(v) for v in r) for r in corr)
+        import numpy as np
+
+        C = np.array(corr)
+        if not (np.allclose(C, C.T, rtol=0, atol=1e-9) and np.allclose(np.diag(C), 1.0, rtol=0, atol=1e-9)
+                and np.linalg.eigvalsh((C + C.T) / 2).min() >= -1e-9):
+            raise StudyError("[uncertainty].correlation: not a correlation matrix (symmetric, ones on the diagonal, "
+                             "positive semidefinite)")
+    return UncertaintySpec(std, corr)
 
 
 def _sensors_below_beam(acc: AccelerometerSpec, beam: BeamSpec) -> None:

@@ -24,6 +24,7 @@ __all__ = [
     "FrequencySpec",
     "ExperimentSpec",
     "TruthSpec",
+    "UncertaintySpec",
     "TRUTH_KEYS",
 ]
 
@@ -324,6 +325,31 @@ TRUTH_KEYS = BeamSpec.truth_keys
 
 
 @dataclass(frozen=True)
+class UncertaintySpec:
+    """``[uncertainty]``: 1-sigma of the free model's parameters (``jointid update`` writes it), for the bands.
+
+    ``std`` maps ``jointid update``'s parameter names (``elastic_modulus``, ``density``,
+    ``loss_factor``, ``accelerometers.mass``, ...; a ``[structure]``: ``stiffness_scale``,
+    ``mass_scale``, ``loss_factor``) to a standard deviation in the parameter's unit;
+    ``correlation`` (optional) is their correlation matrix in the order of ``std``.
+    ``identify`` (receptance method) propagates it into every term's band
+    (:mod:`jointid.methods.receptance.model_uncertainty`).
+    """
+
+    std: Mapping[str, float]
+    correlation: tuple[tuple[float, ...], ...] | None = None
+
+    def covariance(self) -> tuple[tuple[str, ...], "np.ndarray"]:
+        """The parameter names and their covariance ``D C D`` (parameters' units squared)."""
+        import numpy as np
+
+        names = tuple(self.std)
+        d = np.array([self.std[k] for k in names], float)
+        C = np.eye(len(names)) if self.correlation is None else np.array(self.correlation, float)
+        return names, d[:, None] * C * d[None, :]
+
+
+@dataclass(frozen=True)
 class Study:
     """A validated study: free structure, joints, measurement, frequency grid and optional sections.
 
@@ -343,6 +369,7 @@ class Study:
     experiment: ExperimentSpec = ExperimentSpec()
     source: str = "<study>"
     truth: TruthSpec | None = None
+    uncertainty: UncertaintySpec | None = None
 
     @property
     def beam(self) -> BeamSpec | None:

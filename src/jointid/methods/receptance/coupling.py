@@ -66,12 +66,13 @@ from ...dofs import Dof, parse_dofs
 from ...errors import DataError, IdentificationError
 from ...frequency import Frequency
 from ...frf import FRF
-from ...physics.free_model import as_free_model
+from ...physics.free_model import UncertainFreeModel, as_free_model
 from .column_calibration import estimate_column_calibration, residual_variance
 from .coupling_result import CouplingResult
 from .options import CouplingOptions
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
 from .junk_lines import junk_lines
+from .model_uncertainty import ModelUncertainty, model_uncertainty
 from .model_check import check_model, residual_statistics
 from .units_check import units_conclusion
 from ..frf_screening import check_visibility, floor_exact_zeros, noise_level_unknown, screen_measured
@@ -227,7 +228,14 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         if not check.fits:
             notes.append(check.finding(freq.hz))
             checked = check.failed_lines if checked is None else checked | check.failed_lines
-    return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes), checked, spline)
+    uncertain = None
+    if isinstance(model, UncertainFreeModel) and model.directions:  # the free model's parameter covariance -> the bands
+        dY = model.receptance_deviations(freq, tuple(m_dofs) + tuple(n_dofs), tuple(n_dofs) + tuple(e_dofs))
+        blocks = [(d[:, :nm, :nn], d[:, nm:, nn:], d[:, nm:, :nn], d[:, :nm, nn:]) for d in dY]
+
+        def uncertain(K):
+            return model_uncertainty(Ymn, Yne, Ynn, Yme, blocks, K, variance, options.symmetric, model.described)
+    return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes), checked, spline, uncertain)
 
 
 def _units_check(freq: Frequency, Ymn, Yne, Yme, H, variance, cal, options: CouplingOptions, kron: bool, notes: list) -> np.ndarray | None:
@@ -290,10 +298,11 @@ def _exact(lines) -> bool:
 
 
 def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False, data_notes=(),
-            checked=None, spline: JointSplineFit | None = None) -> CouplingResult:
+            checked=None, spline: JointSplineFit | None = None, uncertain=None) -> CouplingResult:
     """Estimate over frequency (the joint spline fit, the structured model, or each term smoothed and relinearized),
-    propagate the variance, set the flags (every term unreliable on the ``checked`` lines: the units or the model check
-    failed there)."""
+    propagate the variance (and ``uncertain(K)``'s: the free model's parameter uncertainty,
+    :mod:`.model_uncertainty`), set the flags (every term unreliable on the ``checked`` lines: the units or the model
+    check failed there)."""
     structured, note = _structured(freq, lines, options, cal, applied)
     if spline is not None:  # every line at once, on the FRFs as measured: its covariance from the Jacobian
         K, var_re, var_im = spline.stiffness, spline.std_real ** 2, spline.std_imag ** 2
@@ -309,6 +318,11 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
         for _ in range(RELINEARIZATIONS if any(v is not None for v in edf.values()) else 0):
             lines_k = relinearize(lines, K)
             K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines_k, options)
+    if uncertain is not None:
+        mu: ModelUncertainty = uncertain(K)
+        var_re, var_im = var_re + mu.variance_real, var_im + mu.variance_imag
+        said = mu.finding(freq.hz, term_names(n_dofs), var_re, var_im)
+        data_notes = tuple(data_notes) + ((said,) if said else ())
     std_re, std_im = np.sqrt(np.maximum(var_re, 0.0)), np.sqrt(np.maximum(var_im, 0.0))  # round-off of a singular design can go below 0
     diag = np.arange(lines.stiffness.shape[1])
     passive = ~(K[:, diag, diag].imag < -Z90 * std_im[:, diag, diag])

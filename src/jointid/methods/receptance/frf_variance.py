@@ -64,7 +64,7 @@ from scipy.ndimage import uniform_filter1d
 from ...errors import IdentificationError
 from ...parallel import map_chunks, single_threaded_blas, worker_count
 
-__all__ = ["frf_variance", "column_noise_fraction", "WEIGHTINGS", "RELATIVE_FLOOR", "COHERENCE_SMOOTHING_LINES", "SPLIT_MIN_REDUNDANCY", "SPLIT_MIN_FRACTION"]
+__all__ = ["frf_variance", "column_noise_fraction", "smooth_coherence_variance", "WEIGHTINGS", "RELATIVE_FLOOR", "COHERENCE_SMOOTHING_LINES", "SPLIT_MIN_REDUNDANCY", "SPLIT_MIN_FRACTION"]
 
 WEIGHTINGS = ("auto", "coherence", "relative", "none")
 #: Smallest relative standard deviation assigned to an FRF value (calibration, round-off).
@@ -120,7 +120,7 @@ def frf_variance(
             raise IdentificationError("weighting = 'coherence' needs coherence records in the FRF file; use 'relative'")
         g2 = _coherence(coherence, data.shape)
         rel = rel + (1.0 - g2) / (g2 * (averages or 1))
-        var = _smooth_log(rel * np.maximum(mag2, np.finfo(float).tiny))
+        var = smooth_coherence_variance(rel, np.maximum(mag2, np.finfo(float).tiny))
         return var, weighting
     rel = rel + 1.0
     return rel * np.maximum(mag2, np.finfo(float).tiny), weighting
@@ -292,6 +292,53 @@ def _coherence(coherence, shape) -> np.ndarray:
     if g2.shape != shape:
         raise IdentificationError(f"coherence has shape {g2.shape}, the FRFs {shape}")
     return g2
+
+
+def smooth_coherence_variance(q: np.ndarray, mag2: np.ndarray) -> np.ndarray:
+    """The coherence-based variance ``q |H|^2`` averaged over neighbouring lines without smoothing ``|H|^2``.
+
+    Within a running window of :data:`COHERENCE_SMOOTHING_LINES` lines, per FRF value, ``log q``
+    is regressed on ``x = log |H|^2``: ``log q ~ c + beta (x - mean x)``, with the slope
+    ``beta`` clipped to ``[-1, 0]`` and evaluated at each line's own ``x``::
+
+        var = exp(mean(log q) + beta (x - mean x)) |H|^2
+
+    ``beta = 0`` is a relative error (force noise, a constant signal-to-noise ratio:
+    ``q`` smooth, ``var ~ |H|^2`` through resonances and antiresonances); ``beta = -1`` a noise
+    floor over a smooth force spectrum (``var`` smooth); the data choose between them, window
+    by window. Averaging ``q |H|^2`` itself (the floor model alone) under-weights nothing but
+    makes the variance of a resonance peak the window's mean, many times too small where a
+    relative error dominates (bands too narrow at the peaks, spurious column calibrations;
+    ``benchmarks/real_world_checks.py --cases junkref`` prints the coverage).
+
+    Parameters
+    ----------
+    q : ndarray, shape (F, ...)
+        ``(1 - g^2) / (n g^2)`` per value, > 0 (relative variance from the coherence).
+    mag2 : ndarray, shape (F, ...)
+        ``|H|^2`` per value, > 0 (unit^2).
+
+    Returns
+    -------
+    ndarray, shape (F, ...)
+        Smoothed variance (unit^2). Caveat: a window that spans values of both kinds takes the
+        slope of their mix; lines fewer than ten per window are not smoothed.
+    """
+    width = min(COHERENCE_SMOOTHING_LINES, max(1, q.shape[0] // 10)) | 1
+    if width == 1:
+        return q * mag2
+    y, x = np.log(q), np.log(mag2)
+
+    def mean(z):
+        return uniform_filter1d(z, width, axis=0, mode="nearest")
+
+    my, mx = mean(y), mean(x)
+    sxx = np.maximum(mean(x * x) - mx * mx, 0.0)
+    sxy = mean(x * y) - mx * my
+    with np.errstate(divide="ignore", invalid="ignore"):
+        beta = np.where(sxx > 0.0, sxy / sxx, 0.0)
+    beta = np.clip(np.nan_to_num(beta), -1.0, 0.0)
+    return np.exp(my + beta * (x - mx)) * mag2
 
 
 def _smooth_log(x: np.ndarray) -> np.ndarray:

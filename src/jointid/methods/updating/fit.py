@@ -216,6 +216,20 @@ class UpdateResult:
         """Name -> fitted value, for the parameters the data determine only."""
         return {p.name: p.value for p in self.parameters if p.identified}
 
+    def uncertainty(self) -> dict:
+        """The fit's ``[uncertainty]`` table: name -> standard error of each determined parameter (in the order of
+        :attr:`fitted`), and ``"correlation"`` (their correlation) when more than one; empty when none is determined."""
+        by_name = {p.name: p for p in self.parameters}
+        names = [k for k in self.fitted if k in by_name and by_name[k].identified]
+        if not names:
+            return {}
+        out: dict = {k: float(by_name[k].std_error) for k in names}
+        if len(names) > 1:
+            idx = [self.fitted.index(k) for k in names]
+            C = np.asarray(self.correlation, float)[np.ix_(idx, idx)]
+            out["correlation"] = [[float(v) for v in row] for row in C]
+        return out
+
     def describe(self) -> list[str]:
         """One line per parameter, e.g. ``"E = 7.038e+10 +- 1.2e+06 Pa (initial 6.9e+10, +2.0 %)"``; the finding first."""
         out = [self.finding] if self.finding else []
