@@ -96,6 +96,12 @@ re-exported here. Units are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     loss_factor = 0.0042      #   start from [beam]
     elements_per_segment = 32 # e.g. data from a finer mesh than the model
 
+    [uncertainty]             # 1-sigma of the free model's parameters (`jointid update` writes it from its fit;
+    elastic_modulus = 2.3e6   #   `jointid update`'s names, the parameter's unit): `identify` (receptance) adds
+    density = 0.10            #   its effect on the joint to every term's band
+    loss_factor = 1.7e-6
+    correlation = [[1.0, 0.96, 0.0], [0.96, 1.0, 0.0], [0.0, 0.0, 1.0]]  # optional, in the order above
+
 Only ``[beam]``, ``[joint]``, ``[measurement]`` and ``[frequency]`` are required.
 
 A *structure study* gives ``[structure]`` (mass and stiffness matrix files and
