@@ -9,7 +9,8 @@ import pytest
 from jointid.frequency import Frequency
 from jointid.frf import FRF
 from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
-from jointid.methods.receptance.spline_fit import JointSplineFit, fit_joint_spline, legendre_log_basis, log_frequency_basis
+from jointid.methods.receptance.spline_bands import richer_fit_band
+from jointid.methods.receptance.spline_fit import JointSplineFit, fit_joint_spline, legendre_log_basis, log_frequency_basis, term_variance
 from jointid.physics import FrameSection, Material, build_frame
 from jointid.physics.jointed_model import JointedModel
 from jointid.physics.reduction import craig_bampton
@@ -111,3 +112,61 @@ def test_noisy_mount_bands_hold_the_truth_and_beat_the_per_line_estimate(case):
     assert np.all(err[:3] < 0.005) and np.all(err[3:] < 0.05), err
     inside = np.r_[np.abs(dK.real) <= Z90 * fit.std_real[:, d, d], np.abs(dK.imag) <= Z90 * fit.std_imag[:, d, d]]
     assert inside.mean() > 0.75 and inside.mean(axis=0).min() > 0.4, inside.mean(axis=0)
+
+
+def test_richer_fit_band_keeps_the_nominal_level_for_any_bias():
+    # K_sel - K_true = d + e, e ~ N(0, s^2) independent of d: the band z sqrt(s^2 + d^2) holds it with probability
+    # 0.90 at d = 0 and >= 0.89995 for every d (the module's claim: min 0.899953 at d = 0.375 s; exact normal
+    # probabilities on a grid of step 0.005 s, no sampling)
+    from scipy.stats import norm
+
+    s = 1.0
+    d = np.linspace(0.0, 10.0, 2001)
+    half = Z90 * np.sqrt(s ** 2 + d ** 2)
+    prob = norm.cdf((half - d) / s) - norm.cdf((-half - d) / s)
+    assert prob.min() >= 0.89995 and abs(prob[0] - 0.9) < 1e-9
+    # the function: per part, max(own variance, half the richest fit's + the squared difference)
+    K = np.array([[[1.0 + 2.0j]]])
+    std_re, std_im = richer_fit_band(K, np.array([[[0.5]]]), np.array([[[4.0]]]), K - (3.0 - 1.0j), np.array([[[2.0]]]))
+    assert np.allclose(std_re, np.sqrt(1.0 + 9.0)) and np.allclose(std_im, 2.0)
+
+
+@pytest.fixture(scope="module")
+def per_term_fits(case):
+    """Seed 7 of the noisy power-law mount on 75 lines: the default fit (per-term orders) and the richest uniform one."""
+    freq = case[1]
+    Ymn, Ynn, Yne, Yme = case[2]
+    H0, truth = _data(case, power_law)
+    rng = np.random.default_rng(7)
+    H = H0 * (1 + 0.01 * (rng.standard_normal(H0.shape) + 1j * rng.standard_normal(H0.shape)) / np.sqrt(2))
+    args = (freq.hz, Ymn, Ynn, Yne, Yme, H, np.abs(H) ** 2)
+    return fit_joint_spline(*args), fit_joint_spline(*args, n_basis=4), truth
+
+
+def test_per_term_bands_hold_the_bias_measured_against_the_richest_fit(per_term_fits):
+    fit, rich, truth = per_term_fits
+    assert "per-term" in fit.criterion and fit.term_basis.min() < 4
+    # the richest fit inside the default one is the n_basis = 4 fit (same starts, same seed): its estimate and bands
+    d = fit.stiffness - rich.stiffness
+    assert np.abs(d).max() > 0
+    tol = 1e-9  # relative: the two variances are sums of the same positive numbers in a different order
+    assert np.all(fit.std_real ** 2 >= (rich.std_real ** 2 + d.real ** 2) * (1 - tol))
+    assert np.all(fit.std_imag ** 2 >= (rich.std_imag ** 2 + d.imag ** 2) * (1 - tol))
+    # and never below the chosen orders' own linearized band (fit.covariance: Legendre, per-term active coefficients)
+    own = term_variance(fit.covariance, legendre_log_basis(fit.frequency_hz, fit.n_basis), 6) / 2
+    assert np.all(fit.std_real ** 2 >= own * (1 - tol)) and np.all(fit.std_imag ** 2 >= own * (1 - tol))
+
+
+def test_per_term_bands_cover_the_power_law_where_the_own_bands_did_not(per_term_fits):
+    # seed 7: K_ry_ry and K_rz_rz are left with 3 and 4 coefficients; with its own (linearized) band the
+    # 3-coefficient fit of the power law covered 62 % of the lines for K_ry_ry (measured), the bias band all
+    fit, _, truth = per_term_fits
+    d = np.arange(6)
+    dK = fit.stiffness[:, d, d] - truth[:, d, d]
+    inside = (np.abs(dK.real) <= Z90 * fit.std_real[:, d, d]).mean(0) / 2 + (np.abs(dK.imag) <= Z90 * fit.std_imag[:, d, d]).mean(0) / 2
+    own = np.sqrt(term_variance(fit.covariance, legendre_log_basis(fit.frequency_hz, fit.n_basis), 6)[:, d, d] / 2)
+    inside_own = ((np.abs(dK.real) <= Z90 * own).mean(0) + (np.abs(dK.imag) <= Z90 * own).mean(0)) / 2
+    assert inside_own.min() < 0.7, inside_own  # the case the fix is for
+    assert inside.min() >= 0.8, inside
+    err = np.median(np.abs(dK) / np.abs(truth[:, d, d]), axis=0)
+    assert np.all(err[:3] < 0.005) and np.all(err[3:] < 0.05), err  # the estimate is the chosen orders' (unchanged)

@@ -38,7 +38,9 @@ Procedure (:func:`fit_joint_spline`):
    coefficients; the noise scale is estimated, so only the weights' shape must be right);
 4. covariance ``cov(c) = s^2 (J^H J)^-1`` with ``s^2 = chi^2 / (N - P)``, errors circular
    (half the variance in each part), propagated to ``std_real``/``std_imag`` per term
-   and line.
+   and line; with per-term orders, each part's variance is ``max(var, var_rich + d^2)``,
+   ``d`` the difference from the richest uniform fit (the bias of a dropped coefficient,
+   :mod:`.spline_bands`).
 
 Units: ``frequency_hz`` in Hz; receptances in m/N, rad/N, m/(N*m), rad/(N*m); ``K`` in
 N/m, N/rad, N*m/m, N*m/rad; ``variance`` in the squared units of ``H``.
@@ -58,6 +60,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .smoothing import bspline_basis
+from .spline_bands import richer_fit_band
 
 __all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "legendre_log_basis", "spline_covariance", "term_variance", "MAX_ITERATIONS", "STARTS"]
 
@@ -563,8 +566,12 @@ def fit_joint_spline(
         a = np.flatnonzero(active)
         cov = np.zeros(N.shape, complex)
         cov[np.ix_(a, a)] = s2 * _inverse(N[np.ix_(a, a)])
-        std = np.sqrt(term_variance(cov, basis, n, symmetric) / 2.0)  # circular errors: half in each part
-        std_im = std.copy()
+        var_sel = term_variance(cov, basis, n, symmetric) / 2.0  # circular errors: half in each part
+        # the bias of the terms left with fewer coefficients, measured against the richest (uniform) fit
+        c_rich, cost_rich, _, basis_rich = fits[max_basis]
+        K_rich = _stiffness(c_rich, basis_rich, problem.pairs, n, problem.symmetric)
+        cov_rich = cost_rich / max(count - c_rich.size, 1) * _inverse(problem.normal(K_rich, basis_rich)[1])
+        std, std_im = richer_fit_band(K, var_sel, var_sel, K_rich, term_variance(cov_rich, basis_rich, n, symmetric))
         best = int(orders.max())
         term_orders = orders
     else:
