@@ -129,13 +129,12 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
     for name, part in split_joints(study, result).items():
         k = len(part.joint_dofs)
         csv = stiffness_file(study, name)
-        out.write_csv(csv, part.columns())
         if plots:
             t = None if truth is None else truth[:, i:i + k, i:i + k]
             title = f"joint {name}: " if len(study.joints) > 1 else ""
             name_png = csv.replace(".csv", ".png")
             if worker is not None and k <= 3:  # drawn by the worker while the CSV and summary are written here
-                from ..plots.joint_stiffness import JointStiffnessData
+                from ..plots.stiffness_data import JointStiffnessData
 
                 figures.append((name_png, worker.submit("joint_stiffness", JointStiffnessData.of(part), truth=t), f"{title}{caption}"))
             else:
@@ -145,6 +144,7 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
 
                 figure(csv.replace("joint_stiffness", "joint_matrix").replace(".csv", ".png"), plot_joint_matrix(part, title=name),
                        f"joint {name}: |K_ij| of every term at a few frequencies")
+        out.write_csv(csv, part.columns())  # after the figure is sent: the worker draws while this is formatted
         i += k
     info = summary(result, study, source)
     out.write_text("summary.json", json_text(info))

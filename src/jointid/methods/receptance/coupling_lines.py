@@ -92,6 +92,7 @@ joint: ratio ~1e-3). The FE model's error is not in the covariance.
 from __future__ import annotations
 
 import dataclasses
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -224,7 +225,7 @@ def coupling_per_line(
     p = P.shape[1]
     sw, cs, Q, R = whitened_line_design(Ymn, Yne, variance, symmetric)
     dw = change.reshape(F, m * e) * sw
-    qd = np.einsum("fji,fj->fi", Q.conj(), dw)
+    qd = np.conj(np.einsum("fji,fj->fi", Q, np.conj(dw)))  # Q^H dw without a conjugated copy of Q
     eye = np.broadcast_to(np.eye(p), (F, p, p))
     Ri = np.linalg.solve(R, eye)  # R^-1: p x p per line
     xs = np.einsum("fij,fj->fi", Ri, qd)
@@ -256,6 +257,11 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
     (upper triangle of X if ``symmetric``); rows are weighted by ``sw = 1 / sqrt(variance)`` and
     columns scaled to unit norm by ``cs``.
 
+    One identification asks for the same design several times (the column calibration, the
+    per-line fit and the model check weight the lines alike): the last one computed in this
+    thread is kept with a copy of its inputs and returned again for equal inputs (the arrays
+    returned are read-only).
+
     Returns
     -------
     sw : ndarray, shape (F, m e)
@@ -263,17 +269,55 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
     Q, R : ndarray, shapes (F, m e, p), (F, p, p), complex
         ``Q R = diag(sw) A diag(1 / cs)`` per line.
     """
+    inputs = (np.asarray(Ymn), np.asarray(Yne), np.asarray(variance))
+    last = getattr(_LAST_DESIGN, "entry", None)
+    if last is not None and last[1] == bool(symmetric) and all(_equal(a, b) for a, b in zip(inputs, last[0])):
+        return last[2]
+    out = _line_design(*inputs, bool(symmetric))
+    for a in out:
+        a.flags.writeable = False
+    _LAST_DESIGN.entry = (tuple(a.copy() for a in inputs), bool(symmetric), out)
+    return out
+
+
+#: The last design of :func:`whitened_line_design` in each thread: (inputs, symmetric, outputs).
+_LAST_DESIGN = threading.local()
+
+
+def _equal(a: np.ndarray, b: np.ndarray) -> bool:
+    """Same shape, dtype and values (a NaN never matches)."""
+    return a.shape == b.shape and a.dtype == b.dtype and bool(np.array_equal(a, b))
+
+
+def _line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray, symmetric: bool):
+    """:func:`whitened_line_design`'s computation."""
     F, m, n = Ymn.shape
     e = Yne.shape[2]
-    P = symmetric_parametrization(n, symmetric)
-    # vec over (row r, column c) of Y[m,n] X Y[n,e]: sum_ik Ymn[r,i] X[i,k] Yne[k,c]
-    A = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * e, n * n) @ P
+    i, k = _parameter_pairs(n, symmetric)
+    # vec over (row r, column c) of Y[m,n] X Y[n,e]: sum_ik Ymn[r,i] X[i,k] Yne[k,c]; parameter (i, k) of the
+    # upper triangle stands for X[i,k] and X[k,i]: column Ymn[r,i] Yne[k,c] + Ymn[r,k] Yne[i,c] (i < k)
+    Aw = np.empty((F, m, e, i.size), complex)
+    np.multiply(Ymn[:, :, None, i], np.swapaxes(Yne[:, k, :], 1, 2)[:, None, :, :], out=Aw)  # (F, m, e, p)
+    off = np.flatnonzero(i != k) if symmetric else np.zeros(0, int)
+    if off.size:
+        Aw[..., off] += Ymn[:, :, None, k[off]] * np.swapaxes(Yne[:, i[off], :], 1, 2)[:, None, :, :]
+    Aw = Aw.reshape(F, m * e, i.size)
     sw = 1.0 / np.sqrt(variance.reshape(F, m * e))
-    Aw = A * sw[:, :, None]
-    cs = np.linalg.norm(Aw, axis=1)  # column equilibration
+    Aw *= sw[:, :, None]
+    parts = Aw.view(float).reshape(F, m * e, i.size, 2)  # real and imaginary parts
+    cs = np.sqrt(np.einsum("frqt,frqt->fq", parts, parts))  # column equilibration: the 2-norm of each column
     cs = np.where(cs > 0, cs, 1.0)
-    Q, R = np.linalg.qr(Aw / cs[:, None, :])
+    Aw /= cs[:, None, :]
+    Q, R = np.linalg.qr(Aw)
     return sw, cs, Q, R
+
+
+def _parameter_pairs(n: int, symmetric: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``(i, k)`` of each coupling parameter, the columns of :func:`symmetric_parametrization`:
+    the upper triangle (row-major) if ``symmetric``, else every ``(i, k)`` row-major."""
+    if symmetric:
+        return np.triu_indices(n)
+    return np.repeat(np.arange(n), n), np.tile(np.arange(n), n)
 
 
 def _pooled_scale(chi2: np.ndarray, dof: int, pool_lines: int | None) -> np.ndarray:

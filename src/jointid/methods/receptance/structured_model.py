@@ -124,7 +124,9 @@ def unpack(theta: np.ndarray, model: StructuredModel):
     """``(A, B, E, modes, gamma)``: A and B and E as upper-triangle vectors, modes (r, n + 1) = (c_r, nu_r), gamma complex."""
     n, s = model.n, model.sizes
     i = 0
-    A = np.r_[1.0, theta[i:i + s["A"]]]
+    A = np.empty(s["A"] + 1)
+    A[0] = 1.0
+    A[1:] = theta[i:i + s["A"]]
     i += s["A"]
     B = theta[i:i + s["B"]]
     i += s["B"]
@@ -176,32 +178,30 @@ def structured_terms(theta: np.ndarray, hz: np.ndarray, model: StructuredModel, 
     w2 = (hz / model.f_ref) ** 2
     w4 = w2 ** 2
     r = model.n_modes
-    T = 2 + model.residual + r
+    t = 2 + model.residual  # first mode's term
+    T = t + r
     coefs = np.empty((T, hz.size), complex)  # Du' = sum coefs[t] mats[t]
     mats = np.empty((T, n, n))
     coefs[0], coefs[1] = g, -w2
     mats[0], mats[1] = A[idx], B[idx]
-    t = 2
     if model.residual:
-        coefs[t] = -w4 / g
-        mats[t] = E[idx]
-        t += 1
+        coefs[2] = -w4 / g
+        mats[2] = E[idx]
     c = modes[:, :n]  # (r, n)
     mu = np.exp(np.clip(modes[:, n], -50.0, 50.0))  # (r,)
     q = 1.0 / (g[None] * mu[:, None] - w2[None])  # (r, F)
-    coefs[t:] = -w4[None] * q
-    mats[t:] = c[:, :, None] * c[:, None, :]
+    np.multiply(-w4[None], q, out=coefs[t:])
+    np.multiply(c[:, :, None], c[:, None, :], out=mats[t:])
     if not jacobian:
         return coefs, mats, None
-    # dDu'/dg = A + w'^4 E / g^2 + sum_r w'^4 mu_r q_r^2 C_r
+    # dDu'/dg = A + w'^4 E / g^2 + sum_r w'^4 mu_r q_r^2 C_r: terms (A, [E], C_r) = the terms but B
+    keep = _DG_TERMS[T, model.residual]
     dgc = np.empty((T - 1, hz.size), complex)
     dgc[0] = 1.0
-    dgc[1:] = 0.0
     if model.residual:
         dgc[1] = w4 / g ** 2
     dgc[t - 1:] = w4[None] * q ** 2 * mu[:, None]
-    dgm = np.delete(mats, 1, axis=0)  # A, [E], C_r
-    dg = (dgc.T @ dgm.reshape(T - 1, n * n)).reshape(hz.size, n, n)
+    dg = (dgc.T @ mats[keep].reshape(T - 1, n * n)).reshape(hz.size, n, n)
     p = Eb.shape[0]
     J = model.n_params - 2 * model.g_basis
     jc = np.empty((J, hz.size), complex)
@@ -212,15 +212,37 @@ def structured_terms(theta: np.ndarray, hz: np.ndarray, model: StructuredModel, 
     if model.residual:
         jc[k:k + p], jm[k:k + p] = coefs[2], Eb
         k += p
-    eye = np.eye(n)
-    for m in range(r):  # c_r (n columns), then nu_r
-        jc[k:k + n] = coefs[t + m]
-        ec = eye[:, :, None] * c[m][None, None, :]  # e_k c^T
-        jm[k:k + n] = ec + ec.transpose(0, 2, 1)
-        jc[k + n] = w4 * q[m] ** 2 * g * mu[m]
-        jm[k + n] = mats[t + m]
-        k += n + 1
+    if r:  # per mode: c_r (n columns), then nu_r
+        blocks = jc[k:].reshape(r, n + 1, hz.size)
+        blocks[:, :n] = coefs[t:, None, :]
+        blocks[:, n] = w4[None] * q ** 2 * g[None] * mu[:, None]
+        mblocks = jm[k:].reshape(r, n + 1, n, n)
+        ec = _eye(n)[None, :, :, None] * c[:, None, None, :]  # e_k c_r^T, (r, n, n, n)
+        np.add(ec, ec.transpose(0, 1, 3, 2), out=mblocks[:, :n])
+        mblocks[:, n] = mats[t:]
     return coefs, mats, (jc, jm, dg, Gd)
+
+
+class _DGTerms(dict):
+    """``(T, residual)`` -> indices of the terms but B (``mats[1]``), cached."""
+
+    def __missing__(self, key):
+        T, _ = key
+        value = np.r_[0, np.arange(2, T)]
+        value.flags.writeable = False
+        self[key] = value
+        return value
+
+
+_DG_TERMS = _DGTerms()
+
+
+@lru_cache(maxsize=16)
+def _eye(n: int) -> np.ndarray:
+    """The n x n identity; read-only."""
+    e = np.eye(n)
+    e.flags.writeable = False
+    return e
 
 
 @lru_cache(maxsize=16)
@@ -257,10 +279,12 @@ def structured_stiffness(theta: np.ndarray, hz: np.ndarray, model: StructuredMod
     if not jacobian:
         return D
     jc, jm, dg, Gd = jac
-    Jl = jc.T[:, None, None, :] * np.moveaxis(jm, 0, -1)[None]  # (F, n, n, P - 2K)
-    Jg = dg[..., None] * Gd[:, None, None, :]  # (F, n, n, K)
-    Jg = np.stack([Jg, 1j * Jg], axis=-1).reshape(*Jg.shape[:-1], 2 * model.g_basis)  # (re_0, im_0, re_1, ...)
-    return D, np.concatenate([Jl, Jg], axis=-1)
+    nl = jc.shape[0]
+    J = np.empty((hz.size, n, n, nl + 2 * model.g_basis), complex)  # written in place: no (F, n, n, P) temporaries
+    np.multiply(jc.T[:, None, None, :], np.moveaxis(jm, 0, -1)[None], out=J[..., :nl])  # (F, n, n, P - 2K)
+    np.multiply(dg[..., None], Gd[:, None, None, :], out=J[..., nl::2])  # dDu'/dRe gamma_j = b_j dg: (re_0, im_0, re_1, ...)
+    np.multiply(J[..., nl::2], 1j, out=J[..., nl + 1::2])
+    return D, J
 
 
 def default_scale(Du: np.ndarray) -> tuple:

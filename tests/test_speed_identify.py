@@ -1,0 +1,195 @@
+"""The fast paths of ``jointid identify`` give what the plain paths give (issue 24 item 6).
+
+* the figure worker (a forked process) returns the PNG bytes this process draws, raises what it
+  raised, passes its warnings back, and ends when closed;
+* the column calibration's banded sums and its covariance formed from factors equal the dense
+  sums and ``G G^H`` within their rounding bounds;
+* the per-line design built from the parameter pairs equals ``kron(...) @ P`` within its rounding bound;
+* the structured model's Jacobian written in place equals the one built from its factors.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import warnings
+
+import numpy as np
+import pytest
+
+from jointid.benchmark import benchmark_study
+from jointid.frf import FRF
+from jointid.pipeline import free_model, identify, simulate
+
+EPS = np.finfo(float).eps
+posix_only = pytest.mark.skipif(not hasattr(os, "fork"), reason="the figure worker forks (POSIX)")
+
+
+@pytest.fixture(scope="module")
+def case():
+    """A noisy virtual test of the benchmark (300 lines), its identification and the free-model blocks."""
+    st = benchmark_study()
+    st = dataclasses.replace(st, frequency=dataclasses.replace(st.frequency, start=100.0, stop=1000.0, step=3.0))
+    test = simulate(st)
+    rng = np.random.default_rng(3)
+    d = test.frf.data * (1 + 0.003 * (rng.standard_normal(test.frf.shape) + 1j * rng.standard_normal(test.frf.shape)) / np.sqrt(2))
+    measured = FRF(test.frf.frequency, d, test.frf.responses, test.frf.references, test.frf.kind)
+    return st, measured, identify(st, measured)
+
+
+@posix_only
+def test_the_worker_draws_the_png_this_process_draws(case):
+    from jointid.plots.figure_worker import FigureWorker
+    from jointid.plots.stiffness_data import JointStiffnessData
+    from jointid.plots.style import figure_png
+
+    _, _, result = case
+    here = figure_png(result.plot())
+    with FigureWorker.start() as worker:
+        pending = worker.submit("joint_stiffness", JointStiffnessData.of(result))
+        assert pending.result() == here
+        assert pending.result() == here  # kept
+    assert worker.pid == -1  # reaped
+
+
+@posix_only
+def test_a_worker_error_is_raised_here_and_its_warnings_come_back():
+    from jointid.plots import figure_worker
+    from jointid.plots.figure_worker import FigureWorker
+
+    figure_worker.FIGURES["_test_warns"] = ("warnings", "warn")  # warnings.warn(data) -> None: a warning, then an error
+    try:
+        with FigureWorker.start() as worker:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                with pytest.raises(AttributeError):  # None.savefig in figure_png
+                    worker.submit("_test_warns", "a warning from the worker").result()
+            assert any("a warning from the worker" in str(w.message) for w in caught)
+    finally:
+        del figure_worker.FIGURES["_test_warns"]
+
+
+@posix_only
+def test_an_unused_worker_is_ended_at_once():
+    import time
+
+    from jointid.plots.figure_worker import FigureWorker
+
+    worker = FigureWorker.start()
+    pid = worker.pid
+    t = time.perf_counter()
+    worker.close()
+    assert time.perf_counter() - t < 5.0  # terminated, not left to finish importing matplotlib
+    with pytest.raises(ChildProcessError):
+        os.waitpid(pid, 0)  # reaped
+
+
+def test_no_worker_when_switched_off(monkeypatch):
+    from jointid.plots.figure_worker import FigureWorker
+
+    monkeypatch.setenv("JOINTID_FIGURE_WORKER", "0")
+    assert FigureWorker.start() is None
+
+
+@posix_only
+def test_identify_writes_the_same_files_with_and_without_the_worker(case, tmp_path, monkeypatch):
+    """The whole command: CSV and PNG byte for byte the same whether the figure is drawn here or in the worker."""
+    from jointid.cli.main import main
+    from jointid.io.uff import write_uff_frf
+
+    st, measured, _ = case
+    uff = tmp_path / "frf.uff"
+    write_uff_frf(uff, measured, kind="receptance")
+    study = tmp_path / "study.toml"
+    text = open(st.source).read() if st.source and os.path.exists(st.source) else None
+    if text is None:
+        pytest.skip("the benchmark study has no file")
+    study.write_text(text)
+    outs = {}
+    for flag in ("0", "1"):
+        monkeypatch.setenv("JOINTID_FIGURE_WORKER", flag)
+        assert main(["identify", str(study), "--frf", str(uff), "--out", str(tmp_path / flag)]) == 0
+        outs[flag] = {name: (tmp_path / flag / name).read_bytes() for name in ("joint_stiffness.csv", "joint_stiffness.png")}
+    assert outs["0"] == outs["1"]
+
+
+def _blocks(case):
+    st, measured, _ = case
+    from jointid.physics.free_model import as_free_model
+
+    frf = measured.to("receptance")
+    n_dofs = st.joint.joint_dofs
+    Y = as_free_model(free_model(st)).receptance(frf.frequency, tuple(frf.responses) + tuple(n_dofs), tuple(n_dofs) + tuple(frf.references))
+    m, k = len(frf.responses), len(n_dofs)
+    return frf.frequency.hz, Y[:, :m, :k], Y[:, m:, k:], Y[:, :m, k:], frf.data  # Ymn, Yne, Yme, H
+
+
+def test_banded_gram_sums_equal_the_dense_sums(case):
+    """``sum_f v[f,k] B[f,b] B[f,c]``: the sparse pair products add the same terms in another order (F eps of the term sum)."""
+    from jointid.methods.receptance.column_calibration import _gram, _pair_products
+    from jointid.methods.receptance.smoothing import bspline_basis
+
+    hz = _blocks(case)[0]
+    rng = np.random.default_rng(0)
+    v = rng.standard_normal((hz.size, 5)) + 1j * rng.standard_normal((hz.size, 5))
+    Bs = bspline_basis(hz, 16)
+    B = Bs.toarray()
+    ref = np.einsum("fk,fb,fc->bkc", v, B, B)
+    mag = np.einsum("fk,fb,fc->bkc", np.abs(v), np.abs(B), np.abs(B))
+    got = _gram(_pair_products(Bs), v, 16)
+    assert np.all(np.abs(got - ref) <= 2 * hz.size * EPS * mag + 1e-300)
+
+
+def test_calibration_covariance_from_factors_equals_the_factor_products(case):
+    """``x_covariance`` (``U_f M_f U_f^H``, no (F, p, e nb) array) equals ``x_factor x_factor^H`` within the rounding of
+    the two sums of e nb terms: ``4 e nb eps |G_f|^2`` per line."""
+    from jointid.methods.receptance.column_calibration import estimate_column_calibration
+
+    hz, Ymn, Yne, Yme, H = _blocks(case)
+    var = (0.003 * np.abs(H)) ** 2
+    cal = estimate_column_calibration(hz, Ymn, Yne, Yme - H, H, var)
+    G = cal.x_factor
+    ref = G @ np.conj(np.swapaxes(G, 1, 2))
+    norm2 = np.sum(np.abs(G) ** 2, axis=2)  # |G_f row|^2
+    bound = 4 * G.shape[2] * EPS * np.sqrt(norm2[:, :, None] * norm2[:, None, :])
+    assert np.all(np.abs(cal.x_covariance - ref) <= bound)
+    assert G.shape == (hz.size, 3, 3 * cal.n_basis)
+
+
+def test_line_design_equals_the_kronecker_product_with_the_duplication_matrix(case):
+    """``Q R`` reproduces the equilibrated design ``kron(Y[n,e]^T, Y[m,n]) P`` weighted, within ``10 m e eps`` of each column."""
+    from jointid.methods.receptance.coupling_lines import symmetric_parametrization, whitened_line_design
+
+    _, Ymn, Yne, _, H = _blocks(case)
+    F, m, n = Ymn.shape
+    e = Yne.shape[2]
+    var = (0.003 * np.abs(H)) ** 2
+    for symmetric in (True, False):
+        P = symmetric_parametrization(n, symmetric)
+        A = np.einsum("fkc,fri->frcik", Yne, Ymn).reshape(F, m * e, n * n) @ P
+        Aw = A / np.sqrt(var.reshape(F, m * e))[:, :, None]
+        sw, cs, Q, R = whitened_line_design(Ymn, Yne, var, symmetric)
+        ref_cs = np.linalg.norm(Aw, axis=1)
+        assert np.all(np.abs(cs - ref_cs) <= 4 * m * e * EPS * ref_cs)
+        assert np.all(np.abs(Q @ R - Aw / cs[:, None, :]) <= 10 * m * e * EPS)  # columns of unit norm
+
+
+def test_structured_jacobian_equals_its_factors():
+    """``dDu'/dtheta`` written in place: ``jc[k] jm[k]`` per parameter, ``b_j dg`` and ``i b_j dg`` for the spline of g."""
+    from jointid.methods.receptance.structured_model import StructuredModel, structured_stiffness, structured_terms
+
+    model = StructuredModel(2, 2, 4, True, (300.0, 5.0), 1000.0, (5.0, 1000.0))
+    rng = np.random.default_rng(1)
+    theta = rng.standard_normal(model.n_params)
+    hz = np.linspace(5.0, 1000.0, 257)
+    D, J = structured_stiffness(theta, hz, model, jacobian=True)
+    _, _, (jc, jm, dg, Gd) = structured_terms(theta, hz, model, jacobian=True)
+    nl = jc.shape[0]
+    ref_l = jc.T[:, None, None, :] * np.moveaxis(jm, 0, -1)[None]
+    ref_g = dg[..., None] * Gd[:, None, None, :]
+    assert J.shape == (hz.size, 2, 2, model.n_params)
+    tol = 2 * EPS  # one rounding per product
+    assert np.all(np.abs(J[..., :nl] - ref_l) <= tol * np.abs(ref_l))
+    assert np.all(np.abs(J[..., nl::2] - ref_g) <= tol * np.abs(ref_g))
+    assert np.all(np.abs(J[..., nl + 1::2] - 1j * ref_g) <= tol * np.abs(ref_g))
+    assert np.allclose(D, structured_stiffness(theta, hz, model), rtol=0, atol=0)  # the same function without the Jacobian
