@@ -78,11 +78,14 @@ class _FamilyMember:
 
 
 def uncertain_free_model(study: Study, free):
-    """``free`` with the study's ``[uncertainty]`` as models at ``p -+ v_i`` per direction of the parameters' covariance.
+    """``free`` with what the study says of its errors: ``[uncertainty]`` and a mesh coarser than the criterion's.
 
-    The parameterized model is the one ``jointid update`` fits (``study.structure.update_model``); the
-    directions ``v_i`` are the covariance's eigenvectors times the square roots of their eigenvalues
-    (directions of zero variance are left out). Returns ``free`` itself without ``[uncertainty]``, else a
+    ``[uncertainty]``: models at ``p -+ v_i`` per direction of the parameters' covariance, on the
+    parameterized model ``jointid update`` fits (``study.structure.update_model``); the directions ``v_i``
+    are the covariance's eigenvectors times the square roots of their eigenvalues (directions of zero
+    variance are left out). A free structure meshed coarser than its convergence criterion
+    (``study.structure.reference_model``) adds the converged model as a reference (its discretization
+    error). Returns ``free`` itself when there is neither, else a
     :class:`~jointid.physics.free_model.UncertainFreeModel`.
 
     Raises
@@ -90,34 +93,44 @@ def uncertain_free_model(study: Study, free):
     StudyError
         An ``[uncertainty]`` parameter of the accelerometers on a study that does not model them.
     """
-    spec = study.uncertainty
-    if spec is None:
-        return free
     from .physics.free_model import StructureModel, UncertainFreeModel, as_free_model
 
     acc = study.accelerometers if study.identification.model_accelerometers else None
-    names, cov = spec.covariance()
-    build, initial, _, _ = study.structure.update_model(acc, study.frequency.stop)
-    missing = [k for k in names if k not in initial]
-    if missing:
-        raise StudyError(f"{study.source}: [uncertainty].{missing[0]}: this study's free model has no such parameter "
-                         "(accelerometer parameters need [accelerometers] and [identification] model_accelerometers = true)")
-    lam, vec = np.linalg.eigh(cov)
-    keep = lam > lam.max() * 1e-12 if lam.max() > 0 else np.zeros(lam.size, bool)
-    steps = vec[:, keep] * np.sqrt(lam[keep])  # (parameters, directions)
+    reference = study.structure.reference_model(study.frequency.stop)
+    spec = study.uncertainty
+    if spec is None and reference is None:
+        return free
+    directions, said = [], []
+    if spec is not None:
+        names, cov = spec.covariance()
+        build, initial, _, _ = study.structure.update_model(acc, study.frequency.stop)
+        missing = [k for k in names if k not in initial]
+        if missing:
+            raise StudyError(f"{study.source}: [uncertainty].{missing[0]}: this study's free model has no such parameter "
+                             "(accelerometer parameters need [accelerometers] and [identification] model_accelerometers = true)")
+        lam, vec = np.linalg.eigh(cov)
+        keep = lam > lam.max() * 1e-12 if lam.max() > 0 else np.zeros(lam.size, bool)
+        steps = vec[:, keep] * np.sqrt(lam[keep])  # (parameters, directions)
 
-    def member(values):
-        return StructureModel(build(values)) if callable(build) else _FamilyMember(build, values)
+        def member(values):
+            return StructureModel(build(values)) if callable(build) else _FamilyMember(build, values)
 
-    directions = []
-    for v in steps.T:
-        pair = []
-        for sign in (-1.0, 1.0):
-            values = dict(initial)
-            values.update({k: initial[k] + sign * dv for k, dv in zip(names, v)})
-            pair.append(member(values))
-        directions.append(tuple(pair))
-    return UncertainFreeModel(as_free_model(free), tuple(directions), f"the free model's parameter uncertainty ([uncertainty]: {', '.join(names)})")
+        for v in steps.T:
+            pair = []
+            for sign in (-1.0, 1.0):
+                values = dict(initial)
+                values.update({k: initial[k] + sign * dv for k, dv in zip(names, v)})
+                pair.append(member(values))
+            directions.append(tuple(pair))
+        said.append(f"its parameter uncertainty ([uncertainty]: {', '.join(names)})")
+    references = ()
+    if reference is not None:
+        finer, text = reference
+        if acc is not None:
+            finer = finer.with_masses(acc.nodes, acc.mass, acc.rotary_inertia)
+        references = (as_free_model(finer),)
+        said.append(text)
+    return UncertainFreeModel(as_free_model(free), tuple(directions), "the free model's error: " + " and ".join(said), references)
 
 
 def build_true_joint(joint, source: str = "<study>") -> ComplexStiffness:

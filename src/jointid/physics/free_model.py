@@ -111,11 +111,15 @@ class UncertainFreeModel:
         The models at ``p - v_i`` and ``p + v_i``, one pair per direction.
     described : str
         What the uncertainty is, for findings (e.g. ``"[uncertainty]: elastic_modulus, density"``).
+    references : tuple of FreeModel
+        Finer discretizations of the same structure: each adds the deviation ``Y_ref - Y`` (the nominal
+        model's discretization error, one-sided).
     """
 
     model: FreeModel
     directions: tuple[tuple[FreeModel, FreeModel], ...]
     described: str = "the free model's parameter uncertainty"
+    references: tuple[FreeModel, ...] = ()
 
     @property
     def dofs(self) -> tuple[Dof, ...]:
@@ -127,9 +131,13 @@ class UncertainFreeModel:
         return self.model.receptance(frequency, rows, cols)
 
     def receptance_deviations(self, frequency, rows: Iterable, cols: Iterable) -> np.ndarray:
-        """``dY_i[rows, cols]`` per direction, shape (D, F, r, c), in the receptance's units."""
-        return np.stack([(plus.receptance(frequency, rows, cols) - minus.receptance(frequency, rows, cols)) / 2.0
-                         for minus, plus in self.directions])
+        """``dY_i[rows, cols]`` per direction, then ``Y_ref - Y`` per reference, shape (D, F, r, c), receptance units."""
+        out = [(plus.receptance(frequency, rows, cols) - minus.receptance(frequency, rows, cols)) / 2.0
+               for minus, plus in self.directions]
+        if self.references:
+            Y = self.model.receptance(frequency, rows, cols)
+            out += [ref.receptance(frequency, rows, cols) - Y for ref in self.references]
+        return np.stack(out)
 
 
 def as_free_model(model) -> FreeModel:

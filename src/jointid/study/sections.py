@@ -106,6 +106,21 @@ class BeamSpec:
         """One line: what the free structure is."""
         return f"beam {self.length:g} m, {self.nodes} nodes, E {self.elastic_modulus:.4g} Pa, density {self.density:.5g} kg/m^3"
 
+    def reference_model(self, max_frequency_hz: float | None):
+        """The beam on the mesh the convergence criterion gives at ``max_frequency_hz``, when ``elements_per_segment``
+        sets a coarser one (its discretization error then goes into the joint's bands); else None.
+
+        Returns ``(structure, text)``: the finer beam and one line naming both meshes and the fix.
+        """
+        if self.elements_per_segment is None or max_frequency_hz is None:
+            return None
+        auto = replace(self, elements_per_segment=None).mesh_refinement(max_frequency_hz)
+        if self.elements_per_segment >= auto:
+            return None
+        return (replace(self, elements_per_segment=auto).structure(),
+                f"its mesh ([beam].elements_per_segment = {self.elements_per_segment}; {auto} converge the FRFs to "
+                f"{max_frequency_hz:g} Hz: remove the key or set it to {auto})")
+
     def update_model(self, accelerometers, max_frequency_hz: float):
         """The beam (and its sensors) as a parameterized model for :func:`jointid.methods.updating.fit.update_free_model`.
 

@@ -231,6 +231,10 @@ class MatrixStructureSpec:
             model = model.with_masses(accelerometers.nodes, accelerometers.mass, accelerometers.rotary_inertia)
         return ScaledMatrixFamily(model, initial, self.method), initial, STRUCTURE_PARAMETERS, DEFAULT_STRUCTURE_PARAMETERS
 
+    def reference_model(self, max_frequency_hz: float | None):
+        """A finer discretization of the same structure: None (matrices from files are the model as given)."""
+        return None
+
     def compatible(self, other, source: str = "the study") -> str | None:
         """Why ``other`` cannot be the true structure of the study ``source`` (None: it can): matrices on the same DOFs."""
         if not isinstance(other, MatrixStructureSpec):

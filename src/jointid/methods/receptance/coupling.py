@@ -229,7 +229,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
             notes.append(check.finding(freq.hz))
             checked = check.failed_lines if checked is None else checked | check.failed_lines
     uncertain = None
-    if isinstance(model, UncertainFreeModel) and model.directions:  # the free model's parameter covariance -> the bands
+    if isinstance(model, UncertainFreeModel) and (model.directions or model.references):  # the free model's error -> the bands
         dY = model.receptance_deviations(freq, tuple(m_dofs) + tuple(n_dofs), tuple(n_dofs) + tuple(e_dofs))
         blocks = [(d[:, :nm, :nn], d[:, nm:, nn:], d[:, nm:, :nn], d[:, :nm, nn:]) for d in dY]
 
