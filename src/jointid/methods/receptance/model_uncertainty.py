@@ -10,14 +10,16 @@ free model's parameters are uncertain by a stated covariance (``[uncertainty]``,
 ``H_c = Y[m,e] - Y[m,n] X Y[n,e]`` with ``X = K (I + Y[n,n] K)^-1``, are identified per line
 with ``Y + dY_i`` and ``Y - dY_i``; half their difference is the estimate's deviation ``dK_i``,
 and its linearized covariance is ``sum_i dK_i dK_i^H``, added to each term's real and imaginary
-variance (a systematic error: smoothing over lines does not reduce it).
+variance (a systematic error: smoothing over lines does not reduce it). A free model meshed
+coarser than its convergence criterion adds the converged model as one more deviation,
+``dY = Y_ref - Y`` (its discretization error, one-sided).
 
 The rotational term of a beam is the most sensitive: a free-model loss factor off by 2 % moves
 K_theta_theta by ~10 % while the residual stays at the noise (``benchmarks/real_world_checks.py``
 prints the coverage after ``jointid update`` with and without the propagated uncertainty).
 Caveats: linear over one standard deviation; noise-free (the deviation of the predicted FRFs,
-not of each noisy line); a model *form* error (a mesh too coarse, a boundary condition) is not a
-parameter and is not in it.
+not of each noisy line); a model *form* error other than the mesh (a boundary condition, a
+missing component) is in no direction and not in the bands.
 """
 
 from __future__ import annotations
@@ -87,7 +89,7 @@ def model_uncertainty(Ymn: np.ndarray, Yne: np.ndarray, Ynn: np.ndarray, Yme: np
     Ymn, Yne, Ynn, Yme : ndarray, shapes (F, m, n), (F, n, e), (F, n, n), (F, m, e), complex
         The nominal free receptance blocks (m/N, rad/N, ...).
     deviations : sequence of 4-tuples of ndarray
-        ``(dYmn, dYne, dYnn, dYme)`` per direction, the same shapes.
+        ``(dYmn, dYne, dYnn, dYme)`` per direction (parameter covariance or mesh reference), the same shapes.
     K : ndarray, shape (F, n, n), complex
         The joint estimate (N/m, N*m/rad, ...).
     variance : ndarray, shape (F, m, e)
