@@ -4,8 +4,9 @@ For each scenario (Material B at mid-span with 1 % noise; FRFs of a finer mesh a
 beam end; the virtual hammer test at the beam end, seeds 0 and 1; Material A at
 mid-span with force noise) prints the CPU seconds of one ``identify`` call (one BLAS
 thread), the median relative error per term (K_ww / K_wtheta / K_thetatheta, %), the
-fraction of lines whose truth lies within the 90 % band (real, imaginary; per term)
-and the model orders averaged. Compare two versions by running it under each.
+fraction of lines whose truth lies within the 90 % band (real, imaginary; per term),
+the membership test's whiteness statistic (:mod:`jointid.methods.receptance.structured_membership`)
+and the model orders averaged. Joints outside the class: ``benchmarks/out_of_class.py``. Compare two versions by running it under each.
 
 Not a test: ``python benchmarks/structured_fit.py``.
 """
@@ -69,7 +70,8 @@ def main() -> None:
             err = 100 * np.median(term_errors(r.stiffness, truth), axis=0)
             cov = within_band(r.stiffness, r.std_real, r.std_imag, truth).mean(axis=1)  # (2, 3)
             orders = sorted(r.structured.weights) if r.structured is not None else []
-            print(f"{label}: {cpu:.2f} s CPU, {r.estimator}; error % {' / '.join(f'{e:.3g}' for e in err)}; "
+            white = f" (whiteness Z {r.structured.membership.z:.1f})" if r.structured is not None and r.structured.membership is not None else ""
+            print(f"{label}: {cpu:.2f} s CPU, {r.estimator}{white}; error % {' / '.join(f'{e:.3g}' for e in err)}; "
                   f"coverage (re, im) {', '.join(f'{cov[0, t]:.2f}/{cov[1, t]:.2f}' for t in range(len(TERMS)))}; orders {orders}")
     print(f"total {total:.1f} s CPU")
 

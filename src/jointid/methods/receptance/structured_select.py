@@ -39,10 +39,12 @@ or ``"structured"``) runs instead of per-term smoothing:
    a power law on one term: ``chi^2/dof`` 1.1-1.4, within its tolerance for an estimated
    covariance scale), where the fit is accepted with bands 3-10 times too narrow;
    ``benchmarks/out_of_class.py`` prints both tests' decisions on such joints.
-4. **Repeatability**: each added internal mode starts from every local minimum of a
-   40-pole grid (:data:`MODE_STARTS` of them) and, once the order is chosen, the chosen
-   order is refitted from the starts of the other paths (:func:`polish_best`), so that a
-   seed of the same data does not end in another local minimum of the same order.
+4. **Repeatability**: every start is deterministic (grids of poles and loss angles).
+   Before the estimate is rejected, the chosen order is refitted along a second path
+   (:func:`polish_best`: its modes added one by one to the 0-mode fit of the same modulus
+   basis and residual, from :data:`POLISH_STARTS` pole-grid minima each) and kept when
+   its chi^2 is lower, then both tests are rerun: a seed is not rejected for a local minimum
+   of the greedy path.
 
 Caveats: the whiteness test assumes independent errors from line to line (module
 :mod:`~jointid.methods.receptance.structured_membership`); with strongly correlated
@@ -61,7 +63,7 @@ from ...parallel import single_threaded_blas
 from .structured_fit import StructuredFit, fit_structured, refit
 from .structured_membership import MAX_WHITENESS_Z, Membership, membership
 
-__all__ = ["StructuredEstimate", "structured_estimate", "select_structured", "model_average", "MAX_CHI2_PER_DOF", "MAX_MODES", "SELECT_MAX_LINES", "REFIT_MAX_LINES", "STRUCTURED_MAX_DOFS", "POLE_LIST_FACTOR", "DEGENERATE_BAND_RATIO"]
+__all__ = ["StructuredEstimate", "structured_estimate", "select_structured", "model_average", "MAX_CHI2_PER_DOF", "MAX_MODES", "SELECT_MAX_LINES", "REFIT_MAX_LINES", "STRUCTURED_MAX_DOFS", "POLE_LIST_FACTOR", "DEGENERATE_BAND_RATIO", "POLISH_STARTS", "polish_best"]
 
 #: The structured estimate is used when its best model's chi^2 per degree of freedom is at most this.
 MAX_CHI2_PER_DOF = 1.5
@@ -75,6 +77,8 @@ REFIT_MAX_LINES = 5000
 STRUCTURED_MAX_DOFS = 6
 #: Internal modes above this multiple of the band's top are described as "far above the band" (they act as a residual).
 POLE_LIST_FACTOR = 4.0
+#: Pole starts per added mode of the second path tried before the estimate is rejected (:func:`polish_best`).
+POLISH_STARTS = 4
 #: Models with an Akaike weight below this are left out of the average.
 _MIN_WEIGHT = 1e-4
 #: Models whose bands are this many times wider than the lowest-AIC model's on some term are left out of the average.
@@ -258,22 +262,71 @@ def structured_estimate(hz, lines, common=None) -> StructuredEstimate:
         return _estimate(np.asarray(hz, float), lines, common, t0)
 
 
-def _estimate(hz, lines, common, t0) -> StructuredEstimate:
+def polish_best(hz, lines, fits: dict, common=None, n_starts: int = POLISH_STARTS) -> dict:
+    """``fits`` with the lowest-AIC order refitted along a second path when that reaches a lower chi^2.
+
+    The greedy search grows each order from its neighbour (e.g. ``(3, 6, +E)`` from
+    ``(3, 6)``, whose modes were placed with a constant modulus): the modes it inherits can
+    sit in a local minimum. The second path fits ``(0 modes, g, E)`` of the same modulus
+    basis and residual and adds the modes one by one, each from every local minimum of the
+    pole grid (``n_starts``); the fit with the lower chi^2 is kept. Deterministic (grid starts).
+    On the beam's out-of-class joints this lowers chi^2 by 5-10 % on about half of the seeds.
+    """
+    ok = {o: f for o, f in fits.items() if f is not None and np.isfinite(f.aic)}
+    if not ok:
+        return fits
+    best = min(ok.values(), key=lambda f: f.aic)
+    r, k, e = best.model.order
+    if r == 0:
+        return fits
+    try:
+        f0 = ok.get((0, k, e)) or fit_structured(hz, lines, (0, k, e), common=common, start=ok.get((0, 1, False)))
+        alt = fit_structured(hz, lines, (r, k, e), common=common, start=f0, n_starts=n_starts)
+    except (np.linalg.LinAlgError, ValueError):
+        return fits
+    if not (np.isfinite(alt.aic) and alt.chi2 < best.chi2):
+        return fits
+    return {**fits, (r, k, e): alt}
+
+
+def _select(hz, lines, common):
+    """``(fits, data)``: the selection's fits and the lines they were fitted on (every line, or an even subset)."""
     F = hz.size
     if F > SELECT_MAX_LINES:
         idx = np.unique(np.round(np.linspace(0, F - 1, SELECT_MAX_LINES)).astype(int))
         sub, sub_common = _subset(lines, common, idx)
-        _, fits_sub = select_structured(hz[idx], sub, sub_common)
-        _, _, _, w = model_average(fits_sub)
-        if F <= REFIT_MAX_LINES:
-            fits = {o: refit(fits_sub[o], hz, lines, common) for o in w}
-        else:  # the subset's fits evaluated on every line: bands from the subset's information only
-            fits = {o: fits_sub[o].at(hz) for o in w}
+        data = (hz[idx], sub, sub_common)
     else:
-        _, fits = select_structured(hz, lines, common)
+        data = (hz, lines, common)
+    return select_structured(*data)[1], data
+
+
+def _on_every_line(fits, data, hz, lines, common) -> dict:
+    """The averaged fits on every line: as they are, refitted there, or (above :data:`REFIT_MAX_LINES`) evaluated there."""
+    if data[0].size == hz.size:
+        return fits
+    _, _, _, w = model_average(fits)
+    if hz.size <= REFIT_MAX_LINES:
+        return {o: refit(fits[o], hz, lines, common) for o in w}
+    return {o: fits[o].at(hz) for o in w}  # the subset's fits: bands from the subset's information only
+
+
+def _decide(fits, hz, lines, common, t0) -> StructuredEstimate:
     K, sr, si, w = model_average(fits)
     best = fits[max(w, key=w.get)]
     finite = bool(np.all(np.isfinite(K)) and np.all(np.isfinite(sr)) and np.all(np.isfinite(si)))
     member = membership(best, hz, lines, common)
     ok = finite and best.chi2_per_dof <= MAX_CHI2_PER_DOF and member.passed
     return StructuredEstimate(K, sr, si, w, best, fits, bool(ok), time.perf_counter() - t0, member)
+
+
+def _estimate(hz, lines, common, t0) -> StructuredEstimate:
+    fits, data = _select(hz, lines, common)
+    est = _decide(_on_every_line(fits, data, hz, lines, common), hz, lines, common, t0)
+    if est.accepted:
+        return est
+    # before rejecting: the chosen order along a second path (a seed must not be rejected for a local minimum)
+    polished = polish_best(*data[:2], fits, data[2])
+    if polished is fits:
+        return est
+    return _decide(_on_every_line(polished, data, hz, lines, common), hz, lines, common, t0)
