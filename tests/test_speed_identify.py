@@ -193,3 +193,23 @@ def test_structured_jacobian_equals_its_factors():
     assert np.all(np.abs(J[..., nl::2] - ref_g) <= tol * np.abs(ref_g))
     assert np.all(np.abs(J[..., nl + 1::2] - 1j * ref_g) <= tol * np.abs(ref_g))
     assert np.allclose(D, structured_stiffness(theta, hz, model), rtol=0, atol=0)  # the same function without the Jacobian
+
+
+def test_a_design_is_reused_only_for_the_same_blocks_and_a_variance_within_its_rounding(case):
+    """The kept design comes back for a variance 1 ulp away (weights within 2 eps: the rounding of 1/sqrt itself),
+    read-only; another variance, other blocks or the other parametrization compute a new one."""
+    from jointid.methods.receptance.coupling_lines import DESIGN_VARIANCE_RTOL, _line_design, whitened_line_design
+
+    _, Ymn, Yne, _, H = _blocks(case)
+    var = (0.003 * np.abs(H)) ** 2
+    first = whitened_line_design(Ymn, Yne, var)
+    near = var * (1 + 2 * EPS)
+    again = whitened_line_design(Ymn.copy(), Yne.copy(), near)
+    assert all(a is b for a, b in zip(first, again)) and not first[2].flags.writeable
+    fresh = _line_design(Ymn, Yne, near, True)
+    assert np.all(np.abs(again[0] - fresh[0]) <= (DESIGN_VARIANCE_RTOL / 2 + 2 * EPS) * fresh[0])  # sw = 1/sqrt(var)
+    assert whitened_line_design(Ymn, Yne, var * 1.001)[0] is not first[0]
+    assert whitened_line_design(Ymn, Yne, var, False)[2].shape[2] == 4
+    Y2 = Ymn.copy()
+    Y2[0, 0, 0] *= 1 + 4 * EPS
+    assert whitened_line_design(Y2, Yne, var)[2] is not first[2]

@@ -257,10 +257,13 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
     (upper triangle of X if ``symmetric``); rows are weighted by ``sw = 1 / sqrt(variance)`` and
     columns scaled to unit norm by ``cs``.
 
-    One identification asks for the same design several times (the column calibration, the
-    per-line fit and the model check weight the lines alike): the last one computed in this
-    thread is kept with a copy of its inputs and returned again for equal inputs (the arrays
-    returned are read-only).
+    One identification asks for the same design several times (the junk-line test, the column
+    calibration, the per-line fit and the model check weight the lines alike): the last one
+    computed in this thread is kept with a copy of its inputs and returned again (read-only
+    arrays) for the same ``Ymn``, ``Yne`` and ``symmetric`` and a variance within
+    :data:`DESIGN_VARIANCE_RTOL` (relative) of its own: weights ``sw`` within ``2 eps`` of the
+    ones asked for, about the rounding of ``1 / sqrt(variance)`` itself (the variances of one
+    identification are the same numbers computed in different orders, 1 ulp apart).
 
     Returns
     -------
@@ -271,7 +274,8 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
     """
     inputs = (np.asarray(Ymn), np.asarray(Yne), np.asarray(variance))
     last = getattr(_LAST_DESIGN, "entry", None)
-    if last is not None and last[1] == bool(symmetric) and all(_equal(a, b) for a, b in zip(inputs, last[0])):
+    if (last is not None and last[1] == bool(symmetric) and _equal(inputs[0], last[0][0]) and _equal(inputs[1], last[0][1])
+            and _close(inputs[2], last[0][2], DESIGN_VARIANCE_RTOL)):
         return last[2]
     out = _line_design(*inputs, bool(symmetric))
     for a in out:
@@ -284,9 +288,21 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
 _LAST_DESIGN = threading.local()
 
 
+#: A design is reused for a variance within this relative distance of its own (:func:`whitened_line_design`).
+DESIGN_VARIANCE_RTOL = 4.0 * np.finfo(float).eps
+
+
 def _equal(a: np.ndarray, b: np.ndarray) -> bool:
     """Same shape, dtype and values (a NaN never matches)."""
     return a.shape == b.shape and a.dtype == b.dtype and bool(np.array_equal(a, b))
+
+
+def _close(a: np.ndarray, b: np.ndarray, rtol: float) -> bool:
+    """Same shape and dtype, ``|a - b| <= rtol |b|`` everywhere (a NaN never matches)."""
+    if a.shape != b.shape or a.dtype != b.dtype:
+        return False
+    with np.errstate(invalid="ignore"):
+        return bool(np.all(np.abs(a - b) <= rtol * np.abs(b)))
 
 
 def _line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray, symmetric: bool):
