@@ -28,7 +28,9 @@ another form (``DW ~ 2 (1 - rho)``). Unlike ``chi^2/dof`` it does not depend on 
 covariance's scale: a smooth error in that scale (e.g. from the residual variance
 estimated per line) multiplies neighbouring residuals alike and leaves ``rho`` at 0.
 The ``P`` fitted parameters bias ``rho`` by ``O(P / F)``, negative for smooth model
-functions (least-squares residuals of smooth regressors are anti-correlated): conservative.
+functions (least-squares residuals of smooth regressors are anti-correlated); the bias
+is removed exactly for the linearized fit (``-sum_f H[f, f+L]`` of its hat matrix), so
+``Z`` is centred on 0 also on a few hundred lines.
 
 Caveats
 -------
@@ -52,7 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Membership", "membership", "whitened_residuals", "lag_correlation", "MAX_WHITENESS_Z", "LAGS"]
+__all__ = ["Membership", "membership", "whitened_residuals", "lag_correlation", "fitting_bias", "MAX_WHITENESS_Z", "LAGS"]
 
 #: Lags pooled by the statistic.
 LAGS = 4
@@ -86,8 +88,8 @@ class Membership:
         return int(np.argmax(self.rho.mean(axis=1)))
 
 
-def whitened_residuals(fit, hz, lines, common=None) -> np.ndarray:
-    """The fit's whitened complex residual per line, shape (F, p) (what its least squares minimizes).
+def whitened_residuals(fit, hz, lines, common=None) -> tuple:
+    """The fit's whitened real residual and its Jacobian, as the fit's least squares sees them.
 
     Parameters
     ----------
@@ -97,12 +99,21 @@ def whitened_residuals(fit, hz, lines, common=None) -> np.ndarray:
         ``x``, ``x_covariance``, ``Ynn`` on ``hz``.
     common : ndarray, shape (F, p, k), complex, optional
         The common error's factor, profiled out as in the fit.
+
+    Returns
+    -------
+    z : ndarray, shape (F, p, 2)
+        ``sqrt(2)`` times the real and imaginary part of each line's whitened residual (unit variance under the model).
+    J : ndarray, shape (F, p, 2, P)
+        Its derivative with respect to the parameters (for the fitting's bias of the lag products).
     """
     from .structured_fit import _Problem
 
     prob = _Problem(np.asarray(hz, float), lines.x, lines.x_covariance, lines.Ynn, fit.model, common)
     F, p = lines.x.shape
-    return prob._project(prob.complex_residual(fit.theta)).reshape(F, p)
+    z = prob.residual(fit.theta).reshape(2, F, p).transpose(1, 2, 0)
+    J = prob.jacobian(fit.theta).reshape(2, F, p, -1).transpose(1, 2, 0, 3)
+    return z, J
 
 
 def lag_correlation(z: np.ndarray, lag: int = 1) -> np.ndarray:
@@ -113,8 +124,23 @@ def lag_correlation(z: np.ndarray, lag: int = 1) -> np.ndarray:
         return np.where(den > 0, np.sum(z[lag:] * z[:-lag], axis=0) / den, 0.0)
 
 
+def fitting_bias(J: np.ndarray, lag: int) -> np.ndarray:
+    """Expected lag product of least-squares residuals of white noise, per series: ``-sum_f H[f, f + lag]``.
+
+    ``H = J (J^T J)^-1 J^T`` is the fit's hat matrix (linearized); ``J`` shape (F, ..., P), returns shape ``J.shape[1:-1]``.
+    """
+    P = J.shape[-1]
+    flat = J.reshape(-1, P)
+    M = np.linalg.pinv(flat.T @ flat)
+    return -np.einsum("f...i,ij,f...j->...", J[:-lag], M, J[lag:])
+
+
 def membership(fit, hz, lines, common=None, max_z: float = MAX_WHITENESS_Z) -> Membership:
     """Test the fit's residuals for whiteness over frequency (module docstring).
+
+    The lag products are corrected for the fit's own bias (:func:`fitting_bias`, about
+    ``-P / F`` per lag for smooth model functions), so ``z`` is centred on 0 under the model
+    also on a few lines.
 
     Parameters
     ----------
@@ -131,12 +157,12 @@ def membership(fit, hz, lines, common=None, max_z: float = MAX_WHITENESS_Z) -> M
     -------
     Membership
     """
-    e = whitened_residuals(fit, hz, lines, common)
-    F = e.shape[0]
-    zs = np.sqrt(2.0) * np.stack([e.real, e.imag], axis=-1)  # (F, p, 2): unit-variance real series
+    z, J = whitened_residuals(fit, hz, lines, common)
+    F = z.shape[0]
     lags = [L for L in range(1, LAGS + 1) if L < F - 1]
     if not lags:
-        return Membership(0.0, np.zeros(zs.shape[1:]), F, True)
-    rho = np.stack([lag_correlation(zs, L) for L in lags])  # (lags, p, 2)
-    z = float(np.sum(np.sqrt(F - np.array(lags, float))[:, None, None] * rho) / np.sqrt(rho.size))
-    return Membership(z, rho.mean(axis=0), F, bool(np.isfinite(z) and z <= max_z))
+        return Membership(0.0, np.zeros(z.shape[1:]), F, True)
+    den = np.maximum(np.mean(z * z, axis=0), 1e-300)  # (p, 2): each series' variance (scale-free statistic)
+    rho = np.stack([(np.sum(z[L:] * z[:-L], axis=0) / den - fitting_bias(J, L)) / F for L in lags])  # (lags, p, 2)
+    stat = float(np.sum(np.sqrt(F - np.array(lags, float))[:, None, None] * rho) / np.sqrt(rho.size))
+    return Membership(stat, rho.mean(axis=0), F, bool(np.isfinite(stat) and stat <= max_z))
