@@ -93,7 +93,8 @@ def test_no_worker_when_switched_off(monkeypatch):
 
 @posix_only
 def test_identify_writes_the_same_files_with_and_without_the_worker(case, tmp_path, monkeypatch):
-    """The whole command: CSV and PNG byte for byte the same whether the figure is drawn here or in the worker."""
+    """The whole command: CSV and PNG byte for byte the same whether the figure is drawn here, in the worker, or here
+    after the worker was lost."""
     from jointid.cli.main import main
     from jointid.io.uff import write_uff_frf
 
@@ -105,12 +106,25 @@ def test_identify_writes_the_same_files_with_and_without_the_worker(case, tmp_pa
     if text is None:
         pytest.skip("the benchmark study has no file")
     study.write_text(text)
+    import signal
+
+    from jointid.plots.figure_worker import FigureWorker
+
+    start = FigureWorker.start
+
+    def lost():  # a worker killed at once: the command draws the figure itself
+        worker = start()
+        os.kill(worker.pid, signal.SIGKILL)
+        return worker
+
     outs = {}
-    for flag in ("0", "1"):
-        monkeypatch.setenv("JOINTID_FIGURE_WORKER", flag)
+    for flag in ("0", "1", "lost"):
+        monkeypatch.setenv("JOINTID_FIGURE_WORKER", "0" if flag == "0" else "1")
+        if flag == "lost":
+            monkeypatch.setattr(FigureWorker, "start", staticmethod(lost))
         assert main(["identify", str(study), "--frf", str(uff), "--out", str(tmp_path / flag)]) == 0
         outs[flag] = {name: (tmp_path / flag / name).read_bytes() for name in ("joint_stiffness.csv", "joint_stiffness.png")}
-    assert outs["0"] == outs["1"]
+    assert outs["0"] == outs["1"] == outs["lost"]
 
 
 def _blocks(case):
@@ -213,3 +227,16 @@ def test_a_design_is_reused_only_for_the_same_blocks_and_a_variance_within_its_r
     Y2 = Ymn.copy()
     Y2[0, 0, 0] *= 1 + 4 * EPS
     assert whitened_line_design(Y2, Yne, var)[2] is not first[2]
+
+
+@posix_only
+def test_a_lost_worker_is_reported_as_such():
+    """A worker that ends without an answer raises WorkerLost (the command then draws the figure itself)."""
+    import signal
+
+    from jointid.plots.figure_worker import FigureWorker, WorkerLost
+
+    with FigureWorker.start() as worker:
+        os.kill(worker.pid, signal.SIGKILL)
+        with pytest.raises(WorkerLost):
+            worker.submit("joint_stiffness", None).result()

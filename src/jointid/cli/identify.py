@@ -136,7 +136,8 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
             if worker is not None and k <= 3:  # drawn by the worker while the CSV and summary are written here
                 from ..plots.stiffness_data import JointStiffnessData
 
-                figures.append((name_png, worker.submit("joint_stiffness", JointStiffnessData.of(part), truth=t), f"{title}{caption}"))
+                pending = worker.submit("joint_stiffness", JointStiffnessData.of(part), truth=t)
+                figures.append((name_png, (pending, lambda part=part, t=t: part.plot(truth=t)), f"{title}{caption}"))
             else:
                 figure(name_png, part.plot(truth=t), f"{title}{caption}")
             if k > 2:
@@ -151,10 +152,21 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
     lines = identification_lines(result, study, max_findings=None)
     if truth is not None:  # a virtual test: how far the identification is from the true joint
         lines += truth_error_lines(study, result, truth)
-    figures = [(name, png if isinstance(png, bytes) else png.result(), caption) for name, png, caption in figures]
+    figures = [(name, png if isinstance(png, bytes) else _worker_png(*png), caption) for name, png, caption in figures]
     for name, png, _ in figures:
         out.write_bytes(name, png)
     out.write_text("report.html", identification_report(info, lines, notes, figures))
+
+
+def _worker_png(pending, draw) -> bytes:
+    """The worker's PNG, or (the worker ended without one) the figure ``draw()`` makes here."""
+    from ..plots.figure_worker import WorkerLost
+    from ..plots.style import figure_png
+
+    try:
+        return pending.result()
+    except WorkerLost:
+        return figure_png(draw())
 
 
 def truth_errors(study, result, truth) -> dict:

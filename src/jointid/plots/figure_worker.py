@@ -26,7 +26,7 @@ import threading
 import traceback
 import warnings
 
-__all__ = ["FigureWorker", "PendingFigure", "render", "FIGURES"]
+__all__ = ["FigureWorker", "PendingFigure", "WorkerLost", "render", "FIGURES"]
 
 #: Figure name -> (module, function) of the drawing functions the worker runs: ``f(data, **kwargs) -> Figure``.
 FIGURES = {
@@ -34,6 +34,10 @@ FIGURES = {
 }
 
 _HEADER = struct.Struct("<Q")
+
+
+class WorkerLost(RuntimeError):
+    """The worker process ended (or could not be reached) before it returned the figure: draw it here instead."""
 
 
 def render(kind: str, data, kwargs: dict, dpi: int = 120) -> bytes:
@@ -117,14 +121,23 @@ class PendingFigure:
         self._png: bytes | None = None
 
     def result(self) -> bytes:
-        """The PNG bytes (waits for the worker); raises what the worker raised, and re-raises its warnings here."""
+        """The PNG bytes (waits for the worker); raises what the worker raised, and re-raises its warnings here.
+
+        Raises
+        ------
+        WorkerLost
+            The worker ended without an answer (killed, crashed): the caller draws the figure itself.
+        """
         if self._png is None:
             self._sender.join()
             if self._worker._send_error is not None:
-                raise RuntimeError("the figure worker stopped") from self._worker._send_error
-            reply = _recv(self._worker._replies)
+                raise WorkerLost("the figure worker stopped") from self._worker._send_error
+            try:
+                reply = _recv(self._worker._replies)
+            except OSError as exc:
+                raise WorkerLost("the figure worker could not be read") from exc
             if reply is None:
-                raise RuntimeError("the figure worker stopped before returning the figure")
+                raise WorkerLost("the figure worker stopped before returning the figure")
             for message, category, filename, lineno in reply[-1]:
                 warnings.warn_explicit(message, category, filename, lineno)
             if reply[0] != "ok":
