@@ -421,9 +421,12 @@ def _findings(config, by_case: dict, stats: dict) -> tuple[tuple[str, ...], tupl
     if "updated" in by_case:
         pe = by_case["updated"][0].get("parameter_error", {})
         errs = ", ".join(f"{k.replace('_', ' ')} {100 * v:+.2g} %" for k, v in pe.items())
-        check = said("updated", "free model")
-        out.append(f"Updated from a virtual free-free test ({100 * FREE_TEST_NOISE:g} % noise; left {errs}): {terms_text('updated')}"
-                   + (f"; the model check still says \"{check}\"." if check else "; the model check is silent."))
+        check = said("updated", "does not explain")
+        carried = said("updated", "is in the bands")
+        out.append(f"Updated from a virtual free-free test ({100 * FREE_TEST_NOISE:g} % noise; left {errs}), its standard errors "
+                   f"and correlation as [uncertainty]: {terms_text('updated')}"
+                   + (f"; the model check still says \"{check}\"" if check else "; the model check is silent")
+                   + (f"; \"{carried}\"." if carried else "."))
     if "junk" in by_case:
         junk = said("junk", "junk")
         out.append(f"Junk lines ({JUNK_LINES} lines at coherence {JUNK_COHERENCE:g} at the bottom of a band from 0 Hz): "
