@@ -48,7 +48,7 @@ from .structured_model import (
     StructuredModel, default_scale, drop_last_mode, extend, pack, structured_stiffness, structured_terms, sym_basis, unpack,
 )
 
-__all__ = ["StructuredFit", "fit_structured", "refit", "base_model"]
+__all__ = ["StructuredFit", "fit_structured", "refit", "base_model", "whitened_residual"]
 
 _SQRT2 = np.sqrt(2.0)
 #: Pole grid (log of ``(f / f_ref)^2``) for an added internal mode: 40 frequencies over 0.2-4 x the band's top.
@@ -488,3 +488,13 @@ def refit(fit: StructuredFit, hz, lines, common=None, max_nfev: int = 100) -> St
     t0 = time.perf_counter()
     prob = _Problem(np.asarray(hz, float), lines.x, lines.x_covariance, lines.Ynn, fit.model, common)
     return _finish(prob, _solve(prob, fit.theta, max_nfev=max_nfev), t0)
+
+
+def whitened_residual(fit: StructuredFit, hz, lines, common=None) -> tuple:
+    """The real residual the fit minimizes at its parameters and its Jacobian: ``(r (2 F p,), J (2 F p, P))``.
+
+    ``r`` is ``sqrt(2) [Re; Im]`` of the whitened, common-error-projected complex residual
+    (line-major within each part): unit variance per entry when the model and the covariance hold.
+    """
+    prob = _Problem(np.asarray(hz, float), lines.x, lines.x_covariance, lines.Ynn, fit.model, common)
+    return prob.residual(fit.theta), prob.jacobian(fit.theta)

@@ -107,13 +107,11 @@ def whitened_residuals(fit, hz, lines, common=None) -> tuple:
     J : ndarray, shape (F, p, 2, P)
         Its derivative with respect to the parameters (for the fitting's bias of the lag products).
     """
-    from .structured_fit import _Problem
+    from .structured_fit import whitened_residual
 
-    prob = _Problem(np.asarray(hz, float), lines.x, lines.x_covariance, lines.Ynn, fit.model, common)
+    r, J = whitened_residual(fit, hz, lines, common)
     F, p = lines.x.shape
-    z = prob.residual(fit.theta).reshape(2, F, p).transpose(1, 2, 0)
-    J = prob.jacobian(fit.theta).reshape(2, F, p, -1).transpose(1, 2, 0, 3)
-    return z, J
+    return r.reshape(2, F, p).transpose(1, 2, 0), J.reshape(2, F, p, -1).transpose(1, 2, 0, 3)
 
 
 def lag_correlation(z: np.ndarray, lag: int = 1) -> np.ndarray:
