@@ -12,10 +12,9 @@ hammer's noise per line, the force error common to each excitation column::
 :func:`jointid.pipeline.identify` with the study's options (``smoothing = "auto"``: the
 structured model) and with ``smoothing = "gcv"``; the per-line estimates of the first run are
 reported too (flagged reliable where their own predicted relative standard deviation is at most
-``max_relative_std``). ``after``: the same with the force-noise test of
-:mod:`jointid.methods.receptance.force_noise` integrated into ``identify_joint_coupling`` by
-the snippet :data:`SNIPPET` (patched into a scratch copy of ``coupling.py`` in memory: the
-file itself is not changed).
+``max_relative_std``). ``after``: the default, with the force-noise test of
+:mod:`jointid.methods.receptance.force_noise` in ``identify_joint_coupling``; ``before``: the
+same with that test switched off (what jointid did before it).
 
 Per estimator and term: the 90 % band coverage over all lines and over the lines flagged
 reliable, the median error of the reliable lines, the fraction flagged reliable, the fraction
@@ -33,17 +32,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib.util
-import subprocess
-import sys
 import time
 from collections import Counter
-from pathlib import Path
 
 import numpy as np
 
 from jointid.benchmark import benchmark_study
-from jointid.methods import estimate as estimate_module
 from jointid.methods.receptance import coupling as coupling_module
 from jointid.methods.receptance.options import CouplingOptions
 from jointid.pipeline import coupling_options, identify, simulate
@@ -53,70 +47,21 @@ RESPONSE_NOISE = 0.01
 FORCE_NOISE = 0.01
 #: Elements per segment of the data's beam (18 segments: 594 elements; the model: the study's default mesh).
 FINE_MESH = 33
-SCRATCH = "jointid.methods.receptance._force_noise_scratch"
 
-#: The integration into ``identify_joint_coupling``: it replaces the line :data:`REPLACED`.
-REPLACED = "    lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)\n"
-SNIPPET = """\
-    # force noise without coherence: a per-line random error common to each excitation column (force_noise)
-    force = detect_force_noise(Ymn, Yne, Yme - H, H, variance, options.symmetric) if source == "relative" and not kron else None
-    if force is not None and force.significant:
-        notes.append(force.finding)
-        lines = force.line_estimates(Ymn, Yne, Ynn, Yme - H, H, variance, options.symmetric, common_x_covariance=common)
-    else:
-        lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
-"""
-IMPORT = "from .force_noise import detect_force_noise\n"
-
-
-def scratch_coupling():
-    """``coupling.py`` with :data:`SNIPPET` in place of :data:`REPLACED`, loaded as a module of the package (not written)."""
-    if SCRATCH in sys.modules:
-        return sys.modules[SCRATCH]
-    path = Path(coupling_module.__file__)
-    try:  # the working tree's coupling.py; while another edit is half done there, the last commit's
-        mod = _load(path.read_text())
-    except ImportError as exc:
-        head = subprocess.run(["git", "show", "HEAD:src/jointid/methods/receptance/coupling.py"], cwd=path.parents[4],
-                              capture_output=True, text=True, check=True).stdout
-        print(f"(coupling.py in the working tree does not import: {exc}; the last commit's is patched instead)")
-        mod = _load(head)
-    detect = mod.detect_force_noise
-
-    def recorded(*args, **kwargs):  # every test's result, for the detection rate and the F statistics
-        out = detect(*args, **kwargs)
-        TESTS.append(out)
-        return out
-
-    mod.detect_force_noise = recorded
-    return mod
-
-
-def _load(src: str):
-    """``src`` (coupling.py) with the snippet, executed as :data:`SCRATCH`."""
-    if src.count(REPLACED) != 1:
-        raise SystemExit("coupling.py has changed: the line the snippet replaces is not there once")
-    src = src.replace(REPLACED, SNIPPET).replace("from .column_calibration import", IMPORT + "from .column_calibration import", 1)
-    mod = importlib.util.module_from_spec(importlib.util.spec_from_loader(SCRATCH, loader=None))
-    mod.__file__ = coupling_module.__file__
-    sys.modules[SCRATCH] = mod
-    try:
-        exec(compile(src, "<scratch coupling.py>", "exec"), mod.__dict__)
-    except ImportError:
-        del sys.modules[SCRATCH]
-        raise
-    return mod
-
-
-#: The force-noise tests of the scratch copy's runs (the default estimator's and the gcv run's).
+#: The package's force-noise test, and every result it gave in the "after" runs (detection rate, F statistics).
+DETECT = coupling_module.detect_force_noise
 TESTS: list = []
 
 
+def _recorded(*args, **kwargs):
+    out = DETECT(*args, **kwargs)
+    TESTS.append(out)
+    return out
+
+
 def use(after: bool) -> None:
-    """Route the "receptance" estimator to the scratch copy (after) or the package's ``coupling.py`` (before)."""
-    if after:
-        scratch_coupling()
-    estimate_module.ESTIMATORS["receptance"] = (SCRATCH if after else ".receptance.coupling", "identify_joint_coupling", "CouplingOptions")
+    """``after``: ``identify_joint_coupling`` with its force-noise test (recorded); before: the test switched off."""
+    coupling_module.detect_force_noise = _recorded if after else (lambda *args, **kwargs: None)
 
 
 def study(**beam):

@@ -71,6 +71,7 @@ from .column_calibration import estimate_column_calibration, residual_variance
 from .coupling_result import CouplingResult
 from .options import CouplingOptions
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
+from .force_noise import detect_force_noise
 from .junk_lines import junk_lines
 from .model_uncertainty import ModelUncertainty, model_uncertainty
 from .model_check import check_model, residual_statistics
@@ -209,7 +210,14 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     if applied:
         H, variance = cal.apply(H, variance)
         common = cal.x_covariance
-    lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
+    # without coherence, a random error common to each excitation column line by line (force noise) is tested for
+    # in the residuals and, when found, weighted by its own covariance (:mod:`.force_noise`)
+    force = detect_force_noise(Ymn, Yne, Yme - H, H, variance, options.symmetric) if source == "relative" and not kron else None
+    if force is not None and force.significant:
+        notes.append(force.finding)
+        lines = force.line_estimates(Ymn, Yne, Ynn, Yme - H, H, variance, options.symmetric, common_x_covariance=common)
+    else:
+        lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
     spline = None
     if options.smoothing == "spline" and not _exact(lines):  # exact data: the per-line estimates are the answer
         if not options.symmetric:
