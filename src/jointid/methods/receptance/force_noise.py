@@ -86,6 +86,8 @@ FORCE_NOISE_MIN_F = 1.5
 FORCE_NOISE_MIN_LEVEL = 1e-5
 #: Lines of the running sums of the per-line estimates of ``a`` and ``b`` (odd; at most a quarter of the lines).
 FORCE_NOISE_LINES = 101
+#: A column-common error above this (relative rms) is more than a hammer's force noise: the finding names units and sensitivity.
+FORCE_NOISE_GROSS_LEVEL = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,9 +133,11 @@ class ForceNoise:
     def finding(self) -> str:
         """One line naming the force noise as the cause (whether significant or not: check :attr:`significant`)."""
         lv = ", ".join(f"{100 * v:.2g}" for v in self.level)
+        gross = ("; more than force noise makes: check the units and the hammer's sensitivity per column"
+                 if float(np.max(self.level)) > FORCE_NOISE_GROSS_LEVEL else "")
         return (f"the excitation columns share a random error line by line (force noise, ~{lv} % per column; "
                 f"F test F = {self.f_statistic:.3g}, p = {self.p_value:.2g}), measured from the residuals: not a joint or "
-                "model error; it is in the variance model, so the per-line covariance and the bands include it")
+                "model error; it is in the variance model, so the per-line covariance and the bands include it" + gross)
 
     def variance(self, variance: np.ndarray) -> np.ndarray:
         """Response (independent) variance of each value, ``a_f * variance``, shape (F, m, e)."""
