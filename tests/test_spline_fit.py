@@ -103,6 +103,11 @@ def test_noisy_mount_bands_hold_the_truth_and_beat_the_per_line_estimate(case):
     assert np.array_equal(r.std_real, fit.std_real) and fit.converged
     assert r.diagnostics()["estimator"]["spline"]["n_basis"] == fit.n_basis
     assert np.isfinite(fit.chi2_per_dof)  # chi^2 against the estimator's variance model (its scale is fitted)
+    # the default (smoothing = "auto") fits one symmetric joint of 4-6 DOFs the same way: the same fit of the same
+    # data, equal to the fit's convergence tolerance
+    auto = identify_joint_coupling(free, FRF(freq, H, MEASURED, MEASURED), JOINT, CouplingOptions())
+    assert auto.estimator == "spline"
+    np.testing.assert_allclose(auto.stiffness, r.stiffness, rtol=1e-6, atol=0)
     assert fit.describe().startswith("every term")
     d = np.arange(6)
     dK = fit.stiffness[:, d, d] - truth[:, d, d]

@@ -58,7 +58,8 @@ re-exported here. Units are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     [identification]
     method = "receptance"     # "receptance" (weighted FRF coupling, smoothed, with uncertainty) | "hong-lee"
     smoothing = "auto"        # receptance: "structured" (the joint's physics over all lines, AIC-averaged orders) for
-                              #   joints of <= 3 DOFs, else "gcv" | "structured" | "gcv" (each term alone) | "spline"
+                              #   joints of <= 3 DOFs, "spline" for one joint of 4-6 DOFs, else "gcv" | "structured" |
+                              #   "gcv" (each term alone) | "spline"
                               #   (every term a few B-splines in log f, all lines at once: 6-DOF mounts) | "none"
     weighting = "auto"        # receptance: FRF variance from coherence if the file has it, else relative
                               #   (var ~ |H|^2); "coherence" | "relative" | "none" (unweighted)

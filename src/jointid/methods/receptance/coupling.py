@@ -24,7 +24,9 @@ The default inverse method of jointid. Three steps, each documented where it liv
 
    ``"auto"`` (default) is ``"structured"`` for one symmetric joint of at most
    :data:`AUTO_STRUCTURED_MAX_DOFS` DOFs on the exact per-line path, with at least
-   :data:`STRUCTURED_MIN_LINES` lines and noisy data, else ``"gcv"`` (a study of several
+   :data:`STRUCTURED_MIN_LINES` lines and noisy data, the joint spline fit
+   (:mod:`jointid.methods.receptance.spline_fit`) for one symmetric joint of up to
+   :data:`AUTO_SPLINE_MAX_DOFS` DOFs (a 6-DOF mount), else ``"gcv"`` (a study of several
    joints uses ``"gcv"``: :func:`jointid.pipeline.coupling_options`).
    For a weakly seen term (K_theta_theta) it is far more accurate than ``"gcv"``,
    which has only that term's own noisy lines to average; ``benchmarks/structured_fit.py``
@@ -84,7 +86,8 @@ from .smoothing import smooth_series
 from .spline_fit import JointSplineFit, fit_joint_spline
 from .structured_select import STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
 
-__all__ = ["identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "AUTO_STRUCTURED_MAX_DOFS", "STRUCTURED_MIN_LINES"]
+__all__ = ["identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "AUTO_STRUCTURED_MAX_DOFS", "AUTO_SPLINE_MAX_DOFS",
+           "STRUCTURED_MIN_LINES"]
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
@@ -94,6 +97,10 @@ MAX_CONDITION = 1e8
 RELINEARIZATIONS = 2
 #: ``smoothing = "auto"`` uses the structured estimate for joints of at most this many DOFs.
 AUTO_STRUCTURED_MAX_DOFS = 3
+#: ``smoothing = "auto"`` fits a symmetric joint of more DOFs than the structured model's, up to this many, by the joint
+#: spline fit (every term over all lines at once: the per-term P-spline's bands cover 0.3-0.7 on a 6-DOF mount,
+#: the spline fit's 0.88-0.93; ``benchmarks/mount_6dof.py``).
+AUTO_SPLINE_MAX_DOFS = 6
 #: Fewest lines for the structured estimate.
 STRUCTURED_MIN_LINES = 20
 #: Residual degrees of freedom per line (``m e`` minus the joint's parameters) from which an unknown noise
@@ -219,7 +226,8 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     else:
         lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
     spline = None
-    if options.smoothing == "spline" and not _exact(lines):  # exact data: the per-line estimates are the answer
+    auto_spline = options.smoothing == "auto" and options.symmetric and AUTO_STRUCTURED_MAX_DOFS < nn <= AUTO_SPLINE_MAX_DOFS
+    if (options.smoothing == "spline" or auto_spline) and not _exact(lines):  # exact data: the per-line estimates are the answer
         if not options.symmetric:
             raise IdentificationError('smoothing = "spline" fits a symmetric joint; use symmetric = true or another smoothing')
         # the FRFs as measured: the fit of every line at once has its own noise scale, and a column correction
