@@ -155,20 +155,24 @@ def main(argv=None) -> None:
         for name in names:
             st, vt = data.cases[name]
             t = time.perf_counter()
-            acc, rows, labels, why, chi = [], [], Counter(), Counter(), []
+            acc, rows, labels, why, chi, zs = [], [], Counter(), Counter(), [], []
             for seed in range(args.first_seed, args.first_seed + args.seeds):
                 a, label, finding, res, s = run(st, vt, np.random.default_rng(seed))
                 acc.append(a)
                 rows.append(res)
                 labels[label + (" (accepted)" if a else " (rejected)")] += 1
                 if not a:
-                    why[finding.split(" (")[0][:100]] += 1
+                    why["residuals not white over frequency" if "misses the shape" in finding else
+                        "chi^2/dof" if "chi^2/dof" in finding else finding[:80]] += 1
                 if s is not None:
                     chi.append(s.best.chi2_per_dof)
+                    if getattr(s, "membership", None) is not None:
+                        zs.append(s.membership.z)
             a = np.array(rows)
             acc = np.array(acc)
             print(f"\n{NAMES[name]} ({args.seeds} seeds from {args.first_seed}, {time.perf_counter() - t:.0f} s): "
-                  f"accepted {acc.mean():.2f}, flagged {1 - acc.mean():.2f}; chi^2/dof {min(chi):.2f}-{max(chi):.2f}")
+                  f"accepted {acc.mean():.2f}, flagged {1 - acc.mean():.2f}; chi^2/dof {min(chi):.2f}-{max(chi):.2f}"
+                  + (f"; whiteness Z {min(zs):.1f}-{max(zs):.1f}" if zs else ""))
             for k, (label, _, _) in enumerate(TERMS):
                 cov_acc = np.median(a[acc, k, 1]) if acc.any() else np.nan
                 print(f"  {label:13s} median error {np.median(a[:, k, 0]):8.3g} %  coverage {np.median(a[:, k, 1]):5.2f} "
