@@ -19,7 +19,7 @@ from ..estimate import JointEstimate
 from .column_calibration import ColumnCalibration
 from .options import CouplingOptions
 from .spline_fit import JointSplineFit
-from .structured_select import MAX_CHI2_PER_DOF, StructuredEstimate
+from .structured_select import StructuredEstimate
 
 __all__ = ["CouplingResult", "GROSS_CALIBRATION_ERROR"]
 
@@ -136,6 +136,7 @@ class CouplingResult(JointEstimate):
                 "accepted": st.accepted,
                 "best_order": {"internal_modes": st.best.model.n_modes, "modulus_basis": st.best.model.g_basis, "residual": st.best.model.residual},
                 "chi2_per_dof": st.best.chi2_per_dof,
+                "whiteness_z": None if st.membership is None else float(st.membership.z),
                 "internal_modes_hz": [float(v) for v in st.best.poles_hz()],
                 "akaike_weights": {st.fits[o].model.label: float(w) for o, w in st.weights.items()},
                 "seconds": st.seconds,
@@ -187,11 +188,8 @@ class CouplingResult(JointEstimate):
         f = self.frequency.hz
         out = list(self.data_notes)
         st = self.structured
-        if st is not None and not st.accepted and st.best.chi2_per_dof > MAX_CHI2_PER_DOF:
-            out.append(f"the structured joint model does not fit these FRFs (chi^2/dof {st.best.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
-                       "not one viscoelastic material, or a model error): each term smoothed on its own instead")
-        elif st is not None and not st.accepted:
-            out.append("the structured joint model gave non-finite values on these FRFs: each term smoothed on its own instead")
+        if st is not None and not st.accepted:  # why: chi^2, residual whiteness (out of class), non-finite values
+            out.append(st.finding)
         if self.estimator_note:
             out.append(self.estimator_note)
         cal = self.calibration

@@ -126,6 +126,9 @@ class StructuredEstimate:
             return ""
         b = self.best
         cls = f"{b.model.label}; chi^2/dof {b.chi2_per_dof:.2f}"
+        if b.chi2_per_dof > MAX_CHI2_PER_DOF:  # the gross misfit first: the residuals are far above the noise
+            return (f"the structured joint model does not fit these FRFs (chi^2/dof {b.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
+                    "not one viscoelastic material, or a model error): each term smoothed on its own instead")
         m = self.membership
         if m is not None and not m.passed:
             iu = np.triu_indices(b.model.n)
@@ -134,9 +137,6 @@ class StructuredEstimate:
                     f"frequency (whiteness Z {m.z:.1f} > {MAX_WHITENESS_Z}, most in term ({i}, {j})): not one viscoelastic "
                     "material (e.g. a term with its own frequency law or damping, two materials, a modulus law the model does "
                     "not follow) or a free-model error; each term smoothed on its own instead")
-        if b.chi2_per_dof > MAX_CHI2_PER_DOF:
-            return (f"the structured joint model does not fit these FRFs (chi^2/dof {b.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
-                    "not one viscoelastic material, or a model error): each term smoothed on its own instead")
         return "the structured joint model gave non-finite values on these FRFs: each term smoothed on its own instead"
 
     def describe(self) -> str:
