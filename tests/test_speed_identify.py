@@ -240,3 +240,43 @@ def test_a_lost_worker_is_reported_as_such():
         os.kill(worker.pid, signal.SIGKILL)
         with pytest.raises(WorkerLost):
             worker.submit("joint_stiffness", None).result()
+
+
+def test_a_signal_handler_of_the_caller_never_runs_the_caller_twice(tmp_path, monkeypatch):
+    """A test runner or dask may install a Python SIGTERM handler that raises. A SIGTERM reaching the child before it is
+    inside the block that ends in os._exit (here: sent by the child itself the moment the fork returns) must not make
+    the child return into the caller's code -- it did: a second copy of the test run, and a parent waiting for it
+    forever. Every marker is written by this process alone, and close() returns."""
+    import signal
+    import time
+
+    from jointid.plots.figure_worker import FigureWorker
+
+    def raising(signum, frame):
+        raise KeyboardInterrupt
+
+    real_fork = os.fork
+
+    def fork_then_signal():
+        pid = real_fork()
+        if pid == 0:  # the child, before start() sees the pid: a signal now
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)
+        return pid
+
+    parent = os.getpid()
+    monkeypatch.setattr(os, "fork", fork_then_signal)
+    old = signal.signal(signal.SIGTERM, raising)
+    try:
+        for i in range(3):
+            try:
+                worker = FigureWorker.start()
+            except KeyboardInterrupt:  # the child escaped start(): leave the evidence, never run on
+                (tmp_path / f"escaped-{os.getpid()}").touch()
+                os._exit(0)
+            (tmp_path / f"{os.getpid()}-{i}").touch()
+            if worker is not None:
+                worker.close()
+    finally:
+        signal.signal(signal.SIGTERM, old)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(f"{parent}-{i}" for i in range(3))

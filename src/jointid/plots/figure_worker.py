@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import select
 import signal
 import struct
 import threading
@@ -81,10 +82,39 @@ def _read_exactly(fd: int, size: int) -> bytes | None:
     return b"".join(chunks)
 
 
+#: Seconds a figure may take in the worker before the caller draws it itself.
+RESULT_SECONDS = 120.0
+#: Seconds close() waits for the worker to exit before it kills it (it exits at once when its pipe closes).
+REAP_SECONDS = 10.0
+
+
+def _reap(pid: int) -> None:
+    """Wait for the worker ``pid`` to exit, at most :data:`REAP_SECONDS`, then kill it: closing never hangs."""
+    import time
+
+    deadline = time.monotonic() + REAP_SECONDS
+    while True:
+        try:
+            done, _ = os.waitpid(pid, os.WNOHANG)
+        except ChildProcessError:
+            return
+        if done:
+            return
+        if time.monotonic() > deadline:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            try:
+                os.waitpid(pid, 0)
+            except ChildProcessError:
+                pass
+            return
+        time.sleep(0.005)
+
+
 def _child(requests: int, replies: int) -> None:
     """The worker's loop: import the figure modules, then draw each request until end of file."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     try:
         from importlib import import_module
 
@@ -133,6 +163,9 @@ class PendingFigure:
             if self._worker._send_error is not None:
                 raise WorkerLost("the figure worker stopped") from self._worker._send_error
             try:
+                ready, _, _ = select.select([self._worker._replies], [], [], RESULT_SECONDS)
+                if not ready:  # a worker that hangs (a lock held at the fork): draw here instead
+                    raise WorkerLost(f"the figure worker gave no answer in {RESULT_SECONDS:g} s")
                 reply = _recv(self._worker._replies)
             except OSError as exc:
                 raise WorkerLost("the figure worker could not be read") from exc
@@ -169,22 +202,34 @@ class FigureWorker:
             rep_r, rep_w = os.pipe()
         except OSError:
             return None
+        # SIGINT/SIGTERM blocked across the fork: a Python-level handler the caller installed (a test runner's,
+        # dask's) must not run in the child before it is inside the block that always ends in os._exit -- an
+        # exception raised there would return the child into the caller's code (a second copy of the program)
+        mask = {signal.SIGINT, signal.SIGTERM}
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, mask)
         try:
             pid = os.fork()
         except OSError:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
             for fd in (req_r, req_w, rep_r, rep_w):
                 os.close(fd)
             return None
         if pid == 0:  # the child: never returns into the caller's code
-            code = 0
+            code = 1
             try:
+                try:
+                    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles an interrupt
+                    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # close() ends a worker nobody waits for
+                except ValueError:  # not the main thread: the inherited handlers stay (still inside this block)
+                    pass
+                signal.pthread_sigmask(signal.SIG_SETMASK, old - mask)
                 os.close(req_w)
                 os.close(rep_r)
                 _child(req_r, rep_w)
-            except BaseException:  # noqa: BLE001
-                code = 1
+                code = 0
             finally:
                 os._exit(code)
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
         os.close(req_r)
         os.close(rep_w)
         return cls(pid, req_w, rep_r)
@@ -221,10 +266,7 @@ class FigureWorker:
             except OSError:
                 pass
         self._requests = self._replies = -1
-        try:
-            os.waitpid(self.pid, 0)
-        except ChildProcessError:
-            pass
+        _reap(self.pid)
         self.pid = -1
 
     def __enter__(self) -> "FigureWorker":
