@@ -334,6 +334,15 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
         for _ in range(RELINEARIZATIONS if any(v is not None for v in edf.values()) else 0):
             lines_k = relinearize(lines, K)
             K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines_k, options)
+        if structured is not None and structured.shape_only:
+            # residuals correlated over frequency, misfit within chi^2: out of the class, or noise correlated between
+            # lines (leakage). The structured estimate is kept with bands that hold its difference from each term
+            # smoothed on its own: var = max(var_structured, var_smoothed + (K_structured - K_smoothed)^2) per part
+            # (the nonparametric fit unbiased: the band keeps its level for any bias of the structured one)
+            Ks = structured.stiffness
+            var_re = np.maximum(structured.std_real ** 2, var_re + (Ks.real - K.real) ** 2)
+            var_im = np.maximum(structured.std_imag ** 2, var_im + (Ks.imag - K.imag) ** 2)
+            K, edf = Ks, {}
     if uncertain is not None:
         mu: ModelUncertainty = uncertain(K)
         var_re, var_im = var_re + mu.variance_real, var_im + mu.variance_imag

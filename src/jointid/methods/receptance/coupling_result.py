@@ -103,7 +103,7 @@ class CouplingResult(JointEstimate):
         """What made :attr:`stiffness`: ``"spline"``, ``"structured"``, ``"gcv"`` (P-spline per term) or ``"per-line"``."""
         if self.spline is not None:
             return "spline"
-        if self.structured is not None and self.structured.accepted:
+        if self.structured is not None and (self.structured.accepted or self.structured.shape_only):
             return "structured"
         return "gcv" if any(v is not None for v in self.smoothing_edf.values()) else "per-line"
 
@@ -188,7 +188,11 @@ class CouplingResult(JointEstimate):
         f = self.frequency.hz
         out = list(self.data_notes)
         st = self.structured
-        if st is not None and not st.accepted:  # why: chi^2, residual whiteness (out of class), non-finite values
+        if st is not None and st.shape_only:
+            out.append(st.finding.replace("; each term smoothed on its own instead",
+                                          "; the structured estimate is kept with bands that hold its difference from each "
+                                          "term smoothed on its own"))
+        elif st is not None and not st.accepted:  # why: chi^2, non-finite values
             out.append(st.finding)
         if self.estimator_note:
             out.append(self.estimator_note)

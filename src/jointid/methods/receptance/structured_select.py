@@ -120,6 +120,13 @@ class StructuredEstimate:
     membership: Membership | None = None
 
     @property
+    def shape_only(self) -> bool:
+        """Rejected by the whiteness test alone (finite, ``chi^2/dof`` within its limit): kept with wider bands by the caller."""
+        finite = bool(np.all(np.isfinite(self.stiffness)) and np.all(np.isfinite(self.std_real)) and np.all(np.isfinite(self.std_imag)))
+        return (not self.accepted and finite and self.best.chi2_per_dof <= MAX_CHI2_PER_DOF
+                and self.membership is not None and not self.membership.passed)
+
+    @property
     def finding(self) -> str:
         """Why the estimate was rejected (one line naming the test, the class tried and the figures), else ""."""
         if self.accepted:
