@@ -196,3 +196,28 @@ def test_python_api_refuses_a_beam_parameter_on_a_structure_study(frame_dir, fre
     assert str(info.value) == (
         f"{study.source}: a [structure] study: unknown parameter 'density'; expected any of stiffness_scale, mass_scale, loss_factor"
     )
+
+
+def test_uncertainty_of_the_matrix_scales_widens_the_mount_bands(frame_dir):
+    """[uncertainty] on a [structure] study: the scaled-matrix family gives the deviation models; every band is at least
+    as wide as without it (a sum of variances), wider where the scales matter, and one finding names it."""
+    import dataclasses
+
+    from jointid.pipeline import simulate
+    from jointid.study import UncertaintySpec
+
+    d, _ = frame_dir
+    study = load_study(d / "study.toml")
+    test = simulate(study)
+    rng = np.random.default_rng(4)
+    z = (rng.standard_normal(test.frf.data.shape) + 1j * rng.standard_normal(test.frf.data.shape)) / np.sqrt(2)
+    frf = dataclasses.replace(test.frf, data=test.frf.data * (1 + 0.01 * z))
+    without = identify(study, frf)
+    spec = UncertaintySpec({"stiffness_scale": 0.005, "mass_scale": 0.005}, ((1.0, 0.5), (0.5, 1.0)))
+    with_u = identify(dataclasses.replace(study, uncertainty=spec), frf)
+    np.testing.assert_array_equal(with_u.stiffness, without.stiffness)
+    assert np.all(with_u.std_real >= without.std_real) and np.all(with_u.std_imag >= without.std_imag)
+    d6 = np.arange(with_u.stiffness.shape[1])
+    assert np.median(with_u.std_real[:, d6, d6] / without.std_real[:, d6, d6]) > 1.05
+    assert any(f.startswith("the free model's error: its parameter uncertainty ([uncertainty]: stiffness_scale, mass_scale) "
+                            "is in the bands") for f in with_u.findings())
