@@ -149,3 +149,21 @@ def test_noise_free_periodic_experiment_matches_exact_frfs():
     rel = np.abs(frf.data / exact - 1)
     assert ex.impact.exp_tau_s is None
     assert np.median(rel) < 1e-6 and rel.max() < 1e-5  # measured 3.4e-7, 2.8e-6 (transient 2 s: 4.4e-4, 0.34)
+
+
+def test_hammer_data_whose_lines_share_leakage_keep_the_structured_estimate_with_wider_bands():
+    """The benchmark's hammer test (5-1000 Hz, seed 0, as read back from its file with coherence): neighbouring lines
+    share leakage, so the structured fit's residuals are not white (Z ~ 75) while chi^2/dof passes. The structured
+    estimate is kept -- falling back to per-term smoothing cost 20x (K_ww 0.58 %) to 500x (K_theta_theta 59 %) -- with
+    bands that hold its difference from that fallback, and the finding says so. Measured: 0.031 % / 0.12 %."""
+    import dataclasses
+
+    study = _study()
+    ex = experiment(study, seed=0)
+    r = identify(study, dataclasses.replace(ex.frf, coherence=ex.coherence))
+    assert r.estimator == "structured" and not r.structured.accepted and r.structured.shape_only
+    err = np.median(np.abs(r.stiffness - ex.truth) / np.abs(ex.truth), axis=0)
+    assert err[0, 0] < 0.002 and err[1, 1] < 0.01, err
+    assert any("misses the shape of these FRFs" in f and f.endswith(
+        "the structured estimate is kept with bands that hold its difference from each term smoothed on its own")
+        for f in r.findings())
