@@ -108,10 +108,6 @@ class TaskFailed(RuntimeError):
         self.index, self.kind, self.message, self.trace = index, kind, message, trace
 
 
-#: Longest wait for a task's result before the main thread looks at pending signals again, s.
-SIGNAL_POLL_SECONDS = 0.2
-
-
 def _init_process() -> None:
     """A worker: one BLAS thread; ends quietly when the pool ends it and leaves Ctrl-C to the parent."""
     global _worker_limiter
@@ -178,16 +174,7 @@ def map_processes(tasks: Sequence[tuple[Callable, tuple]], workers: int,
         return results
     pool = multiprocessing.get_context("fork").Pool(min(workers, len(jobs)), initializer=_init_process)
     try:
-        results_in = pool.imap_unordered(_call, jobs, chunksize=1)
-        while True:
-            # a bounded wait: a signal the kernel gives to another thread of this process (the pool's) runs its Python
-            # handler only when the main thread runs again, so an unbounded wait held SIGTERM until the next task ended
-            try:
-                out = results_in.next(timeout=SIGNAL_POLL_SECONDS)
-            except multiprocessing.TimeoutError:
-                continue
-            except StopIteration:
-                break
+        for out in pool.imap_unordered(_call, jobs, chunksize=1):
             take(out)
         pool.close()
     except BaseException:
