@@ -161,11 +161,12 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
 def _worker_png(pending, draw) -> bytes:
     """The worker's PNG, or (the worker ended without one) the figure ``draw()`` makes here."""
     from ..plots.figure_worker import WorkerLost
-    from ..plots.style import figure_png
 
     try:
         return pending.result()
-    except WorkerLost:
+    except WorkerLost:  # only then matplotlib in this process (its import alone costs ~0.4 s)
+        from ..plots.style import figure_png
+
         return figure_png(draw())
 
 
