@@ -68,28 +68,3 @@ def test_band_quadratic_form_within_its_rounding_bound():
     # each value is a sum of P^2 products: within 2 P eps of sum |j| |cov| |j| (Higham 2002, sec. 3.1)
     bound = 2 * 12 * np.finfo(float).eps * np.einsum("mp,pq,mq->m", np.abs(J), np.abs(cov), np.abs(J))
     assert np.all(np.abs(_quadratic_form(J, cov) - ref) <= bound)
-
-
-def test_prepared_joint_stiffness_figure_is_the_same_png():
-    """The figure worker's empty figure made ahead (ticks created before the axes are set up) draws the same bytes."""
-    from jointid.dofs import Dof
-    from jointid.frequency import Frequency
-    from jointid.plots import joint_stiffness as js
-    from jointid.plots.stiffness_data import JointStiffnessData
-    from jointid.plots.style import figure_png
-
-    rng = np.random.default_rng(2)
-    f = np.linspace(5.0, 1000.0, 400)
-    K = np.empty((f.size, 2, 2), complex)
-    K[:, 0, 0], K[:, 1, 1] = 1e6 * (1 + 0.1j) * (1 + f / 500), 2e3 * (1 + 0.15j)
-    K[:, 0, 1] = K[:, 1, 0] = -3e4 * (1 + 0.05j) * (1 + (f / 300) ** 2)
-    std = 0.02 * np.abs(K) * (1 + rng.random(K.shape))
-    ok = np.ones(K.shape, bool)
-    ok[f > 800, 1, 1] = False
-    data = JointStiffnessData(Frequency(f), (Dof(10, "w"), Dof(10, "theta")), K, std, std, ok, 1.4 * std / np.abs(K),
-                              K * (1 + 0.05 * rng.standard_normal(K.shape)), {"max_relative_std": 0.1}, "receptance", "test")
-    for truth in (None, K * 1.01):
-        fresh = figure_png(js.plot_joint_stiffness(data, truth=truth))
-        js.prepare_figure(3)
-        assert figure_png(js.plot_joint_stiffness(data, truth=truth)) == fresh
-        assert 3 not in js._PREPARED  # used once

@@ -3,8 +3,7 @@
 ``jointid identify`` spends about half a second importing matplotlib and as much again drawing
 and encoding ``joint_stiffness.png``; neither depends on the identification until its result is
 there. :class:`FigureWorker` forks at the start of a command: the child imports matplotlib and
-the figure modules (and makes what a figure can make ahead: :data:`PREPARE`) while the parent reads
-the FRFs and identifies, then draws the figures the
+the figure modules while the parent reads the FRFs and identifies, then draws the figures the
 parent sends (plain data: :class:`~jointid.plots.joint_stiffness.JointStiffnessData`) and returns
 PNG bytes, while the parent writes its CSV and summary. The same function draws the same figure
 as in the parent (:func:`render`): the PNG bytes are those the parent would have made.
@@ -28,17 +27,11 @@ import threading
 import traceback
 import warnings
 
-__all__ = ["FigureWorker", "PendingFigure", "WorkerLost", "render", "FIGURES", "PREPARE"]
+__all__ = ["FigureWorker", "PendingFigure", "WorkerLost", "render", "FIGURES"]
 
 #: Figure name -> (module, function) of the drawing functions the worker runs: ``f(data, **kwargs) -> Figure``.
 FIGURES = {
     "joint_stiffness": ("jointid.plots.joint_stiffness", "plot_joint_stiffness"),
-}
-
-#: Figure name -> (module, function) run once in the worker while it waits for the first request: ``f()`` makes
-#: what the drawing can make ahead (the joint stiffness figure's empty axes and tick artists: a third of its time).
-PREPARE = {
-    "joint_stiffness": ("jointid.plots.joint_stiffness", "prepare_figure"),
 }
 
 _HEADER = struct.Struct("<Q")
@@ -129,11 +122,7 @@ def _child(requests: int, replies: int) -> None:
 
         for module, _ in FIGURES.values():
             import_module(module)
-        for module, name in PREPARE.values():
-            if select.select([requests], [], [], 0)[0]:  # a request is already waiting: draw it at once
-                break
-            getattr(import_module(module), name)()
-    except Exception:  # pragma: no cover - the request below reports it (a failed preparation only costs time)
+    except Exception:  # pragma: no cover - the request below reports it
         pass
     while True:
         request = _recv(requests)

@@ -11,40 +11,9 @@ from .fast_axes import fixed_margins, place_legend, plain_log_ticks
 from .stiffness_data import JointStiffnessData
 from .style import new_figure
 
-__all__ = ["plot_joint_stiffness", "draw_term_magnitude", "draw_loss_or_phase", "JointStiffnessData", "prepare_figure"]
+__all__ = ["plot_joint_stiffness", "draw_term_magnitude", "draw_loss_or_phase", "JointStiffnessData"]
 
 _UNRELIABLE = dict(color="0.88", lw=0, step="mid", zorder=0)
-#: Empty figures made ahead by :func:`prepare_figure`: number of terms -> (fig, axes); each is used once.
-_PREPARED: dict = {}
-#: Tick artists :func:`prepare_figure` makes per axis: (major, minor). More than a figure of 5-1000 Hz draws
-#: (log axes: 5 major, 32 minor; log |K| axes: up to 40 minor); the ones a draw does not need are not drawn.
-_PREPARED_TICKS = (12, 48)
-
-
-def _empty_figure(n_terms: int):
-    """The figure's grid of ``2 x n_terms`` axes, margins fixed (no layout engine)."""
-    fig, axes = new_figure(2, n_terms, figsize=(4.6 * n_terms + 0.6, 7.0), height_ratios=[1.6, 1], sharex=False, layout=None)
-    fixed_margins(fig, left=0.8, right=0.15, bottom=0.55, top=0.6, wspace=0.9, hspace=0.45)
-    return fig, axes
-
-
-def prepare_figure(n_terms: int = 3) -> None:
-    """Make the empty figure of ``n_terms`` terms ahead, its tick artists included, for the next :func:`plot_joint_stiffness`.
-
-    Creating the tick artists is about a third of drawing the figure (matplotlib copies the
-    first tick's properties into each new one at the first draw). The figure worker
-    (:mod:`jointid.plots.figure_worker`) calls this while it waits for the data; the ticks are
-    created before the axes are set up instead of during the first draw, and every setting made
-    later is applied to them (``set_tick_params``): the PNG is the same bytes
-    (``tests/test_speed_outputs.py``).
-    """
-    fig, axes = _empty_figure(n_terms)
-    major, minor = _PREPARED_TICKS
-    for ax in np.asarray(axes).flat:
-        for axis in (ax.xaxis, ax.yaxis):
-            axis.get_major_ticks(major)
-            axis.get_minor_ticks(minor)
-    _PREPARED[n_terms] = (fig, axes)
 
 
 def _shade(ax, f, bad, label: bool) -> None:
@@ -146,7 +115,8 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
     terms = [(i, j) for i in range(len(dofs)) for j in range(i, len(dofs))]
     own = axes is None
     if own:  # fixed margins, no layout engine: the figure of 20 000 lines draws in a fraction of the time
-        fig, axes = _PREPARED.pop(len(terms), None) or _empty_figure(len(terms))
+        fig, axes = new_figure(2, len(terms), figsize=(4.6 * len(terms) + 0.6, 7.0), height_ratios=[1.6, 1], sharex=False, layout=None)
+        fixed_margins(fig, left=0.8, right=0.15, bottom=0.55, top=0.6, wspace=0.9, hspace=0.45)
     else:
         fig = np.asarray(axes).flat[0].figure
     axes = np.asarray(axes).reshape(2, len(terms))
