@@ -248,3 +248,39 @@ def test_whitened_fit_jacobian_matches_finite_differences(order, with_common):
         fd = (prob.residual(theta + step) - prob.residual(theta - step)) / (2 * h)
         # central difference: error ~ h^2 |r'''| + eps |r| / h, far below 1e-6 of the column's scale here
         assert np.max(np.abs(fd - J[:, k])) <= 1e-6 * max(1.0, np.max(np.abs(fd))), k
+
+
+def test_grid_costs_are_the_least_squares_costs_of_each_grid_point():
+    """The batched per-term QR costs of the first mode's grid are each point's whole least-squares cost (as lstsq gives it)."""
+    from jointid.methods.receptance.structured_fit import _NU_GRID, _PHASES, _grid_costs, _grid_design
+
+    rng = np.random.default_rng(5)
+    F, p = 30, 3
+    w2 = np.linspace(0.05, 1.0, F) ** 2
+    y = (1 + 0.1j) - w2[:, None] * rng.random(p) + 0.01 * (rng.standard_normal((F, p)) + 1j * rng.standard_normal((F, p)))
+    w = 1.0 + rng.random((F, p))
+    rhs = np.concatenate([(y * w).real.ravel(), (y * w).imag.ravel()])
+    costs = _grid_costs(y, w, w2)
+    ref = np.empty_like(costs)
+    for a, phi in enumerate(_PHASES):
+        for b, nu in enumerate(_NU_GRID):
+            M = _grid_design(w, w2, np.exp(1j * phi), np.exp(nu))
+            sol = np.linalg.lstsq(M, rhs, rcond=None)[0]
+            ref[a, b] = np.sum((M @ sol - rhs) ** 2)
+    # both are backward-stable least squares (Householder QR, SVD): residual norms within ~ m n eps ||rhs|| of the
+    # exact one (Higham 2002, ch. 20), so costs within 2 m n eps ||rhs||^2 (m = 2 F p rows, n = 3 p columns), doubled
+    tol = 4 * (2 * F * p) * (3 * p) * np.finfo(float).eps * np.sum(rhs ** 2)
+    assert np.all(np.abs(costs - ref) <= tol)
+    assert np.argmin(costs) == np.argmin(ref)
+
+
+def test_small_stacked_products_within_their_rounding_bound():
+    """The broadcast-sum product of small stacked matrices is matmul within k eps |A| |B| (k inner terms)."""
+    from jointid.methods.receptance.structured_fit import _bmm
+
+    rng = np.random.default_rng(6)
+    for a, k, c in [(2, 2, 2), (3, 3, 4), (3, 4, 1), (6, 6, 6)]:
+        A = rng.standard_normal((50, a, k)) + 1j * rng.standard_normal((50, a, k))
+        B = rng.standard_normal((50, k, c)) + 1j * rng.standard_normal((50, k, c))
+        bound = 2 * k * np.finfo(float).eps * (np.abs(A) @ np.abs(B))  # complex products: 2 k eps per term (Higham 3.6)
+        assert np.all(np.abs(_bmm(A, B) - A @ B) <= bound)

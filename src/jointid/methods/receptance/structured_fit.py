@@ -370,27 +370,53 @@ def _grid_start(hz, Ks, Vs, model: StructuredModel, theta_base: np.ndarray, cach
     return pack(Av / a0, Bv, E, modes, gam)
 
 
-def _grid_search(hz, Ks, Vs, model: StructuredModel) -> tuple:
-    """``(g, mu, [A, B, C])`` of the best ``(phi, mu)`` grid point of :func:`_grid_start`."""
-    y, w, w2 = _scaled_curves(hz, Ks, Vs, model)
-    p, F = model.p, hz.size
-    rhs = np.concatenate([(y * w).real.ravel(), (y * w).imag.ravel()])
-    best = (np.inf, None)
-    sel = np.eye(p)
-    for phi in _PHASES:
+def _grid_costs(y, w, w2) -> np.ndarray:
+    """Weighted least-squares cost of every ``(phi, mu)`` grid point of :func:`_grid_start`, shape (phases, poles).
+
+    The least squares decouples by term (each term's rows see only its own ``A_k, B_k, C_k``): a point's
+    cost is the sum over terms of ``r_44^2``, the last diagonal entry of the R factor of the term's
+    ``[design | data]`` (2 F x 4, real), from one batched QR per loss angle for all poles and terms.
+    ``y, w, w2``: :func:`_scaled_curves`.
+    """
+    F = w2.size
+    p = y.shape[1]
+    mus = np.exp(_NU_GRID)
+    aug = np.empty((mus.size, p, 2 * F, 4))  # (pole, term, [Re; Im] rows, [g, -w'^2, C coefficient, data] columns)
+    aug[:, :, :F, 1], aug[:, :, F:, 1] = (-w2[:, None] * w).T[None], 0.0
+    aug[:, :, :F, 3], aug[:, :, F:, 3] = (y * w).real.T[None], (y * w).imag.T[None]
+    costs = np.empty((_PHASES.size, mus.size))
+    for a, phi in enumerate(_PHASES):
         g = np.exp(1j * phi)
-        for nu in _NU_GRID:
-            mu = np.exp(nu)
-            cols = []
-            for coef in (np.full(F, g), -w2 + 0j, -(w2 ** 2) / (g * mu - w2)):
-                m = (coef[:, None, None] * sel[None]) * w[:, :, None]  # (F, p, p): column k is term k
-                cols.append(np.concatenate([m.real.reshape(F * p, p), m.imag.reshape(F * p, p)]))
-            M = np.concatenate(cols, axis=1)
-            sol, *_ = np.linalg.lstsq(M, rhs, rcond=None)
-            cost = float(np.sum((M @ sol - rhs) ** 2))
-            if cost < best[0]:
-                best = (cost, (g, mu, sol))
-    return best[1]
+        aug[:, :, :F, 0], aug[:, :, F:, 0] = (g.real * w).T[None], (g.imag * w).T[None]
+        c = (-(w2 ** 2)[None, :] / (g * mus[:, None] - w2[None, :]))[:, None, :] * w.T[None]  # (pole, term, F)
+        aug[:, :, :F, 2], aug[:, :, F:, 2] = c.real, c.imag
+        r = np.linalg.qr(aug, mode="r")[..., 3, 3]
+        costs[a] = np.sum(r * r, axis=1)
+    costs[~np.isfinite(costs)] = np.inf
+    return costs
+
+
+def _grid_design(w, w2, g, mu) -> np.ndarray:
+    """The whole real design (2 F p, 3 p) of one grid point: columns ``[A_k, B_k, C_k]`` of every term."""
+    F, p = w.shape
+    sel = np.eye(p)
+    cols = []
+    for coef in (np.full(F, g), -w2 + 0j, -(w2 ** 2) / (g * mu - w2)):
+        m = (coef[:, None, None] * sel[None]) * w[:, :, None]  # (F, p, p): column k is term k
+        cols.append(np.concatenate([m.real.reshape(F * p, p), m.imag.reshape(F * p, p)]))
+    return np.concatenate(cols, axis=1)
+
+
+def _grid_search(hz, Ks, Vs, model: StructuredModel) -> tuple:
+    """``(g, mu, [A, B, C])`` of the best ``(phi, mu)`` grid point of :func:`_grid_start` (costs: :func:`_grid_costs`;
+    the first of equal ones in phase-major order); its solution is the least-squares solution of its whole design."""
+    y, w, w2 = _scaled_curves(hz, Ks, Vs, model)
+    costs = _grid_costs(y, w, w2)
+    a, b = np.unravel_index(int(np.argmin(costs)), costs.shape)
+    g, mu = np.exp(1j * _PHASES[a]), float(np.exp(_NU_GRID[b]))
+    rhs = np.concatenate([(y * w).real.ravel(), (y * w).imag.ravel()])
+    sol, *_ = np.linalg.lstsq(_grid_design(w, w2, g, mu), rhs, rcond=None)
+    return g, mu, sol
 
 
 def _mode_starts(prob: _Problem, theta: np.ndarray) -> list:
