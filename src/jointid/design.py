@@ -91,7 +91,7 @@ def design_band(study: Study, band_hz: tuple[float, float] | None = None) -> Fre
 def design_study(
     study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence | None = None,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
-    search_lines: int = 300, monte_carlo: int = 0, progress=None,
+    search_lines: int = 300, monte_carlo: int = 0, progress=None, targets: Mapping[str, float] | None = None,
 ) -> LayoutDesign:
     """Choose ``observed`` and ``excited`` nodes of the study's beam for the best-determined joint.
 
@@ -117,6 +117,9 @@ def design_study(
         options (0: none; see :mod:`jointid.methods.design.check`).
     progress : callable, optional
         Called with one line after each step of the search (see :func:`~jointid.methods.design.layout.design_layout`).
+    targets : mapping, optional
+        Term -> target median relative error (0.05 = 5 %): which layout reaches it,
+        predicted and (with ``monte_carlo``) confirmed (:mod:`jointid.methods.design.term_goals`).
 
     Returns
     -------
@@ -133,7 +136,7 @@ def design_study(
     if study.beam is None:  # candidates are DOFs (the beam's shorthand: nodes, with its sensor model)
         return _design_on_dofs(
             study, observed, excited, candidates=candidates, noise=noise, weights=weights, band_hz=band_hz,
-            search_lines=search_lines, monte_carlo=monte_carlo, progress=progress,
+            search_lines=search_lines, monte_carlo=monte_carlo, progress=progress, targets=targets,
         )
     if study.joint.model is None:
         raise StudyError(f"{study.source}: [joint.model] is missing; a design needs the expected joint stiffness")
@@ -161,6 +164,7 @@ def design_study(
         symmetric=True if spec.symmetric is None else bool(spec.symmetric),
         current=(m.observed, m.excited), search_lines=search_lines,
         monte_carlo=monte_carlo, coupling_options=coupling_options(study), scenarios=scenarios, progress=progress,
+        targets=targets,
     )
 
 
@@ -228,7 +232,7 @@ def dof_candidates(study: Study, candidates: Sequence | None = None, free=None) 
 def _design_on_dofs(
     study: Study, observed: int | None = None, excited: int | None = None, *, candidates: Sequence | None = None,
     noise: float = 0.01, weights: Mapping[str, float] | None = None, band_hz: tuple[float, float] | None = None,
-    search_lines: int = 300, monte_carlo: int = 0, progress=None,
+    search_lines: int = 300, monte_carlo: int = 0, progress=None, targets: Mapping[str, float] | None = None,
 ) -> LayoutDesign:
     """Choose observed and excited DOFs (of any free structure) for the best-determined joints.
 
@@ -241,7 +245,8 @@ def _design_on_dofs(
     joints named ``"<joint>:K_x_ry"``; a weight without the prefix sets that term of
     every joint); no accelerometers (a structure's sensors are in its matrices). The
     scenarios are the beam's, per line instead of smoothed when
-    ``[identification].smoothing = "none"``.
+    ``[identification].smoothing = "none"``, the joint spline fit's bound (relative and
+    additive noise) where the identification fits one (a mount of 4-6 DOFs).
 
     Returns
     -------
@@ -265,8 +270,10 @@ def _design_on_dofs(
     joints = true_joints(study)
     m = study.measurement
     spec = study.identification
-    if spec.smoothing == "none":
-        scenarios = [Scenario("relative", "per-line"), Scenario("additive", "per-line", False, hammer_noise(study, noise))]
+    resolved = coupling_options(study).over_frequency(len(study.joint_dofs))
+    if resolved in ("none", "spline"):  # per line, or the joint spline fit's bound (no column calibration)
+        estimator = "per-line" if resolved == "none" else "spline"
+        scenarios = [Scenario("relative", estimator), Scenario("additive", estimator, False, hammer_noise(study, noise))]
     else:
         scenarios = _beam_scenarios(study, noise)
     return design_layout(
@@ -281,5 +288,5 @@ def _design_on_dofs(
         symmetric=True if spec.symmetric is None else bool(spec.symmetric),
         current=(m.observed_dofs, m.excited_dofs), search_lines=search_lines,
         monte_carlo=monte_carlo, coupling_options=coupling_options(study), scenarios=scenarios, progress=progress,
-        blocks=[(j.name, len(j.joint_dofs)) for j in study.joints],
+        blocks=[(j.name, len(j.joint_dofs)) for j in study.joints], targets=targets,
     )

@@ -11,7 +11,8 @@ from ..errors import DofError, StudyError
 from ..io.output_dir import OutputSet
 from .common import add_out_argument, add_study_argument, study_from_args
 
-__all__ = ["add_parser", "run", "parse_nodes", "parse_dof_labels", "parse_weights", "summary_lines", "verdict"]
+__all__ = ["add_parser", "run", "parse_nodes", "parse_dof_labels", "parse_weights", "parse_targets", "summary_lines",
+           "verdict", "target_lines"]
 
 
 def add_parser(sub) -> None:
@@ -25,7 +26,10 @@ def add_parser(sub) -> None:
         "[joint.model] as the expected joint and its [accelerometers] (on the observed nodes, they move with them); "
         "layouts predicted worse than the study's in any scenario are penalized. "
         "A [structure] study: candidates are DOFs (default: x, y, z of every node the study observes or excites), "
-        "the criterion is over every [[joint]]'s own terms (named JOINT:K_x_x with several joints). "
+        "the criterion is over every [[joint]]'s own terms (named JOINT:K_x_x with several joints); for a mount of 4-6 "
+        "DOFs the prediction is the Cramer-Rao bound of the joint spline fit that identifies it. --target says per term "
+        "whether the chosen and the current layout reach a stated accuracy, --monte-carlo N confirms it by the "
+        "identification itself on N noise realizations. "
         "Writes DIR/design.json (chosen and current layout, median predicted relative error per term and scenario) "
         "and DIR/design.png (per-term predicted relative error vs frequency, both layouts); prints a progress line per "
         "step of the search, then per term the chosen and current layout's figures and which is better. "
@@ -48,6 +52,12 @@ def add_parser(sub) -> None:
                    help="band (default: [frequency] start..stop)")
     p.add_argument("--search-lines", type=int, default=300, metavar="N",
                    help="lines of the search grid, spread over the band (default 300)")
+    p.add_argument("--target", default=None, metavar="TERM=PCT,...",
+                   help="target median relative error per term in percent, e.g. K_x_x=0.2,K_rx_rx=5: says per term "
+                        "whether the chosen and the current layout reach it (predicted, and with --monte-carlo confirmed)")
+    p.add_argument("--monte-carlo", type=int, default=0, metavar="N",
+                   help="check the best layouts and the current one by the identification itself on N noise "
+                        "realizations per noise model (default 0: prediction only)")
     p.add_argument("--no-plots", action="store_true", help="skip the figure")
     p.set_defaults(func=run)
 
@@ -76,8 +86,8 @@ def parse_dof_labels(text: str) -> list:
         raise StudyError(f"--candidates: {exc}") from None
 
 
-def parse_weights(text: str) -> dict[str, float]:
-    """``"K_theta_theta=4,K_w_w=1"`` -> ``{"K_theta_theta": 4.0, "K_w_w": 1.0}``."""
+def parse_weights(text: str, option: str = "--weights", example: str = "K_theta_theta=4,K_w_w=1") -> dict[str, float]:
+    """``"K_theta_theta=4,K_w_w=1"`` -> ``{"K_theta_theta": 4.0, "K_w_w": 1.0}`` (``option`` names the flag in errors)."""
     out: dict[str, float] = {}
     for part in text.split(","):
         name, sep, value = part.strip().partition("=")
@@ -86,8 +96,18 @@ def parse_weights(text: str) -> dict[str, float]:
                 raise ValueError
             out[name.strip()] = float(value)
         except ValueError:
-            raise StudyError(f"--weights: expected TERM=WEIGHT pairs like K_theta_theta=4,K_w_w=1, got {text!r}") from None
+            raise StudyError(f"{option}: expected TERM={'WEIGHT' if option == '--weights' else 'PERCENT'} pairs like "
+                             f"{example}, got {text!r}") from None
     return out
+
+
+def parse_targets(text: str) -> dict[str, float]:
+    """``"K_x_x=0.2,K_rx_rx=5"`` (percent) -> ``{"K_x_x": 0.002, "K_rx_rx": 0.05}`` (relative)."""
+    out = parse_weights(text, "--target", "K_x_x=0.2,K_rx_rx=5")
+    for name, value in out.items():
+        if not (math.isfinite(value) and value > 0):
+            raise StudyError(f"--target: {name}={value:g}; expected a percentage > 0, e.g. {name}=5")
+    return {name: value / 100.0 for name, value in out.items()}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -97,6 +117,9 @@ def run(args: argparse.Namespace) -> int:
     parse = parse_nodes if study.beam is not None else parse_dof_labels  # the beam shorthand: nodes
     candidates = parse(args.candidates) if args.candidates is not None else None
     weights = parse_weights(args.weights) if args.weights is not None else None
+    targets = parse_targets(args.target) if args.target is not None else None
+    if args.monte_carlo < 0:
+        raise StudyError(f"--monte-carlo: expected a number of realizations >= 0, got {args.monte_carlo}")
     if not (math.isfinite(args.noise) and args.noise > 0):
         raise StudyError(f"--noise: expected a relative FRF noise level > 0 (0.01 = 1 %), got {args.noise:g}")
     def progress(text: str) -> None:  # one line per step, flushed: visible in a log as well as on a terminal
@@ -108,6 +131,7 @@ def run(args: argparse.Namespace) -> int:
         d = design_study(
             study, args.observed, args.excited, candidates=candidates, noise=args.noise, weights=weights,
             band_hz=tuple(args.band_hz) if args.band_hz else None, search_lines=args.search_lines, progress=progress,
+            monte_carlo=args.monte_carlo, targets=targets,
         )
         summary = d.to_dict()
         summary["study"] = str(study.source)
@@ -130,6 +154,31 @@ def verdict(chosen: float, current: float) -> str:
     return f"better ({1 / r:.2g}x lower)" if r < 1 else f"worse ({r:.2g}x higher)"
 
 
+def target_lines(d) -> list[str]:
+    """Per targeted term: the target, and whether the chosen and the current layout reach it (predicted, Monte Carlo)."""
+    rows = d.target_report()
+    if not rows:
+        return []
+
+    def pct(x):
+        return "n/a" if x is None else f"{100 * x:.3g} %"
+
+    def one(name, r):
+        mc = f", Monte Carlo {pct(r['monte_carlo'])}" if r["monte_carlo"] is not None else ""
+        return f"{name} {pct(r['predicted'])}{mc}: {'reaches it' if r['reaches'] else 'does NOT reach it'}"
+
+    out = ["targets (median relative error; predicted" + (", and the identification on "
+           f"{d.monte_carlo} noise realizations per noise model, the worse of them" if d.monte_carlo else "") + "):"]
+    for r in rows:
+        parts = [one("chosen", r["chosen"])] + ([one("current", r["current"])] if r["current"] is not None else [])
+        out.append(f"  {r['term']:16s} target {pct(r['target'])}: " + "; ".join(parts))
+    missed = [r["term"] for r in rows if not r["chosen"]["reaches"]]
+    if missed:
+        out.append(f"  no layout of {len(d.observed)} observed x {len(d.excited)} excited found reaches {', '.join(missed)}: "
+                   "allow more candidates or more observed/excited (--observed, --excited), or accept a wider target")
+    return out
+
+
 def summary_lines(d) -> list[str]:
     """The printout: both layouts, then per term the chosen and current layout's figures and which is better."""
     def nodes(x):
@@ -140,7 +189,7 @@ def summary_lines(d) -> list[str]:
            f"  chosen layout : observed {nodes(d.observed)}; excited {nodes(d.excited)}"]
     if d.current_observed is None:
         out += [f"  {t:16s} chosen {100 * v:.3g} %" for t, v in d.median().items()]
-        return out
+        return out + target_lines(d)
     same = (tuple(sorted(map(str, d.observed))), tuple(sorted(map(str, d.excited)))) == (
         tuple(sorted(map(str, d.current_observed))), tuple(sorted(map(str, d.current_excited))))
     out.append(f"  current layout: observed {nodes(d.current_observed)}; excited {nodes(d.current_excited)}"
@@ -155,4 +204,4 @@ def summary_lines(d) -> list[str]:
         terms = ", ".join(f"{t} {100 * v:.3g} % ({100 * cur_sc[name][t]:.3g} %)" for t, v in med.items()
                           if d.weights.get(t, 1) > 0)
         out.append(f"    {name}: {terms}")
-    return out
+    return out + target_lines(d)

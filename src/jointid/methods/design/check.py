@@ -80,13 +80,15 @@ def monte_carlo_errors(predictor, observed: Sequence, excited: Sequence, seeds: 
     seeds : int
         Realizations (seeds 0..seeds-1).
     options : CouplingOptions, optional
-        The study's identification options (default: the defaults), with ``smoothing = "gcv"``:
-        the estimator :mod:`jointid.methods.design.estimator` predicts. The structured
-        estimate (the default for small joints) pools every term and line and was more
-        accurate on every layout tested, so the ranking is that of the per-term smoother.
+        The study's identification options (default: the defaults). Where they ask for the
+        structured estimate (a joint of 1-3 DOFs), ``smoothing = "gcv"``: the estimator
+        :mod:`jointid.methods.design.estimator` predicts (the structured estimate pools every
+        term and line and was more accurate on every layout tested, so the ranking is that of
+        the per-term smoother). A mount of 4-6 DOFs runs its own default, the joint spline fit.
     """
-    if options is None or options.smoothing in ("auto", "structured"):  # the estimator the predictor models
-        options = dataclasses.replace(options or CouplingOptions(), smoothing="gcv")
+    options = options or CouplingOptions()
+    if options.over_frequency(len(predictor.joint_dofs)) == "structured":  # the estimator the predictor models
+        options = dataclasses.replace(options, smoothing="gcv")
     model, m_dofs, e_dofs = predictor.identification_model(observed, excited)
     H = predictor.exact_receptance(observed, excited)
     var = predictor.frf_variance(H)

@@ -115,6 +115,7 @@ from ...frequency import Frequency
 from ...parallel import single_threaded_blas
 from ...physics.free_model import as_free_model
 from .pool import MAX_SEED_SETS, LayoutPool, pool_workers
+from .term_goals import target_report, term_targets, term_weights
 from .pool import seed_sets as _seed_sets
 from .predictor import (
     DEFAULT_SCENARIOS, ESTIMATORS, NOISE_MODELS, LayoutPredictor, Scenario, Sensors, _Combined, geometric_mean,
@@ -196,6 +197,10 @@ class LayoutDesign:
         The layouts checked by Monte Carlo (and last the current one, criterion None):
         per noise model of :data:`MONTE_CARLO_NOISE_MODELS`, the median over seeds of
         the actual median relative error per term.
+    monte_carlo : int
+        Seeds of that check (0: none).
+    targets : dict
+        Term -> target median relative error; :meth:`target_report` says which layout reaches it.
     """
 
     observed: tuple[int, ...]
@@ -221,6 +226,7 @@ class LayoutDesign:
     ranked: tuple = field(default=())
     checked: tuple = field(default=())
     monte_carlo: int = 0
+    targets: dict = field(default_factory=dict)
 
     def scenario_medians(self, current: bool = False) -> dict[str, dict[str, float]]:
         """Scenario name -> term -> median over lines of the predicted relative error."""
@@ -237,6 +243,10 @@ class LayoutDesign:
         with np.errstate(divide="ignore"):
             med = np.exp(np.mean([np.log(np.median(r, axis=0)) for r in rels], axis=0))
         return {t: float(v) for t, v in zip(self.terms, med)}
+
+    def target_report(self) -> list[dict]:
+        """Per targeted term: target, and per layout the prediction, the Monte Carlo median and whether it reaches it."""
+        return target_report(self)
 
     def to_dict(self) -> dict:
         """A JSON-ready summary (``design.json``): layouts, medians per term, criterion, search."""
@@ -267,6 +277,7 @@ class LayoutDesign:
                        "alternatives": [{"observed": _json_layout(o), "excited": _json_layout(e), "criterion": num(c)}
                                         for c, o, e in self.ranked[1:6]]},
             "scenarios": [dataclasses.asdict(sc) | {"name": sc.name} for sc in self.scenarios],
+            "targets": self.target_report(),
             "monte_carlo": {
                 "seeds": self.monte_carlo, "noise_models": list(MONTE_CARLO_NOISE_MODELS),
                 "checked": [{"observed": _json_layout(o), "excited": _json_layout(e), "criterion": None if c is None else num(c),
@@ -321,23 +332,6 @@ def _check_counts(n_joint: int, n_candidates: int, n_observed: int, n_excited: i
             )
 
 
-def _weights(terms: Sequence[str], weights: Mapping[str, float] | None) -> np.ndarray:
-    """Weights per term; with several joints a name without the ``"joint:"`` prefix sets that term of every joint."""
-    w = dict.fromkeys(terms, 1.0)
-    for name, value in (weights or {}).items():
-        names = [name] if name in w else [t for t in terms if t.partition(":")[2] == name]
-        if not names:
-            raise IdentificationError(f"weights: unknown term {name!r}; expected one of {', '.join(terms)}")
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-            raise IdentificationError(f"weights: {name} = {value!r}; expected a number >= 0")
-        for t in names:
-            w[t] = float(value)
-    arr = np.array([w[t] for t in terms])
-    if not arr.sum() > 0:
-        raise IdentificationError("weights: every term has weight 0; give at least one a positive weight")
-    return arr
-
-
 def _search_grid(frequency: Frequency, lines: int) -> Frequency:
     if frequency.hz.size <= lines:
         return frequency
@@ -353,6 +347,7 @@ def design_layout(
     scenarios: Sequence[Scenario] | None = None, dominate: bool = True, rerank: int = 30,
     monte_carlo: int = 0, monte_carlo_layouts: int = 6, coupling_options=None,
     blocks: Sequence[tuple[str, int]] | None = None, progress: Callable[[str], None] | None = None,
+    targets: Mapping[str, float] | None = None,
 ) -> LayoutDesign:
     """Choose observed and excited nodes that minimize the predicted uncertainty of the joint terms.
 
@@ -395,6 +390,9 @@ def design_layout(
         prefix (``"K_z_z"``) applies to that term of every joint.
     progress : callable, optional
         Called with one line after each step of the search (layouts evaluated, criterion, seconds).
+    targets : mapping, optional
+        Term -> target median relative error (0.05 = 5 %): reported per layout
+        (:meth:`LayoutDesign.target_report`), not searched for (:mod:`.term_goals`).
 
     Returns
     -------
@@ -404,7 +402,7 @@ def design_layout(
     ------
     IdentificationError
         K or L below the number of joint DOFs or above the candidates, an unknown
-        term weight, a node that is not in the model.
+        term weight or target, a node that is not in the model.
     """
     t0 = time.perf_counter()
     joint_dofs = tuple(parse_dofs(joint_dofs))
@@ -414,7 +412,8 @@ def design_layout(
     if blocks is not None:
         blocks = joint_blocks(joint_dofs, blocks)
     terms = [t for _, _, t in term_names(joint_dofs, symmetric, blocks)]
-    w = _weights(terms, weights)
+    w = term_weights(terms, weights)
+    goals = term_targets(terms, targets)
     if isinstance(search_lines, bool) or not (isinstance(search_lines, int) and search_lines >= 8):
         raise IdentificationError(f"search lines: expected an integer >= 8, got {search_lines!r}")
     free = as_free_model(free)  # built once (its modes), used by the search and the final evaluation
@@ -580,5 +579,5 @@ def design_layout(
         None if current is None else tuple(current[0]), None if current is None else tuple(current[1]),
         cur_rel, cur_crit, dict(zip(terms, w.tolist())), float(noise), cands, grid.hz.size, evaluations,
         time.perf_counter() - t0, tuple((s, float(c)) for s, c in history),
-        scenarios, tuple(each), tuple(cur_each or ()), tuple(sorted(reranked)), checked, int(monte_carlo),
+        scenarios, tuple(each), tuple(cur_each or ()), tuple(sorted(reranked)), checked, int(monte_carlo), goals,
     )

@@ -20,7 +20,7 @@ from ...errors import DofError, IdentificationError
 from ...frequency import Frequency
 from ...physics.free_model import as_free_model
 from ..receptance.coupling_lines import symmetric_parametrization
-from .estimator import SmootherPrediction, common_variance
+from .estimator import SmootherPrediction, common_variance, spline_bound
 from ...terms import dof_term_labels
 from ..receptance.smoothing import MAX_BASIS
 
@@ -31,8 +31,9 @@ __all__ = [
 
 #: FRF noise models of :meth:`LayoutPredictor.frf_variance`.
 NOISE_MODELS = ("relative", "additive")
-#: What the prediction is of: the per-line estimate, or the default estimator's smoothed one.
-ESTIMATORS = ("per-line", "smoothed")
+#: What the prediction is of: the per-line estimate, the default estimator's smoothed one (per-term P-spline), or the
+#: joint spline fit (the default for a mount of 4-6 DOFs: its Cramer-Rao bound, :func:`~.estimator.spline_bound`).
+ESTIMATORS = ("per-line", "smoothed", "spline")
 #: Off-diagonal terms smaller than this fraction of sqrt(|K_ii K_jj|) are referred to the latter.
 _COUPLING_FLOOR = 1e-3
 
@@ -352,6 +353,16 @@ class LayoutPredictor:
             level = self.noise if sc.level is None else sc.level
             key = (nm, level)
             g = (level / self.noise) ** 2  # variances scale with the square of the noise level
+            if sc.estimator == "spline":  # every line at once: the bound of its class (calibration does not apply)
+                if ("spline",) + key not in smoothed:
+                    saved, self.noise_model = self.noise_model, nm
+                    try:
+                        var_h = g * self.frf_variance(H) / self._thin
+                    finally:
+                        self.noise_model = saved
+                    smoothed[("spline",) + key] = spline_bound(self.frequency.hz, Ymn, Ynn, Yne, var_h, self.Du, self.symmetric)
+                out.append(smoothed[("spline",) + key])
+                continue
             if key not in per_line:
                 saved, self.noise_model = self.noise_model, nm
                 try:
@@ -410,8 +421,10 @@ class Scenario:
     ----------
     noise_model : {"relative", "additive"}
         See :meth:`LayoutPredictor.frf_variance`.
-    estimator : {"per-line", "smoothed"}
-        The per-line estimate, or the default estimator's (smoothed over frequency).
+    estimator : {"per-line", "smoothed", "spline"}
+        The per-line estimate, the default estimator's for a joint of 1-3 DOFs (smoothed over
+        frequency), or the joint spline fit's bound (the default for a mount of 4-6 DOFs; the
+        column calibration does not apply to it).
     calibration : bool
         Include the common error of the column calibration (what the estimator adds
         when the test has force noise).

@@ -71,7 +71,8 @@ from ...frf import FRF
 from ...physics.free_model import UncertainFreeModel, as_free_model
 from .column_calibration import estimate_column_calibration, residual_variance
 from .coupling_result import CouplingResult
-from .options import CouplingOptions
+from .column_redundancy import MIN_COLUMN_REDUNDANCY, column_redundancy
+from .options import AUTO_SPLINE_MAX_DOFS, AUTO_STRUCTURED_MAX_DOFS, CouplingOptions
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
 from .force_noise import detect_force_noise
 from .junk_lines import junk_lines
@@ -95,12 +96,6 @@ SMOOTH_MIN_RELATIVE_STD = 1e-6
 MAX_CONDITION = 1e8
 #: Gauss-Newton steps: per-line estimates relinearized around the smoothed estimate, smoothed again.
 RELINEARIZATIONS = 2
-#: ``smoothing = "auto"`` uses the structured estimate for joints of at most this many DOFs.
-AUTO_STRUCTURED_MAX_DOFS = 3
-#: ``smoothing = "auto"`` fits a symmetric joint of more DOFs than the structured model's, up to this many, by the joint
-#: spline fit (every term over all lines at once: the per-term P-spline's bands cover 0.3-0.7 on a 6-DOF mount,
-#: the spline fit's 0.88-0.93; ``benchmarks/mount_6dof.py``).
-AUTO_SPLINE_MAX_DOFS = 6
 #: Fewest lines for the structured estimate.
 STRUCTURED_MIN_LINES = 20
 #: Residual degrees of freedom per line (``m e`` minus the joint's parameters) from which an unknown noise
@@ -189,10 +184,20 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     params = nn * (nn + 1) // 2 if options.symmetric else nn * nn
     measurable = nm * len(e_dofs) - params >= RESIDUAL_MIN_REDUNDANCY
     cal, applied = None, False
+    # the column checks (calibration, units, force noise) need equations beyond the joint's terms and the columns
+    columns_checked = kron or column_redundancy(Ymn, Yne, Yme, variance, options.symmetric) >= MIN_COLUMN_REDUNDANCY
+    if not columns_checked:
+        if options.calibration == "columns":
+            raise IdentificationError("calibration = 'columns': this layout leaves no residual outside the excitation columns' "
+                                      "directions (e.g. observed = excited DOFs, as many as the joint's), so no column error can be "
+                                      "estimated; use 'auto' or 'none', or observe more DOFs")
+        notes.append(f"this layout ({nm} observed x {len(e_dofs)} excited DOFs for {nn} joint DOFs) leaves no residual outside the "
+                     "excitation columns' directions: the force calibration, units and force-noise checks cannot run (the FRFs' "
+                     "units and noise model are taken as given); observe more DOFs than the joint has (`jointid design`) to have them")
     if kron:  # many joint DOFs: no full design, no calibration
         if options.calibration == "columns":
             raise IdentificationError(f"calibration = 'columns' needs the full per-line design, too large for {nn} joint DOFs on {freq.size} lines; use 'auto' or 'none'")
-    elif options.calibration != "none":
+    elif options.calibration != "none" and columns_checked:
         # the calibration removes the column-common error: what is left in each value is its
         # variance without the column-common part (frf_variance.column_noise_fraction)
         left = variance * column_noise_fraction(H, coherence) if source == "coherence" and not unknown else variance
@@ -204,7 +209,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
                 variance = left
             else:
                 cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, options.calibration_basis) or cal
-    checked = _units_check(freq, Ymn, Yne, Yme, H, variance, cal, options, kron, notes)
+    checked = _units_check(freq, Ymn, Yne, Yme, H, variance, cal, options, kron, notes) if columns_checked else None
     if unknown and not applied and measurable and not kron:
         measured_var = residual_variance(Ymn, Yne, Yme - H, variance, options.symmetric)
         variance = variance if measured_var is None else measured_var
@@ -219,15 +224,15 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         common = cal.x_covariance
     # without coherence, a random error common to each excitation column line by line (force noise) is tested for
     # in the residuals and, when found, weighted by its own covariance (:mod:`.force_noise`)
-    force = detect_force_noise(Ymn, Yne, Yme - H, H, variance, options.symmetric) if source == "relative" and not kron else None
+    force = (detect_force_noise(Ymn, Yne, Yme - H, H, variance, options.symmetric)
+             if source == "relative" and not kron and columns_checked else None)
     if force is not None and force.significant:
         notes.append(force.finding)
         lines = force.line_estimates(Ymn, Yne, Ynn, Yme - H, H, variance, options.symmetric, common_x_covariance=common)
     else:
         lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
     spline = None
-    auto_spline = options.smoothing == "auto" and options.symmetric and AUTO_STRUCTURED_MAX_DOFS < nn <= AUTO_SPLINE_MAX_DOFS
-    if (options.smoothing == "spline" or auto_spline) and not _exact(lines):  # exact data: the per-line estimates are the answer
+    if options.over_frequency(nn) == "spline" and not _exact(lines):  # exact data: the per-line estimates are the answer
         if not options.symmetric:
             raise IdentificationError('smoothing = "spline" fits a symmetric joint; use symmetric = true or another smoothing')
         # the FRFs as measured: the fit of every line at once has its own noise scale, and a column correction

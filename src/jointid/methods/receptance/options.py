@@ -8,12 +8,18 @@ from ...errors import IdentificationError
 from .column_calibration import CALIBRATION_BASIS
 from .frf_variance import WEIGHTINGS
 
-__all__ = ["CouplingOptions", "SMOOTHINGS", "CALIBRATIONS"]
+__all__ = ["CouplingOptions", "SMOOTHINGS", "CALIBRATIONS", "AUTO_STRUCTURED_MAX_DOFS", "AUTO_SPLINE_MAX_DOFS"]
 
 #: Values of ``CouplingOptions.smoothing``.
 SMOOTHINGS = ("auto", "structured", "gcv", "spline", "none")
 #: Values of ``CouplingOptions.calibration``.
 CALIBRATIONS = ("auto", "columns", "none")
+#: ``smoothing = "auto"`` uses the structured estimate for joints of at most this many DOFs.
+AUTO_STRUCTURED_MAX_DOFS = 3
+#: ``smoothing = "auto"`` fits a symmetric joint of more DOFs than the structured model's, up to this many, by the joint
+#: spline fit (every term over all lines at once: the per-term P-spline's bands cover 0.3-0.7 on a 6-DOF mount,
+#: the spline fit's 0.88-0.93; ``benchmarks/mount_6dof.py``).
+AUTO_SPLINE_MAX_DOFS = 6
 
 
 @dataclass(frozen=True)
@@ -30,7 +36,7 @@ class CouplingOptions:
         (P-spline, lambda by GCV), every term a few B-splines in log f fitted to all lines
         at once ("spline": :mod:`.spline_fit`; any joint size, symmetric; slower), or the
         per-line estimates; "auto" = "structured" for a symmetric joint of at most 3 DOFs,
-        else "gcv" (module docstring).
+        "spline" for one of 4-6 DOFs, else "gcv" (:meth:`over_frequency`).
     weighting : {"auto", "coherence", "relative", "none"}
         FRF variance model (:func:`~jointid.methods.receptance.frf_variance.frf_variance`).
     averages : int, optional
@@ -63,6 +69,20 @@ class CouplingOptions:
     calibration_basis: int = CALIBRATION_BASIS
     units_check: bool = True
     model_check: bool = True
+
+    def over_frequency(self, n_dofs: int) -> str:
+        """What ``smoothing`` asks for on a joint of ``n_dofs`` DOFs: "structured", "spline", "gcv" or "none".
+
+        "structured" may still fall back to "gcv" on the data (a rejected fit, too few lines);
+        "spline" to "gcv" when the fit does not converge.
+        """
+        if self.smoothing != "auto":
+            return self.smoothing
+        if self.symmetric and n_dofs <= AUTO_STRUCTURED_MAX_DOFS:
+            return "structured"
+        if self.symmetric and n_dofs <= AUTO_SPLINE_MAX_DOFS:
+            return "spline"
+        return "gcv"
 
     def __post_init__(self) -> None:
         if self.smoothing not in SMOOTHINGS:

@@ -65,6 +65,8 @@ from .spline_bands import richer_fit_band
 __all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "legendre_log_basis", "spline_covariance", "term_variance", "MAX_ITERATIONS", "STARTS"]
 
 #: Levenberg-Marquardt iterations per order (at most).
+#: Most B-splines per term that :func:`fit_joint_spline` tries by default (orders 1..this, by AIC).
+DEFAULT_MAX_BASIS = 4
 MAX_ITERATIONS = 200
 #: Perturbed starts of the constant fit, besides the per-line median itself.
 STARTS = 8
@@ -471,7 +473,7 @@ def fit_joint_spline(
     H: np.ndarray,
     variance: np.ndarray,
     symmetric: bool = True,
-    max_basis: int = 4,
+    max_basis: int = DEFAULT_MAX_BASIS,
     initial: np.ndarray | None = None,
     starts: int = STARTS,
     seed: int = 0,
