@@ -271,31 +271,60 @@ def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
 def _bands(theta, cov, hz, model: StructuredModel):
     """Stiffness (F, n, n) and the 1-sigma of its real and imaginary parts from the parameter covariance (linearized).
 
-    Each term's gradient row is formed from the factored derivatives of :func:`structured_terms`
-    (``jc_k(f) jm_k[i, j]`` and ``b_l(f) dg[f, i, j]``) for the ``p`` independent terms only: no dense
-    ``(F, n, n, P)`` Jacobian. The real and imaginary rows of all terms go through one quadratic form.
+    From the factored derivatives of :func:`structured_terms`: the gradient of term ``t`` (real or
+    imaginary part) at line ``f`` is ``E_t z(f)``, with ``z(f)`` the few distinct frequency functions
+    (the distinct rows of ``jc``, and ``b_l(f) dg_t(f)`` of the modulus) and ``E_t`` a fixed
+    (P, d) map; so its variance is ``z^T (E_t^T C E_t) z``: a (d, d) form per line instead of
+    a (P, P) one, and no dense ``(F, n, n, P)`` Jacobian. Only the ``p`` independent terms.
     """
     n = model.n
     S = np.asarray(model.scale, float)
     SS = S[:, None] * S[None, :]
     coefs, mats, (jc, jm, dg, Gd) = structured_terms(theta, hz, model, jacobian=True)
-    F, P, nl = hz.size, cov.shape[0], jc.shape[0]
+    F, P, nl, K = hz.size, cov.shape[0], jc.shape[0], Gd.shape[1]
     D = (coefs.T @ (mats * SS).reshape(len(mats), n * n)).reshape(F, n, n)
     iu = np.triu_indices(n)
     p = iu[0].size
-    rows = np.empty((2, p, F, P))  # (real/imag, term, line, parameter)
+    funcs, which = _distinct_rows(jc)  # the distinct frequency functions of the parameters
+    d = funcs.shape[0]
     mj = (jm[:, iu[0], iu[1]] * SS[iu]).T  # (p, nl)
-    np.multiply(jc.real.T[None], mj[:, None, :], out=rows[0, :, :, :nl])
-    np.multiply(jc.imag.T[None], mj[:, None, :], out=rows[1, :, :, :nl])
     b = (dg[:, iu[0], iu[1]] * SS[iu]).T[:, :, None] * Gd[None]  # (p, F, K): dDu/dRe gamma_l; i b for Im gamma_l
-    rows[0, :, :, nl::2], rows[0, :, :, nl + 1::2] = b.real, -b.imag
-    rows[1, :, :, nl::2], rows[1, :, :, nl + 1::2] = b.imag, b.real
-    var = _quadratic_form(rows.reshape(-1, P), cov).reshape(2, p, F)
+    var = np.empty((2, p, F))
+    for part in (0, 1):
+        z = np.empty((F, d + 2 * K))
+        z[:, :d] = (funcs.real if part == 0 else funcs.imag).T
+        for t in range(p):
+            z[:, d:d + K], z[:, d + K:] = b[t].real, b[t].imag
+            E = np.zeros((P, d + 2 * K))
+            E[np.arange(nl), which] = mj[t]
+            ks = nl + 2 * np.arange(K)
+            if part == 0:  # Re(b g_l): +Re b on Re gamma_l, -Im b on Im gamma_l
+                E[ks, d + np.arange(K)], E[ks + 1, d + K + np.arange(K)] = 1.0, -1.0
+            else:  # Im(b g_l): +Im b on Re gamma_l, +Re b on Im gamma_l
+                E[ks, d + K + np.arange(K)], E[ks + 1, d + np.arange(K)] = 1.0, 1.0
+            var[part, t] = _quadratic_form(z, E.T @ cov @ E)
     std = np.sqrt(np.maximum(var, 0.0))
     sr, si = np.empty((F, n, n)), np.empty((F, n, n))
     sr[:, iu[0], iu[1]] = sr[:, iu[1], iu[0]] = std[0].T
     si[:, iu[0], iu[1]] = si[:, iu[1], iu[0]] = std[1].T
     return D, sr, si
+
+
+def _distinct_rows(a: np.ndarray) -> tuple:
+    """``(rows, which)``: the distinct rows of ``a`` (bitwise equal ones merged; a loop over rows, not lines) and
+    the index of each row of ``a`` among them, so ``rows[which] == a``."""
+    reps, which, seen = [], np.empty(a.shape[0], int), {}
+    for k, row in enumerate(a):
+        key = row[:4].tobytes()
+        for j in seen.get(key, ()):
+            if np.array_equal(a[reps[j]], row):
+                which[k] = j
+                break
+        else:
+            seen.setdefault(key, []).append(len(reps))
+            which[k] = len(reps)
+            reps.append(k)
+    return a[reps], which
 
 
 def _quadratic_form(J: np.ndarray, cov: np.ndarray) -> np.ndarray:
