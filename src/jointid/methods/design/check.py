@@ -101,6 +101,8 @@ def monte_carlo_errors(predictor, observed: Sequence, excited: Sequence, seeds: 
         rng = np.random.default_rng(k)
         z = (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2.0)
         frf = FRF(predictor.frequency, H + sd * z, tuple(m_dofs), tuple(e_dofs), "receptance", coherence=coherence)
-        K = identify_joint_coupling(model, frf, predictor.joint_dofs, options).stiffness
-        out[k] = [np.median(np.abs(K[:, i, j] - predictor.Du[:, i, j]) / ref[:, i, j]) for i, j, _ in predictor.terms]
+        r = identify_joint_coupling(model, frf, predictor.joint_dofs, options)
+        keep = np.isin(predictor.frequency.hz, r.frequency.hz)  # lines it left out (junk) are not scored
+        K, Du, rf = r.stiffness, predictor.Du[keep], ref[keep]
+        out[k] = [np.median(np.abs(K[:, i, j] - Du[:, i, j]) / rf[:, i, j]) for i, j, _ in predictor.terms]
     return out
