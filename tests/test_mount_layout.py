@@ -16,12 +16,12 @@ from jointid.methods.design.estimator import spline_bound
 from jointid.methods.design.term_goals import target_report, term_targets
 from jointid.methods.receptance.column_redundancy import MIN_COLUMN_REDUNDANCY, column_redundancy
 from jointid.methods.receptance.coupling import identify_joint_coupling
-from jointid.physics import FrameSection, Material, build_frame
+from jointid.physics import build_frame
 from jointid.physics.jointed_model import JointedModel
 from jointid.physics.reduction import craig_bampton
 from jointid.physics.structure import ComplexStiffness
+from test_frame_mounts import fixture_frame
 
-STEEL = Material(210e9, 7850.0, loss_factor=0.002, poisson_ratio=0.3)
 COMP = ("x", "y", "z", "rx", "ry", "rz")
 JOINT = tuple(f"1{c}" for c in COMP)
 NINE = tuple(f"{g}{c}" for g in (3, 5, 10) for c in "xyz")  # three grids away from the mount
@@ -35,10 +35,7 @@ def mount(f):
 
 @pytest.fixture(scope="module")
 def frame():
-    nodes = {1: (0.0, 0.0, 0.0), 2: (0.8, 0.0, 0.0), 3: (0.8, 0.5, 0.0), 4: (0.0, 0.5, 0.0), 5: (0.8, 0.0, 0.3)}
-    tube, box = FrameSection.circle(0.04, 0.032), FrameSection.rectangle(0.03, 0.05)
-    members = [(1, 2, tube, STEEL, 4), (2, 3, box, STEEL, 4), (3, 4, tube, STEEL, 4), (4, 1, box, STEEL, 4), (2, 5, tube, STEEL, 2)]
-    fm = build_frame(nodes, members)
+    fm = build_frame(*fixture_frame(elements=4))  # the 3-D frame of test_frame_mounts: corners 1-4, post top 5
     keep = JOINT + tuple(dict.fromkeys(NINE + SIX))
     free = craig_bampton(fm.mass, fm.stiffness, fm.dofs, keep, cutoff_hz=2000.0, loss_factor=0.002).free_model()
     return free, Frequency.from_range(4.0, 150.0, 4.0)
