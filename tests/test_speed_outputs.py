@@ -68,3 +68,35 @@ def test_band_quadratic_form_within_its_rounding_bound():
     # each value is a sum of P^2 products: within 2 P eps of sum |j| |cov| |j| (Higham 2002, sec. 3.1)
     bound = 2 * 12 * np.finfo(float).eps * np.einsum("mp,pq,mq->m", np.abs(J), np.abs(cov), np.abs(J))
     assert np.all(np.abs(_quadratic_form(J, cov) - ref) <= bound)
+
+
+def test_ticks_in_view_draw_the_same_png_with_fewer_tick_artists(monkeypatch):
+    """Log axes given only their ticks inside the view (fast_axes.ticks_in_view) draw the same bytes with fewer ticks made."""
+    from jointid.dofs import Dof
+    from jointid.frequency import Frequency
+    from jointid.plots import fast_axes
+    from jointid.plots.joint_stiffness import plot_joint_stiffness
+    from jointid.plots.stiffness_data import JointStiffnessData
+    from jointid.plots.style import figure_png
+
+    rng = np.random.default_rng(2)
+    f = np.linspace(5.0, 1000.0, 400)
+    K = np.empty((f.size, 2, 2), complex)
+    K[:, 0, 0], K[:, 1, 1] = 1e6 * (1 + 0.1j) * (1 + f / 500), 2e3 * (1 + 0.15j)
+    K[:, 0, 1] = K[:, 1, 0] = -3e4 * (1 + 0.05j) * (1 + (f / 300) ** 2)
+    std = 0.02 * np.abs(K) * (1 + rng.random(K.shape))
+    ok = np.ones(K.shape, bool)
+    ok[f > 800, 1, 1] = False
+    data = JointStiffnessData(Frequency(f), (Dof(10, "w"), Dof(10, "theta")), K, std, std, ok, 1.4 * std / np.abs(K),
+                              K * (1 + 0.05 * rng.standard_normal(K.shape)), {"max_relative_std": 0.1}, "receptance", "test")
+
+    def draw():
+        fig = plot_joint_stiffness(data, truth=K * 1.01)
+        png = figure_png(fig)
+        return png, sum(len(a.majorTicks) + len(a.minorTicks) for ax in fig.axes for a in (ax.xaxis, ax.yaxis))
+
+    fast, n_fast = draw()
+    monkeypatch.setattr(fast_axes, "ticks_in_view", lambda axis: None)
+    plain, n_plain = draw()
+    assert fast == plain
+    assert n_fast < n_plain

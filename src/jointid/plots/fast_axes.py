@@ -6,7 +6,9 @@
 * :func:`plain_log_ticks` -- tick labels of a log axis as plain numbers (``20``, ``0.5``, ``1e5``)
   instead of mathtext (``2 x 10^1``), which is parsed per label;
 * :func:`fixed_margins` -- subplot margins given in inches, instead of a layout engine that
-  measures every tick label before the figure is drawn.
+  measures every tick label before the figure is drawn;
+* :func:`ticks_in_view` -- a log axis makes tick artists only for the ticks inside its view
+  (matplotlib makes one for every tick of every decade the view touches, then draws the ones inside).
 
 All of them draw the same information: only where a legend sits and how a tick number is
 typeset may differ from matplotlib's automatic choices.
@@ -16,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["place_legend", "plain_log_ticks", "plain_number", "fixed_margins"]
+__all__ = ["place_legend", "plain_log_ticks", "plain_number", "fixed_margins", "ticks_in_view"]
 
 #: The points per artist that :func:`place_legend` tests (evenly spaced along the artist's data).
 LEGEND_SAMPLE_POINTS = 400
@@ -110,6 +112,58 @@ def _minor_label(v: float, _pos=None) -> str:
     return plain_number(v) if m in (2.0, 5.0) else ""
 
 
+#: Relative margin (of a tick's value) beyond the view within which :func:`ticks_in_view` keeps a tick: far wider than
+#: matplotlib's own test of which ticks to draw (1e-10 of the view in axis coordinates), so every drawn tick is kept.
+IN_VIEW_MARGIN = 1e-6
+
+
+def _in_view_locator(base):
+    """A Locator giving ``base``'s ticks inside the axis' view (see :func:`ticks_in_view`)."""
+    from matplotlib.ticker import Locator
+
+    class InView(Locator):
+        def __init__(self, base):
+            self.base = base
+
+        def set_axis(self, axis):
+            super().set_axis(axis)
+            self.base.set_axis(axis)
+
+        def __call__(self):
+            locs = np.asarray(self.base())
+            lo, hi = sorted(self.axis.get_view_interval())
+            with np.errstate(invalid="ignore"):
+                return locs[(locs >= lo * (1.0 - IN_VIEW_MARGIN)) & (locs <= hi * (1.0 + IN_VIEW_MARGIN))]
+
+        def tick_values(self, vmin, vmax):
+            return self.base.tick_values(vmin, vmax)
+
+        def nonsingular(self, v0, v1):
+            return self.base.nonsingular(v0, v1)
+
+        def view_limits(self, vmin, vmax):
+            return self.base.view_limits(vmin, vmax)
+
+    return InView(base)
+
+
+def ticks_in_view(axis) -> None:
+    """Give a log ``axis`` only the major and minor ticks inside its view (positive limits), so no tick artist is made
+    for the ones outside (about half on a log axis of two decades; making them is most of drawing such a figure).
+
+    The figure is the same: matplotlib draws only the ticks inside the view, and a log axis'
+    tick labels do not depend on the ticks outside (its formatters read the view limits).
+    Call it after the scale is set (setting a scale replaces the locators); a linear axis is left
+    as it is (its label format depends on every tick).
+    """
+    if axis.get_scale() != "log":
+        return
+    for get, put in ((axis.get_major_locator, axis.set_major_locator), (axis.get_minor_locator, axis.set_minor_locator)):
+        loc = get()
+        if not hasattr(loc, "base") or type(loc).__name__ != "InView":
+            put(_in_view_locator(loc))
+
+
 def plain_log_ticks(axis) -> None:
     """Label a log ``axis`` (``ax.yaxis``/``ax.xaxis``) with plain numbers (:func:`plain_number`), no mathtext.
 
@@ -122,6 +176,7 @@ def plain_log_ticks(axis) -> None:
     lo, hi = sorted(axis.get_view_interval())
     short = lo > 0 and hi / lo < 100.0
     axis.set_minor_formatter(FuncFormatter(_minor_label) if short else NullFormatter())
+    ticks_in_view(axis)
 
 
 def fixed_margins(fig, left: float, right: float, bottom: float, top: float, wspace: float, hspace: float) -> None:

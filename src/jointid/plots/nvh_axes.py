@@ -53,6 +53,10 @@ def set_frequency_axis(ax, f_hz: np.ndarray, label: bool = True, pad: float = 0.
             ax.set_xlim(lo / r, hi * r)
         else:
             ax.set_xlim(lo - pad * (hi - lo), hi + pad * (hi - lo))
+    if log:
+        from .fast_axes import ticks_in_view
+
+        ticks_in_view(ax.xaxis)
     if label:
         ax.set_xlabel("frequency [Hz]")
     return log
