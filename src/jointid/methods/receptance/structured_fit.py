@@ -19,7 +19,7 @@ thereby estimated jointly with the joint instead of being added to the bands as
 an error smoothing cannot reduce.
 
 Jacobian analytic: ``dX = (I + Du Ynn)^-1 dDu (I + Ynn Du)^-1``; solver
-:func:`scipy.optimize.least_squares` (trust region). Starts: a linear fit without
+:func:`scipy.optimize.least_squares`'s Levenberg-Marquardt (MINPACK ``lmder``). Starts: a linear fit without
 modes; for the first internal mode a grid over (loss angle, pole) that is linear in
 ``A``, ``B``, ``C`` on the smoothed per-term curves; for further modes a grid of
 poles ranked by the linearized cost.
@@ -40,9 +40,10 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import leastsq
 
 from .structured_model import (
     StructuredModel, default_scale, drop_last_mode, extend, pack, structured_stiffness, structured_terms, sym_basis, unpack,
@@ -246,8 +247,14 @@ class _Problem:
 
 
 def _solve(prob: _Problem, theta0: np.ndarray, max_nfev: int = 200):
+    """MINPACK's ``lmder`` from ``theta0``: :func:`scipy.optimize.least_squares` ``(method="lm", x_scale="jac")`` without
+    its per-call wrappers (the same routine, arguments and result; ``gtol`` its default 1e-8). Returns ``x``, ``fun``,
+    ``jac`` (at ``x``) and ``cost`` (half the sum of squares)."""
     with np.errstate(all="ignore"):
-        return least_squares(prob.residual, theta0, jac=prob.jacobian, method="lm", x_scale="jac", max_nfev=max_nfev, xtol=_TOL, ftol=_FTOL)
+        x, _, info, _, _ = leastsq(prob.residual, theta0, Dfun=prob.jacobian, full_output=True, ftol=_FTOL, xtol=_TOL,
+                                   gtol=1e-8, maxfev=max_nfev, factor=100.0, diag=None)
+        f = info["fvec"]
+        return SimpleNamespace(x=x, fun=f, jac=prob.jacobian(x), cost=0.5 * float(np.dot(f, f)))
 
 
 def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
