@@ -12,16 +12,16 @@ top and a middle node of each side (24 candidate DOFs). Targets (issue 26): medi
    printed as ``0.83 x`` the median over lines of ``sqrt(E|dK|^2) / |K|`` (the median of a
    circular Gaussian error's modulus).
 2. **What the identification says on it** (``--seeds`` noise realizations, the default
-   estimator: the joint spline fit): per diagonal term the fraction of lines flagged reliable
-   (band below ``max_relative_std`` = 10 %), the median error, and the finding.
+   estimator: the joint spline fit, with the targets as ``[identification.targets]``): per
+   diagonal term the fraction of lines flagged reliable (predicted error within the term's
+   target), the median error, the coverage of the 90 % bands, and the findings of the first seed.
 3. **The design**: :func:`jointid.methods.design.layout.design_layout` with every candidate
    DOF, 6 observed x 6 excited, the study's prediction for a mount (the spline fit's bound,
    relative and additive noise), ``targets`` as above and a Monte Carlo check of the best
    layouts by the identification itself (``--mc`` realizations per noise model); printed as
    ``jointid design`` prints it (:func:`jointid.cli.design.summary_lines`).
 4. **Confirmation**: the chosen layout identified on ``--seeds`` fresh realizations (seeds
-   1000..): per diagonal term the median error, the coverage of the 90 % bands and the
-   fraction flagged reliable.
+   1000..), as in 2.
 
 Not a test: ``python benchmarks/mount_6dof_design.py [--seeds 50] [--mc 4]``.
 """
@@ -40,6 +40,7 @@ from jointid.frf import FRF
 from jointid.methods.design.estimator import spline_bound
 from jointid.methods.design.layout import Scenario, design_layout
 from jointid.methods.receptance.coupling import identify_joint_coupling
+from jointid.methods.receptance.options import CouplingOptions
 from jointid.physics.jointed_model import JointedModel
 from jointid.physics.reduction import craig_bampton
 from jointid.physics.structure import ComplexStiffness
@@ -82,7 +83,8 @@ def identify_seeds(free, freq, joint, layout, mount, seeds, first=0):
     d = np.arange(6)
     rows, findings = [], None
     for s in range(first, first + seeds):
-        r = identify_joint_coupling(free, add_noise(exact, m6.NOISE, np.random.default_rng(s)), joint)
+        r = identify_joint_coupling(free, add_noise(exact, m6.NOISE, np.random.default_rng(s)), joint,
+                                    CouplingOptions(targets=tuple(TARGETS.items())))
         dK = r.stiffness[:, d, d] - K[:, d, d]
         err = np.median(np.abs(dK) / np.abs(K[:, d, d]), axis=0)
         cover = 0.5 * ((np.abs(dK.real) <= m6.Z90 * r.std_real[:, d, d]).mean(0) + (np.abs(dK.imag) <= m6.Z90 * r.std_imag[:, d, d]).mean(0))

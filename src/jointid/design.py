@@ -119,7 +119,9 @@ def design_study(
         Called with one line after each step of the search (see :func:`~jointid.methods.design.layout.design_layout`).
     targets : mapping, optional
         Term -> target median relative error (0.05 = 5 %): which layout reaches it,
-        predicted and (with ``monte_carlo``) confirmed (:mod:`jointid.methods.design.term_goals`).
+        predicted and (with ``monte_carlo``) confirmed (:mod:`jointid.methods.design.term_goals`);
+        default: the study's ``[identification.targets]`` (a study of one joint; with several the
+        design names terms ``"joint:K_x_x"``).
 
     Returns
     -------
@@ -133,6 +135,8 @@ def design_study(
     IdentificationError
         K or L out of range, an unknown term weight.
     """
+    if targets is None and study.identification.targets and len(study.joints) == 1:  # the study's own (one joint: same names)
+        targets = dict(study.identification.targets)
     if study.beam is None:  # candidates are DOFs (the beam's shorthand: nodes, with its sensor model)
         return _design_on_dofs(
             study, observed, excited, candidates=candidates, noise=noise, weights=weights, band_hz=band_hz,

@@ -125,6 +125,7 @@ def coupling_options(study: Study) -> CouplingOptions:
         calibration=spec.calibration,
         units_check=spec.units_check,
         model_check=spec.model_check,
+        targets=spec.targets,
     )
 
 

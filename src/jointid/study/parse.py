@@ -75,6 +75,9 @@ re-exported here. Units are SI: m, Pa, kg/m^3, kg, kg*m^2, Hz, s, N.
     model_check = true        # receptance: bands where the free model does not explain the FRFs (residual far
                               #   above the noise) flag every term there, with a finding (false: no such check)
 
+    [identification.targets]  # optional, receptance: median relative error each term must reach; flagged
+    K_theta_theta = 0.05      #   unreliable where its predicted error is above it (jointid design reports on them)
+
     [frequency]
     start = 5.0               # Hz
     stop = 1000.0
@@ -150,6 +153,7 @@ from ..schema import choices as _choices
 from ..schema import nonneg as _nonneg
 from ..schema import positive as _positive
 from ..schema import section as _section
+from .targets import parse_targets
 from .structures import ELASTOMER_MATERIAL_FIELDS, matrix_joint_model, parse_dof_list_key, parse_joints, parse_structure_table
 from .sections import (
     UncertaintySpec,
@@ -364,7 +368,10 @@ def _shared_sections(data: Mapping, source: str, structure, joints: tuple, measu
         check_nodes("nodes", a["nodes"])
         acc = AccelerometerSpec(**a)
         check_sensors(acc)
-    ident = IdentificationSpec(**_section(data.get("identification", {}), "identification", _IDENTIFICATION))
+    idata = data.get("identification", {})
+    ident = IdentificationSpec(**_section(idata, "identification", _IDENTIFICATION, sub=("targets",)))
+    if "targets" in idata:
+        ident = replace(ident, targets=parse_targets(idata["targets"], tuple(d for j in joints for d in j.joint_dofs)))
     if ident.model_accelerometers and acc is None:
         raise StudyError("[identification].model_accelerometers = true needs an [accelerometers] section")
     exp = _experiment(data, frequency)

@@ -267,6 +267,9 @@ class IdentificationSpec:
     corrected when significant ("auto"), always ("columns") or never ("none")
     (:mod:`jointid.methods.receptance.column_calibration`). ``units_check``, ``model_check``
     ("receptance" only): refuse FRFs scaled by a unit factor, flag bands the free model does not explain.
+    ``targets`` (``[identification.targets]``, "receptance" only): ``(term, relative error)`` pairs; a
+    term is flagged reliable only where its predicted relative std is within its target (and within
+    ``max_relative_std``); ``jointid design`` reports against them.
     """
 
     method: str = "receptance"
@@ -282,6 +285,7 @@ class IdentificationSpec:
     cond_rtol: float = 0.01
     units_check: bool = True
     model_check: bool = True
+    targets: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)

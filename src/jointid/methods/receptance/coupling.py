@@ -358,7 +358,7 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     passive = ~(K[:, diag, diag].imag < -Z90 * std_im[:, diag, diag])
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.hypot(std_re, std_im) / term_scale(K)
-    reliable = (rel <= options.max_relative_std) & (lines.condition <= MAX_CONDITION)[:, None, None]
+    reliable = (rel <= options.threshold(term_names(n_dofs))[None]) & (lines.condition <= MAX_CONDITION)[:, None, None]
     reliable[:, diag, diag] &= passive
     if checked is not None:
         reliable &= ~checked[:, None, None]

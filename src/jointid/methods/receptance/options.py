@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from ...errors import IdentificationError
 from .column_calibration import CALIBRATION_BASIS
 from .frf_variance import WEIGHTINGS
@@ -57,6 +59,9 @@ class CouplingOptions:
     model_check : bool
         Test per octave band whether the free model explains the FRFs; where not, every term is
         flagged unreliable with a finding (:mod:`jointid.methods.receptance.model_check`).
+    targets : tuple of (str, float)
+        ``(term, relative error)``, e.g. ``(("K_z_z", 0.002),)``: the term is flagged reliable only
+        where its predicted relative std is within the target (and ``max_relative_std``).
     """
 
     symmetric: bool = True
@@ -69,6 +74,26 @@ class CouplingOptions:
     calibration_basis: int = CALIBRATION_BASIS
     units_check: bool = True
     model_check: bool = True
+    targets: tuple = ()
+
+    def threshold(self, term_names) -> np.ndarray:
+        """Largest predicted relative std of a reliable term, shape (n, n), from ``term_names``' ``(i, j, name)``.
+
+        Raises
+        ------
+        IdentificationError
+            A target names no term of the joint.
+        """
+        n = 1 + max((max(i, j) for i, j, _ in term_names), default=-1)
+        out = np.full((n, n), float(self.max_relative_std))
+        where = {name: (i, j) for i, j, name in term_names}
+        for name, value in self.targets:
+            if name not in where:
+                raise IdentificationError(f"targets: {name!r} is not a term of the joint; expected one of: "
+                                          f"{', '.join(t for i, j, t in term_names if i <= j)}")
+            i, j = where[name]
+            out[i, j] = out[j, i] = min(out[i, j], float(value))
+        return out
 
     def over_frequency(self, n_dofs: int) -> str:
         """What ``smoothing`` asks for on a joint of ``n_dofs`` DOFs: "structured", "spline", "gcv" or "none".
