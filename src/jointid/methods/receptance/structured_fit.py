@@ -247,9 +247,8 @@ class _Problem:
 
 
 def _solve(prob: _Problem, theta0: np.ndarray, max_nfev: int = 200):
-    """MINPACK's ``lmder`` from ``theta0``: :func:`scipy.optimize.least_squares` ``(method="lm", x_scale="jac")`` without
-    its per-call wrappers (the same routine, arguments and result; ``gtol`` its default 1e-8). Returns ``x``, ``fun``,
-    ``jac`` (at ``x``) and ``cost`` (half the sum of squares)."""
+    """MINPACK ``lmder`` as ``least_squares(method="lm", x_scale="jac")`` calls it, without its per-call wrappers: ``x``,
+    ``fun``, ``jac`` (at ``x``), ``cost``."""
     with np.errstate(all="ignore"):
         x, _, info, _, _ = leastsq(prob.residual, theta0, Dfun=prob.jacobian, full_output=True, ftol=_FTOL, xtol=_TOL,
                                    gtol=1e-8, maxfev=max_nfev, factor=100.0, diag=None)
@@ -302,9 +301,8 @@ def _bands(theta, cov, hz, model: StructuredModel):
         z[:, :d] = (funcs.real if part == 0 else funcs.imag).T
         for t in range(p):
             z[:, d:d + K], z[:, d + K:] = b[t].real, b[t].imag
-            E = np.zeros((P, d + 2 * K))
+            E, ks = np.zeros((P, d + 2 * K)), nl + 2 * np.arange(K)
             E[np.arange(nl), which] = mj[t]
-            ks = nl + 2 * np.arange(K)
             if part == 0:  # Re(b g_l): +Re b on Re gamma_l, -Im b on Im gamma_l
                 E[ks, d + np.arange(K)], E[ks + 1, d + K + np.arange(K)] = 1.0, -1.0
             else:  # Im(b g_l): +Im b on Re gamma_l, +Re b on Im gamma_l
@@ -322,8 +320,7 @@ def _distinct_rows(a: np.ndarray) -> tuple:
     the index of each row of ``a`` among them, so ``rows[which] == a``."""
     reps, which, seen = [], np.empty(a.shape[0], int), {}
     for k, row in enumerate(a):
-        key = row[:4].tobytes()
-        for j in seen.get(key, ()):
+        for j in seen.get(key := row[:4].tobytes(), ()):
             if np.array_equal(a[reps[j]], row):
                 which[k] = j
                 break
