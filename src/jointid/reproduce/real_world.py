@@ -415,7 +415,7 @@ def _findings(config, by_case: dict, stats: dict) -> tuple[tuple[str, ...], tupl
     off = "E +2 %, density -1 %, loss factor +2 %"
     out = []
     if "off" in by_case:
-        check = said("off", "free model")
+        check = said("off", "free model does not explain")
         out.append(f"With the free model off ({off}) and a finer true mesh: {terms_text('off')}; "
                    + (f"the model check says \"{check}\"." if check else "the model check says nothing."))
     if "updated" in by_case:

@@ -72,6 +72,7 @@ from ...physics.free_model import UncertainFreeModel, as_free_model
 from .column_calibration import estimate_column_calibration, residual_variance
 from .coupling_result import CouplingResult
 from .column_redundancy import MIN_COLUMN_REDUNDANCY, column_redundancy
+from .noise_model_choice import choose_noise_model
 from .options import AUTO_SPLINE_MAX_DOFS, AUTO_STRUCTURED_MAX_DOFS, CouplingOptions
 from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
 from .force_noise import detect_force_noise
@@ -183,6 +184,13 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     unknown = source == "coherence" and noise_level_unknown(coherence)
     params = nn * (nn + 1) // 2 if options.symmetric else nn * nn
     measurable = nm * len(e_dofs) - params >= RESIDUAL_MIN_REDUNDANCY
+    floor = False  # no coherence, and the noise is not relative (a hammer's floor): measured like an unknown level
+    if source == "relative" and options.weighting == "auto" and measurable and not kron:
+        choice = choose_noise_model(Ymn, Yne, Yme - H, H, options.symmetric)
+        if choice is not None and choice.floor:  # the floor shape weights the calibration, then the variance is measured
+            floor = unknown = True
+            variance = shape = choice.variance
+            notes.append(choice.finding)
     cal, applied = None, False
     # the column checks (calibration, units, force noise) need equations beyond the joint's terms and the columns
     columns_checked = kron or column_redundancy(Ymn, Yne, Yme, variance, options.symmetric) >= MIN_COLUMN_REDUNDANCY
@@ -213,7 +221,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     if unknown and not applied and measurable and not kron:
         measured_var = residual_variance(Ymn, Yne, Yme - H, variance, options.symmetric)
         variance = variance if measured_var is None else measured_var
-    if unknown:
+    if unknown and not floor:
         notes.append("the coherence is identically 1 (one average per excitation, or noise-free data): the FRF noise level "
                      "is unknown, so it was measured from the residuals of the per-line fit"
                      + ("" if measurable or applied else " (its scale per line only: the layout has too few equations per line for more)"))
@@ -225,7 +233,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     # without coherence, a random error common to each excitation column line by line (force noise) is tested for
     # in the residuals and, when found, weighted by its own covariance (:mod:`.force_noise`)
     force = (detect_force_noise(Ymn, Yne, Yme - H, H, variance, options.symmetric)
-             if source == "relative" and not kron and columns_checked else None)
+             if source == "relative" and not floor and not kron and columns_checked else None)
     if force is not None and force.significant:
         notes.append(force.finding)
         lines = force.line_estimates(Ymn, Yne, Ynn, Yme - H, H, variance, options.symmetric, common_x_covariance=common)
@@ -243,7 +251,10 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
             notes.append("the joint spline fit did not converge on these FRFs (smoothing = \"spline\"): each term smoothed "
                          "on its own instead")
             spline = None
-    stats = residual_statistics(Ymn, Yne, Yme - H, variance, options.symmetric) if options.model_check and not kron else None
+    # with a measured variance the check weights by the chosen shape: the running means of the residuals would hold a
+    # free-model error as "noise" and hide it
+    stats = (residual_statistics(Ymn, Yne, Yme - H, shape if floor else variance, options.symmetric)
+             if options.model_check and not kron else None)
     if stats is not None:  # does the free model explain the FRFs, band by band (model_check)?
         check = check_model(freq.hz, stats)
         if not check.fits:
