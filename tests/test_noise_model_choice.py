@@ -65,3 +65,14 @@ def test_a_noise_floor_is_found_and_measured_and_beats_relative_weights(case):
 def test_noise_free_data_choose_nothing(case):
     study, vt = case
     assert _choice(study, vt.frf) is None
+
+
+def test_the_choice_on_blocks_of_lines_agrees_with_every_line(case, monkeypatch):
+    """Above CHOICE_LINES the evidence is blocks of consecutive lines: the same decisions on both kinds of noise."""
+    import jointid.methods.receptance.noise_model_choice as nm
+
+    study, vt = case
+    relative = _noisy(vt.frf, 0.005 * np.abs(vt.frf.data), 3)
+    floor = _noisy(vt.frf, 0.005 * np.sqrt(floor_shape(vt.frf.data)), 4)
+    monkeypatch.setattr(nm, "CHOICE_LINES", 100)  # 396 lines: 20 blocks of 5
+    assert not _choice(study, relative).floor and _choice(study, floor).floor
