@@ -54,7 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Membership", "membership", "whitened_residuals", "lag_correlation", "fitting_bias", "MAX_WHITENESS_Z", "LAGS"]
+__all__ = ["Membership", "membership", "whitened_residuals", "lag_correlation", "fitting_bias", "hat_factor", "MAX_WHITENESS_Z", "LAGS"]
 
 #: Lags pooled by the statistic.
 LAGS = 4
@@ -122,15 +122,22 @@ def lag_correlation(z: np.ndarray, lag: int = 1) -> np.ndarray:
         return np.where(den > 0, np.sum(z[lag:] * z[:-lag], axis=0) / den, 0.0)
 
 
-def fitting_bias(J: np.ndarray, lag: int) -> np.ndarray:
+def fitting_bias(J: np.ndarray, lag: int, JM: np.ndarray | None = None) -> np.ndarray:
     """Expected lag product of least-squares residuals of white noise, per series: ``-sum_f H[f, f + lag]``.
 
     ``H = J (J^T J)^-1 J^T`` is the fit's hat matrix (linearized); ``J`` shape (F, ..., P), returns shape ``J.shape[1:-1]``.
+    ``JM``: ``J (J^T J)^+`` when already formed (the same for every lag: :func:`hat_factor`).
     """
+    if JM is None:
+        JM = hat_factor(J)
+    return -np.einsum("f...j,f...j->...", JM[:-lag], J[lag:])
+
+
+def hat_factor(J: np.ndarray) -> np.ndarray:
+    """``J (J^T J)^+``, shape of ``J``: one product for every lag of :func:`fitting_bias`."""
     P = J.shape[-1]
     flat = J.reshape(-1, P)
-    M = np.linalg.pinv(flat.T @ flat)
-    return -np.einsum("f...i,ij,f...j->...", J[:-lag], M, J[lag:])
+    return (flat @ np.linalg.pinv(flat.T @ flat)).reshape(J.shape)
 
 
 def membership(fit, hz, lines, common=None, max_z: float = MAX_WHITENESS_Z) -> Membership:
@@ -161,6 +168,7 @@ def membership(fit, hz, lines, common=None, max_z: float = MAX_WHITENESS_Z) -> M
     if not lags:
         return Membership(0.0, np.zeros(z.shape[1:]), F, True)
     den = np.maximum(np.mean(z * z, axis=0), 1e-300)  # (p, 2): each series' variance (scale-free statistic)
-    rho = np.stack([(np.sum(z[L:] * z[:-L], axis=0) / den - fitting_bias(J, L)) / F for L in lags])  # (lags, p, 2)
+    JM = hat_factor(J)
+    rho = np.stack([(np.sum(z[L:] * z[:-L], axis=0) / den - fitting_bias(J, L, JM)) / F for L in lags])  # (lags, p, 2)
     stat = float(np.sum(np.sqrt(F - np.array(lags, float))[:, None, None] * rho) / np.sqrt(rho.size))
     return Membership(stat, rho.mean(axis=0), F, bool(np.isfinite(stat) and stat <= max_z))
