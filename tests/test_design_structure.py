@@ -222,3 +222,39 @@ def test_figure_of_a_6dof_mount_shows_the_diagonal_terms():
     assert shown == [f"front:K_{c}_{c}" for c in ("x", "y", "z", "rx", "ry", "rz")] + [f"rear:K_{c}_{c}" for c in "xyz"]
     design.weights = {**design.weights, **{n: 0.0 for n in names if n.startswith("front")}}
     assert [names[t] for t in _shown_terms(design)] == list(names[21:])  # the weighted ones, when few enough
+
+
+MOUNT6 = """
+[[joint]]
+name = "mount"
+dofs = ["1x", "1y", "1z", "1rx", "1ry", "1rz"]
+[joint.model]
+type = "mount"
+stiffness = [3e6, 2e6, 4e6, 8e3, 6e3, 5e3]
+loss_factor = 0.12
+growth = 0.3
+"""
+
+
+def test_cli_design_of_a_six_dof_mount_reports_its_targets_with_a_monte_carlo(files, tmp_path, capsys):
+    """A 6-DOF mount (identified by the joint spline fit): the design predicts the fit's bound, and --target with
+    --monte-carlo says per term whether each layout reaches it, in the printout and in design.json."""
+    layout = (["2x", "2y", "2z", "4x", "4y", "4z"], ["2x", "2y", "2z", "4x", "4y", "4z"])
+    p = _study(files, layout, smoothing="auto", step=20.0, joints=(), name="mount6.toml")
+    p.write_text(p.read_text().replace("[measurement]", MOUNT6 + "\n[measurement]"))
+    cands = "2x,2y,2z,3x,3y,3z,4x,4y,4z"
+    args = ["design", str(p), "--out", str(tmp_path / "d"), "--candidates", cands, "--target", "K_x_x=1,K_rx_rx=20",
+            "--monte-carlo", "1"]
+    assert main(args) == 0
+    out = json.loads((tmp_path / "d" / "design.json").read_text())
+    assert [s["estimator"] for s in out["scenarios"]] == ["spline", "spline"]
+    rows = {r["term"]: r for r in out["targets"]}
+    assert set(rows) == {"K_x_x", "K_rx_rx"} and rows["K_x_x"]["target"] == 0.01
+    for r in rows.values():
+        for side in ("chosen", "current"):
+            c = r[side]
+            assert c["monte_carlo"] is not None  # both layouts were identified
+            assert c["reaches"] == (c["predicted"] <= r["target"] and c["monte_carlo"] <= r["target"])
+    text = capsys.readouterr().out
+    assert "targets (median relative error; predicted, and the identification on 1 noise realizations" in text
+    assert "  K_rx_rx          target 20 %: chosen " in text
