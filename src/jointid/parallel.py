@@ -113,7 +113,12 @@ def _init_process() -> None:
     global _worker_limiter
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)  # blocked by the parent across the fork
     _worker_limiter = threadpool_limits(1, user_api="blas")
+
+
+#: Signals that stop a run; blocked while the pool forks its workers and starts its threads (:func:`map_processes`).
+_STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 
 
 _worker_limiter = None
@@ -172,7 +177,16 @@ def map_processes(tasks: Sequence[tuple[Callable, tuple]], workers: int,
                     raise TaskFailed(index, type(exc).__name__, str(exc), traceback.format_exc()) from exc
                 take((index, True, value, (time.perf_counter() - t, time.process_time() - c)))
         return results
-    pool = multiprocessing.get_context("fork").Pool(min(workers, len(jobs)), initializer=_init_process)
+    # SIGINT/SIGTERM are blocked while the pool forks and starts its threads: a handler that raised inside an at-fork
+    # callback (logging's _releaseLock) was swallowed ("Exception ignored"), so the signal was lost; and the pool's
+    # threads, created with the signals blocked, keep them blocked, so the kernel delivers them to this (main)
+    # thread, whose wait for results they interrupt at once (a signal that went to a pool thread was handled only
+    # when the next task ended). Pending signals are delivered when the mask is restored.
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    try:
+        pool = multiprocessing.get_context("fork").Pool(min(workers, len(jobs)), initializer=_init_process)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
     try:
         for out in pool.imap_unordered(_call, jobs, chunksize=1):
             take(out)

@@ -50,8 +50,19 @@ def _split_debug(argv: list[str]) -> tuple[list[str], bool]:
     return kept + sep + tail, len(kept) != len(head)
 
 
+#: Stop signals received by this run, in order: a handler's exception can reach main() transformed (raised inside a
+#: C extension's import it becomes "ImportError: initialization failed") -- the record says what stopped the run.
+_received: list[int] = []
+
+
 def _on_sigterm(signum, frame):
+    _received.append(signum)
     raise Terminated(signum)
+
+
+def _on_sigint(signum, frame):
+    _received.append(signum)
+    raise KeyboardInterrupt
 
 
 @contextlib.contextmanager
@@ -59,9 +70,10 @@ def _signal_handlers():
     """SIGTERM raises :class:`~jointid.errors.Terminated`, SIGINT ``KeyboardInterrupt`` (also if it was ignored),
     so a run unwinds through its OutputSet's cleanup; the previous handlers come back afterwards."""
     saved = {}
+    _received.clear()
     try:
         saved[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_sigterm)
-        saved[signal.SIGINT] = signal.signal(signal.SIGINT, signal.default_int_handler)
+        saved[signal.SIGINT] = signal.signal(signal.SIGINT, _on_sigint)
     except ValueError:  # not the main thread (main() called from a thread): leave the handlers alone
         pass
     try:
@@ -114,22 +126,20 @@ def main(argv: list[str] | None = None) -> int:
             if line is not None:
                 print(line, file=sys.stderr)
         except KeyboardInterrupt:
-            print(f"jointid {args.command}: interrupted; no partial output was written", file=sys.stderr)
-            return 130
+            return _stopped(args.command, signal.SIGINT)
         except Terminated as exc:
-            try:
-                name = signal.Signals(exc.signum).name
-            except ValueError:
-                name = f"signal {exc.signum}"
-            print(f"jointid {args.command}: terminated ({name}); no partial output was written", file=sys.stderr)
-            return 128 + exc.signum
+            return _stopped(args.command, exc.signum)
         except (JointIdError, OSError) as exc:
+            if _received and not debug:  # the signal's exception, transformed on its way up
+                return _stopped(args.command, _received[0])
             if debug:
                 raise
             msg = str(exc) if isinstance(exc, JointIdError) else f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")
             print(f"jointid {args.command}: error: {msg}", file=sys.stderr)
             return 2
         except Exception as exc:  # pragma: no cover - last resort, still one line
+            if _received and not debug:  # e.g. "ImportError: initialization failed": a signal during an import
+                return _stopped(args.command, _received[0])
             if debug:
                 raise
             print(
@@ -138,6 +148,19 @@ def main(argv: list[str] | None = None) -> int:
             )
             return 3
     return code
+
+
+def _stopped(command: str, signum: int) -> int:
+    """The one line of a run stopped by a signal; its exit code (130 SIGINT, 128 + signum otherwise)."""
+    if signum == signal.SIGINT:
+        print(f"jointid {command}: interrupted; no partial output was written", file=sys.stderr)
+        return 130
+    try:
+        name = signal.Signals(signum).name
+    except ValueError:
+        name = f"signal {signum}"
+    print(f"jointid {command}: terminated ({name}); no partial output was written", file=sys.stderr)
+    return 128 + signum
 
 
 if __name__ == "__main__":  # pragma: no cover
