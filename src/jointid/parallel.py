@@ -26,7 +26,7 @@ from typing import Any, Callable, Iterator, Sequence
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-__all__ = ["map_chunks", "single_threaded_blas", "worker_count", "map_processes", "process_count", "TaskFailed"]
+__all__ = ["map_chunks", "single_threaded_blas", "worker_count", "map_processes", "forked_pool", "process_count", "TaskFailed"]
 
 _lock = threading.Lock()
 _users = 0
@@ -113,12 +113,33 @@ def _init_process() -> None:
     global _worker_limiter
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)  # blocked by the parent across the fork
     _worker_limiter = threadpool_limits(1, user_api="blas")
 
 
-#: Signals that stop a run; blocked while the pool forks its workers and starts its threads (:func:`map_processes`).
+#: Signals that stop a run; blocked while a pool forks its workers and starts its threads (:func:`forked_pool`).
 _STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
+def forked_pool(processes: int, initializer: Callable[[], None]):
+    """A fork-context ``multiprocessing.Pool`` started with SIGINT and SIGTERM blocked; each worker runs ``initializer``.
+
+    Without the mask, a stop signal sent while the pool forks could run its handler inside an at-fork
+    callback (logging's ``_releaseLock``), where the exception it raises is swallowed ("Exception ignored")
+    and the signal is lost; and one the kernel delivered to a pool thread was answered only when the
+    main thread's wait ended. The pool's threads, created with the signals blocked, keep them blocked, so
+    the kernel delivers them to the main thread; signals pending meanwhile arrive when the mask is
+    restored. Workers unblock them after ``initializer`` (which sets their own handlers).
+    """
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    try:
+        return multiprocessing.get_context("fork").Pool(processes, initializer=_start_worker, initargs=(initializer,))
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _start_worker(initializer: Callable[[], None]) -> None:
+    initializer()
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)  # blocked by the parent across the fork
 
 
 _worker_limiter = None
@@ -177,16 +198,7 @@ def map_processes(tasks: Sequence[tuple[Callable, tuple]], workers: int,
                     raise TaskFailed(index, type(exc).__name__, str(exc), traceback.format_exc()) from exc
                 take((index, True, value, (time.perf_counter() - t, time.process_time() - c)))
         return results
-    # SIGINT/SIGTERM are blocked while the pool forks and starts its threads: a handler that raised inside an at-fork
-    # callback (logging's _releaseLock) was swallowed ("Exception ignored"), so the signal was lost; and the pool's
-    # threads, created with the signals blocked, keep them blocked, so the kernel delivers them to this (main)
-    # thread, whose wait for results they interrupt at once (a signal that went to a pool thread was handled only
-    # when the next task ended). Pending signals are delivered when the mask is restored.
-    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
-    try:
-        pool = multiprocessing.get_context("fork").Pool(min(workers, len(jobs)), initializer=_init_process)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
+    pool = forked_pool(min(workers, len(jobs)), _init_process)  # stop signals blocked across the fork
     try:
         for out in pool.imap_unordered(_call, jobs, chunksize=1):
             take(out)

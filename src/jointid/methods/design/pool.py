@@ -25,7 +25,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ...parallel import single_threaded_blas
+from ...parallel import forked_pool, single_threaded_blas
 
 __all__ = ["LayoutPool", "pool_workers", "seed_sets", "MAX_SEED_SETS"]
 
@@ -84,7 +84,7 @@ class LayoutPool:
         if self.workers > 1:
             _TASK = self.task
             try:
-                self._pool = multiprocessing.get_context("fork").Pool(self.workers, initializer=_init_worker)
+                self._pool = forked_pool(self.workers, _init_worker)
             except OSError:  # no processes left: evaluate here
                 self._pool = None
         return self
