@@ -108,3 +108,32 @@ def test_a_signal_whose_exception_is_transformed_on_its_way_up_still_stops_the_r
     monkeypatch.setattr(modes, "run", run)
     assert main(["modes", "--out", str(tmp_path / "out")]) == code
     assert capsys.readouterr().err.strip().splitlines() == [line]
+
+
+def test_a_signal_while_the_pool_forks_is_raised_after_it_and_the_pool_is_ended(monkeypatch):
+    """SIGINT arriving while forked_pool makes the pool: raised once it is made (in any thread of the process, as here
+    under pytest-xdist's threads), and the pool the caller never receives is ended (before, a signal there was
+    lost, or its half-made pool hung the exit)."""
+    import multiprocessing
+    import multiprocessing.context
+
+    from jointid.parallel import forked_pool
+
+    made = []
+    original = multiprocessing.context.ForkContext.Pool
+
+    def pool_then_signal(self, *args, **kwargs):
+        pool = original(self, *args, **kwargs)
+        made.append(pool)
+        os.kill(os.getpid(), signal.SIGINT)  # held back here: raised once forked_pool has made the pool
+        return pool
+
+    monkeypatch.setattr(multiprocessing.context.ForkContext, "Pool", pool_then_signal)
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            forked_pool(2, lambda: None)
+    finally:
+        signal.signal(signal.SIGINT, old)
+    assert len(made) == 1 and made[0]._state == "TERMINATE"
+    assert not multiprocessing.active_children()

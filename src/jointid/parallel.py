@@ -121,20 +121,38 @@ _STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 
 
 def forked_pool(processes: int, initializer: Callable[[], None]):
-    """A fork-context ``multiprocessing.Pool`` started with SIGINT and SIGTERM blocked; each worker runs ``initializer``.
+    """A fork-context ``multiprocessing.Pool`` started with SIGINT and SIGTERM held back; each worker runs ``initializer``.
 
-    Without the mask, a stop signal sent while the pool forks could run its handler inside an at-fork
-    callback (logging's ``_releaseLock``), where the exception it raises is swallowed ("Exception ignored")
-    and the signal is lost; and one the kernel delivered to a pool thread was answered only when the
-    main thread's wait ended. The pool's threads, created with the signals blocked, keep them blocked, so
-    the kernel delivers them to the main thread; signals pending meanwhile arrive when the mask is
-    restored. Workers unblock them after ``initializer`` (which sets their own handlers).
+    A stop signal that came while the pool forked used to run its handler at an arbitrary point: inside an
+    at-fork callback (logging's ``_releaseLock``), where the exception it raised was swallowed ("Exception
+    ignored") and the signal lost, or inside ``Pool()``, leaving a half-made pool that hung the exit. So,
+    in the main thread, the handlers only record a signal while the pool is made, and the signals are
+    blocked (the pool's threads, created so, keep them blocked: the kernel then delivers them to the main
+    thread, whose wait for results they interrupt at once). Afterwards the handlers come back and a
+    recorded signal is raised again; if its handler raises, the pool is ended before the exception leaves.
+    Workers unblock the signals after ``initializer`` (which sets their own handlers).
     """
+    got: list[int] = []
+    main = threading.current_thread() is threading.main_thread()
+    saved = {s: signal.signal(s, lambda signum, frame: got.append(signum)) for s in _STOP_SIGNALS} if main else {}
     old = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    pool = None
     try:
-        return multiprocessing.get_context("fork").Pool(processes, initializer=_start_worker, initargs=(initializer,))
+        pool = multiprocessing.get_context("fork").Pool(processes, initializer=_start_worker, initargs=(initializer,))
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)  # a pending signal is recorded now
+        for s, handler in saved.items():
+            signal.signal(s, handler)
+        if got and pool is None:  # Pool() failed as well: the signal first
+            signal.raise_signal(got[0])
+    if got:
+        try:
+            signal.raise_signal(got[0])  # the run's own handler: raises (KeyboardInterrupt, Terminated)
+        except BaseException:
+            pool.terminate()
+            pool.join()
+            raise
+    return pool
 
 
 def _start_worker(initializer: Callable[[], None]) -> None:

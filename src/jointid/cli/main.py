@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import signal
 import sys
 import warnings
@@ -22,7 +23,7 @@ from pathlib import Path
 from .. import __version__
 from ..errors import JointIdError, Terminated
 
-__all__ = ["main", "build_parser", "COMMANDS"]
+__all__ = ["main", "entry_point", "build_parser", "COMMANDS"]
 
 #: Subcommand modules under :mod:`jointid.cli`, in help order.
 COMMANDS = ("reproduce", "modes", "simulate", "identify", "update", "experiment", "frf", "direct", "design", "campaign")
@@ -163,5 +164,32 @@ def _stopped(command: str, signum: int) -> int:
     return 128 + signum
 
 
+def entry_point() -> None:
+    """The ``jointid`` command: :func:`main`, then exit with its code at once.
+
+    Once :func:`main` has returned, the run is over (its output committed, or its staging removed). A stop
+    signal that stopped it could still be raised a second time while it unwound, and the interpreter's
+    finalization then ran with the pool's threads still stopping: the process died by that signal (-2) or
+    aborted ("Fatal Python error: PyThreadState_Get ... finalizing", -6) after printing its one line, on
+    about one run in twenty stopped under load. So a repeat of the stop signal keeps the run's exit code,
+    further ones are ignored, and the process ends with ``os._exit`` after flushing its output: there is
+    nothing left to finalize.
+    """
+    try:
+        code = main()
+    except KeyboardInterrupt:  # a repeat of the interrupt while the run unwound (its line is printed)
+        code = 130
+    except Terminated as exc:
+        code = 128 + exc.signum
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_IGN)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe: nothing more can be said
+            pass
+    os._exit(code)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    entry_point()
