@@ -206,7 +206,7 @@ class CouplingResult(JointEstimate):
                 + ("; more than force noise makes: check the hammer's sensitivity per column" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
             )
         rel = self.relative_std
-        targets = dict(self.options.targets)
+        limit = self.options.threshold(self.term_names())  # max_relative_std, or a term's own target below it
         done = set()
         for a, b, name in self.term_names():
             if (b, a) in done:
@@ -222,9 +222,8 @@ class CouplingResult(JointEstimate):
             median = np.nanmedian(rel[bad, a, b]) if np.isfinite(rel[bad, a, b]).any() else np.nan
             where = "on every line" if bad.all() else ("in " + ", ".join(f"{lo:g}-{hi:g} Hz" for lo, hi in spans[:4]) + (" ..." if len(spans) > 4 else "")) if spans else f"on {int(bad.sum())} scattered lines"
             err = f"predicted error {100 * median:.2g} %" if np.isfinite(median) else "no uncertainty: the layout has no redundancy"
-            goal = targets.get(name, targets.get(f"K_{name.split('_', 2)[-1]}_{name.split('_', 2)[1]}", np.inf))
-            if goal < self.options.max_relative_std:  # the study's own target for this term
-                out.append(f"{name}: above its target {100 * goal:.2g} % {where} ({err}, {100 * bad.mean():.0f} % of lines): "
+            if limit[a, b] < self.options.max_relative_std:  # the study's own target for this term
+                out.append(f"{name}: above its target {100 * limit[a, b]:.2g} % {where} ({err}, {100 * bad.mean():.0f} % of lines): "
                            "a layout that reaches it: `jointid design`")
             else:
                 out.append(f"{name}: not identifiable from these FRFs {where} ({err}, {100 * bad.mean():.0f} % of lines)")

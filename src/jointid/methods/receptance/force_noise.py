@@ -74,7 +74,7 @@ from scipy.special import fdtrc
 from ...parallel import single_threaded_blas
 from .coupling_lines import LineEstimates, symmetric_parametrization, whitened_line_design
 
-__all__ = ["ForceNoise", "detect_force_noise", "FORCE_NOISE_P_VALUE", "FORCE_NOISE_MIN_F", "FORCE_NOISE_MIN_LEVEL", "FORCE_NOISE_LINES"]
+__all__ = ["ForceNoise", "detect_force_noise", "column_split", "FORCE_NOISE_P_VALUE", "FORCE_NOISE_MIN_F", "FORCE_NOISE_MIN_LEVEL", "FORCE_NOISE_LINES"]
 
 #: Force noise is significant when the F test's p-value is below this ...
 FORCE_NOISE_P_VALUE = 1e-3
@@ -231,22 +231,33 @@ def detect_force_noise(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, H: 
     return ForceNoise(a, b, float(f_stat), p_value, (d1, d2))
 
 
-def _column_residuals(Ymn, Yne, change, H, variance, symmetric):
-    """``c = U_z^H r`` (F, e), ``|r_perp|^2`` (F,) and ``R_z`` (F, e, e) of the per-line weighted fit (module docstring)."""
+def column_split(Ymn, Yne, change, H, variance, symmetric):
+    """The per-line weighted fit's residual and the excitation columns' directions outside the fit's range.
+
+    Returns ``(sw, Q, r, Uz, Rz)``: the weights ``sw`` (F, m e) and the orthonormal design ``Q`` (F, m e, p) of
+    :func:`~.coupling_lines.whitened_line_design`, the weighted residual ``r = (I - Q Q^H) d_w`` (F, m e), and
+    ``Uz R_z = (I - Q Q^H) G_w`` (QR; ``G_w[:, :, j]``: column j of the weighted ``H``, what a scale error of that
+    column changes), shapes (F, m e, e) and (F, e, e).
+    """
     F, m, n = Ymn.shape
     e = Yne.shape[2]
     sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric)
     Qh = np.conj(np.swapaxes(Q, 1, 2))
     dw = (change.reshape(F, m * e) * sw)[:, :, None]
-    r = dw - Q @ (Qh @ dw)  # (F, m e, 1)
+    r = (dw - Q @ (Qh @ dw))[:, :, 0]
     G = np.zeros((F, m, e, e), complex)
     idx = np.arange(e)
     G[:, :, idx, idx] = H
     G = G.reshape(F, m * e, e) * sw[:, :, None]
-    Z = G - Q @ (Qh @ G)
-    Uz, Rz = np.linalg.qr(Z)  # (F, m e, e), (F, e, e)
-    c = (np.conj(np.swapaxes(Uz, 1, 2)) @ r)[:, :, 0]
-    perp = np.maximum(np.sum(np.abs(r[:, :, 0]) ** 2, axis=1) - np.sum(np.abs(c) ** 2, axis=1), 0.0)
+    Uz, Rz = np.linalg.qr(G - Q @ (Qh @ G))
+    return sw, Q, r, Uz, Rz
+
+
+def _column_residuals(Ymn, Yne, change, H, variance, symmetric):
+    """``c = U_z^H r`` (F, e), ``|r_perp|^2`` (F,) and ``R_z`` (F, e, e) of the per-line weighted fit (module docstring)."""
+    _, _, r, Uz, Rz = column_split(Ymn, Yne, change, H, variance, symmetric)
+    c = np.einsum("fkc,fk->fc", np.conj(Uz), r)
+    perp = np.maximum(np.sum(np.abs(r) ** 2, axis=1) - np.sum(np.abs(c) ** 2, axis=1), 0.0)
     return c, perp, Rz
 
 

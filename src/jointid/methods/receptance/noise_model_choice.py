@@ -45,7 +45,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...parallel import single_threaded_blas
-from .coupling_lines import symmetric_parametrization, whitened_line_design
+from .coupling_lines import symmetric_parametrization
+from .force_noise import column_split
 
 __all__ = ["NoiseModelChoice", "choose_noise_model", "floor_shape", "NOISE_FREE_LEVEL"]
 
@@ -100,17 +101,10 @@ def _minus_two_log_likelihood(Ymn, Yne, change, H, V, symmetric, inner) -> tuple
     F, m, _ = Ymn.shape
     e = Yne.shape[2]
     with single_threaded_blas():
-        sw, _, Q, _ = whitened_line_design(Ymn, Yne, V, symmetric)
-        Qh = np.conj(np.swapaxes(Q, 1, 2))
-        dw = (change.reshape(F, m * e) * sw)[:, :, None]
-        rw = dw - Q @ (Qh @ dw)
-        # the residual along the excitation columns' directions (a scale error per column: units, force calibration,
-        # force noise) is left out: it follows |H| whatever the noise is
-        G = np.zeros((F, m, e, e), complex)
-        G[:, :, np.arange(e), np.arange(e)] = H
-        G = G.reshape(F, m * e, e) * sw[:, :, None]
-        Uz = np.linalg.qr(G - Q @ (Qh @ G))[0]
-        rw = (rw - Uz @ (np.conj(np.swapaxes(Uz, 1, 2)) @ rw))[:, :, 0]
+        sw, Q, rw, Uz, _ = column_split(Ymn, Yne, change, H, V, symmetric)
+    # the residual along the excitation columns' directions (a scale error per column: units, force calibration,
+    # force noise) is left out: it follows |H| whatever the noise is
+    rw = rw - np.einsum("fkc,fc->fk", Uz, np.einsum("fkc,fk->fc", np.conj(Uz), rw))
     ru = rw / sw  # residual, m/N
     free = np.clip(1.0 - np.sum(np.abs(Q) ** 2, axis=2) - np.sum(np.abs(Uz) ** 2, axis=2), 0.0, None)
     v = V.reshape(F, m * e)
