@@ -137,3 +137,82 @@ def test_a_signal_while_the_pool_forks_is_raised_after_it_and_the_pool_is_ended(
         signal.signal(signal.SIGINT, old)
     assert len(made) == 1 and made[0]._state == "TERMINATE"
     assert not multiprocessing.active_children()
+
+
+
+def _worker_pid(_: int) -> int:
+    return os.getpid()
+
+
+def _signal_sets(pid: int) -> dict[str, set[int]]:
+    """The signals process ``pid`` blocks, ignores and catches (``SigBlk``, ``SigIgn``, ``SigCgt`` of /proc/pid/status)."""
+    sets = {}
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        key, _, value = line.partition(":")
+        if key in ("SigBlk", "SigIgn", "SigCgt"):
+            bits = int(value, 16)
+            sets[key] = {s for s in range(1, 65) if bits >> (s - 1) & 1}
+    return sets
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc (Linux)")
+def test_a_pool_worker_is_ended_by_sigterm_and_leaves_sigint_to_the_parent_whatever_the_callers_handlers():
+    """Pool.terminate() ends workers with SIGTERM. A worker that kept a handler inherited from its parent (the one
+    forked_pool records signals with while it forks, when the initializer set none, as in the test above) swallowed
+    it, and terminate() waited for that worker forever: the test above hung CI for 90 min. Every worker must leave
+    SIGTERM at its default action (not caught, not ignored, not blocked) and ignore SIGINT (Ctrl-C reaches the
+    whole process group: the parent answers it)."""
+    from jointid.parallel import forked_pool
+
+    old = signal.signal(signal.SIGTERM, lambda signum, frame: None)  # a caller's handler that swallows SIGTERM
+    try:
+        pool = forked_pool(2)
+        try:
+            pids = set(pool.map(_worker_pid, range(4), chunksize=1))
+            for pid in pids:
+                sets = _signal_sets(pid)
+                assert signal.SIGTERM not in sets["SigCgt"] | sets["SigIgn"] | sets["SigBlk"], (pid, sets)
+                assert signal.SIGINT in sets["SigIgn"] and signal.SIGINT not in sets["SigBlk"], (pid, sets)
+        finally:
+            pool.terminate()
+            pool.join()
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _gone(pid: int) -> bool:
+    """Process ``pid`` has ended (absent, or a zombie nobody has reaped yet)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] in ("Z", "X")
+    except OSError:
+        return True
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
+def test_pool_workers_end_when_their_parent_is_killed():
+    """``kill -9`` of a process using forked_pool while its workers compute: they end within seconds (before, each
+    finished its task first -- a whole study -- holding the pipes it inherited, so whoever read the parent's output
+    waited for them; and where the parent died holding the pool's queue lock, they waited on it forever)."""
+    script = ("import multiprocessing, os, signal, time\n"
+              "from jointid.parallel import forked_pool\n"
+              "pool = forked_pool(2)\n"
+              "pool.apply(os.getpid)\n"
+              "pool.map_async(time.sleep, [300, 300], chunksize=1)\n"
+              "time.sleep(0.5)\n"
+              "print(' '.join(str(p.pid) for p in multiprocessing.active_children()), flush=True)\n"
+              "os.kill(os.getpid(), signal.SIGKILL)\n")
+    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
+                         env={**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"})
+    workers = [int(w) for w in p.stdout.readline().split()]
+    assert p.wait(timeout=60) == -signal.SIGKILL
+    try:
+        assert len(workers) >= 2, workers
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and not all(_gone(w) for w in workers):
+            time.sleep(0.05)
+        assert [w for w in workers if not _gone(w)] == []
+    finally:
+        p.stdout.close()
+        for w in workers:
+            if not _gone(w):
+                os.kill(w, signal.SIGKILL)

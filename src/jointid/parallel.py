@@ -16,6 +16,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time
 import traceback
@@ -109,10 +110,8 @@ class TaskFailed(RuntimeError):
 
 
 def _init_process() -> None:
-    """A worker: one BLAS thread; ends quietly when the pool ends it and leaves Ctrl-C to the parent."""
+    """A worker of :func:`map_processes`: one BLAS thread."""
     global _worker_limiter
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _worker_limiter = threadpool_limits(1, user_api="blas")
 
 
@@ -120,7 +119,7 @@ def _init_process() -> None:
 _STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 
 
-def forked_pool(processes: int, initializer: Callable[[], None]):
+def forked_pool(processes: int, initializer: Callable[[], None] | None = None):
     """A fork-context ``multiprocessing.Pool`` started with SIGINT and SIGTERM held back; each worker runs ``initializer``.
 
     A stop signal that came while the pool forked used to run its handler at an arbitrary point: inside an
@@ -130,7 +129,10 @@ def forked_pool(processes: int, initializer: Callable[[], None]):
     blocked (the pool's threads, created so, keep them blocked: the kernel then delivers them to the main
     thread, whose wait for results they interrupt at once). Afterwards the handlers come back and a
     recorded signal is raised again; if its handler raises, the pool is ended before the exception leaves.
-    Workers unblock the signals after ``initializer`` (which sets their own handlers).
+    Each worker first sets its own handlers -- SIGTERM ends it (``Pool.terminate`` sends it), SIGINT is
+    ignored (Ctrl-C reaches the whole process group: the parent answers it) -- then runs ``initializer``,
+    then unblocks the signals. (A worker that kept a handler inherited from the parent, such as the recording
+    one above, swallowed the pool's SIGTERM, and ``terminate()`` then waited for it forever.)
     """
     got: list[int] = []
     main = threading.current_thread() is threading.main_thread()
@@ -138,7 +140,8 @@ def forked_pool(processes: int, initializer: Callable[[], None]):
     old = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
     pool = None
     try:
-        pool = multiprocessing.get_context("fork").Pool(processes, initializer=_start_worker, initargs=(initializer,))
+        pool = multiprocessing.get_context("fork").Pool(processes, initializer=_start_worker,
+                                                        initargs=(initializer, os.getpid()))
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)  # a pending signal is recorded now
         for s, handler in saved.items():
@@ -155,10 +158,38 @@ def forked_pool(processes: int, initializer: Callable[[], None]):
     return pool
 
 
-def _start_worker(initializer: Callable[[], None]) -> None:
-    initializer()
+def _start_worker(initializer: Callable[[], None] | None, parent: int) -> None:
+    """A worker's first step: its own stop-signal handlers, an end with its parent, ``initializer``, then the
+    signals unblocked."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _end_with_parent(parent)
+    if initializer is not None:
+        initializer()
     signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)  # blocked by the parent across the fork
 
+
+def _end_with_parent(parent: int) -> None:
+    """Have the kernel send this worker SIGTERM when the thread that forked it ends (Linux ``PR_SET_PDEATHSIG``).
+
+    A worker outliving its parent (killed with SIGKILL, or ended by a test runner's timeout) would wait on the
+    pool's queue forever, holding the pipes it inherited: whoever reads the parent's output then never sees its
+    end. Elsewhere nothing is done. A parent already gone before the call (``getppid`` changed) ends it at once.
+    """
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - no libc symbol: the worker ends with the pool as before
+        return
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+#: prctl(2) option: the signal the calling process gets when its parent (thread) dies.
+_PR_SET_PDEATHSIG = 1
 
 _worker_limiter = None
 

@@ -19,7 +19,6 @@ import itertools
 import math
 import multiprocessing
 import os
-import signal
 import sys
 from typing import Callable, Sequence
 
@@ -47,12 +46,6 @@ def pool_workers(tasks: int) -> int:
     if not sys.platform.startswith("linux") or "fork" not in multiprocessing.get_all_start_methods():
         return 1  # fork is unsafe with macOS' system libraries and absent on Windows
     return min(cores, 4, tasks)
-
-
-def _init_worker() -> None:
-    """A worker ends quietly when the pool ends it (the CLI's SIGTERM handler is the parent's) and leaves Ctrl-C to the parent."""
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _run_chunk(items: Sequence) -> list:
@@ -84,7 +77,7 @@ class LayoutPool:
         if self.workers > 1:
             _TASK = self.task
             try:
-                self._pool = forked_pool(self.workers, _init_worker)
+                self._pool = forked_pool(self.workers)  # workers: SIGTERM ends them, Ctrl-C is the parent's
             except OSError:  # no processes left: evaluate here
                 self._pool = None
         return self
