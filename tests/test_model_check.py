@@ -66,3 +66,53 @@ def test_the_right_free_model_passes(fine_data):
     r = identify(_study(), fine_data)  # the study's own mesh is converged for the receptance method
     assert not any("free model does not explain" in f for f in r.findings()), r.findings()
     assert r.reliable_terms[:, 0, 0].mean() > 0.9
+
+
+def _line_design_data(F, rng, m=5, n=2, e=3):
+    """One random layout for every line (the per-line projection is the same on each: the residual series keep the
+    noise's correlation over lines exactly in expectation)."""
+    Ymn = np.broadcast_to(rng.standard_normal((m, n)) + 1j * rng.standard_normal((m, n)), (F, m, n)).copy()
+    Yne = np.broadcast_to(rng.standard_normal((n, e)) + 1j * rng.standard_normal((n, e)), (F, n, e)).copy()
+    X = rng.standard_normal((n, n)) + 1j * rng.standard_normal((n, n))
+    return Ymn, Yne, Ymn @ (X + X.T) @ Yne
+
+
+@pytest.mark.parametrize("width, expected", [(1, 0.0), (5, 0.8)])
+def test_residual_correlation_over_lines_is_that_of_the_frf_errors(width, expected):
+    """Errors independent from line to line: lag-1 correlation 0 with a z-score ~ N(0, 1); errors averaged over
+    ``width`` neighbouring lines (a moving average, as a smoothed or interpolated FRF): ``(width - 1) / width``."""
+    rng = np.random.default_rng(5)
+    F = 4000
+    Ymn, Yne, exact = _line_design_data(F, rng)
+    z = (rng.standard_normal(exact.shape) + 1j * rng.standard_normal(exact.shape)) / np.sqrt(2)
+    z = np.apply_along_axis(lambda c: np.convolve(c, np.ones(width) / np.sqrt(width), mode="same"), 0, z)
+    stats = residual_statistics(Ymn, Yne, exact + 0.01 * z, np.full(exact.shape, 1e-4))
+    if width == 1:
+        assert abs(stats.correlation_z) < 4.5  # N(0, 1): 4.5 sd is a 1e-5 event
+        assert abs(stats.correlation) < 4.5 / np.sqrt(2 * 12 * (F - 1))
+    else:
+        # 24 real series of 4000 lines: the estimate's sd is ~0.006 (Bartlett's factor sqrt(1 + 2 sum c_k^2) = 1.8 on
+        # 1 / sqrt(2 dof F)); 6 sd
+        assert abs(stats.correlation - expected) < 0.035, stats.correlation
+        assert stats.correlation_z > 100
+
+
+def test_a_whiteness_rejection_from_correlated_frf_errors_says_so():
+    """FRF errors shared by neighbouring lines (a 5-line moving average) make the structured model's residuals
+    correlated too: the finding says the FRFs' own residuals are correlated and why the bands are wide; with
+    independent errors (the same amplitude) there is no such line."""
+    st = _study()
+    vt = simulate(st)
+    said = {}
+    for width in (1, 5):
+        rng = np.random.default_rng(3)
+        z = (rng.standard_normal(vt.frf.data.shape) + 1j * rng.standard_normal(vt.frf.data.shape)) / np.sqrt(2)
+        z = np.apply_along_axis(lambda c: np.convolve(c, np.ones(width) / np.sqrt(width), mode="same"), 0, z)
+        frf = dataclasses.replace(vt.frf, data=vt.frf.data * (1 + 0.005 * z),
+                                  coherence=np.full(vt.frf.data.shape, 1 / (1 + 0.005 ** 2)))
+        r = identify(st, frf)
+        said[width] = [f for f in r.findings() if f.startswith("the FRFs' residuals to the free model are themselves correlated")]
+        if width == 5:
+            assert r.structured is not None and r.structured.shape_only
+    assert said[1] == []
+    assert len(said[5]) == 1 and "its class, so its bands are kept wide" in said[5][0], said[5]

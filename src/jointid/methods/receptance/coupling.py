@@ -267,7 +267,8 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
 
         def uncertain(K):
             return model_uncertainty(Ymn, Yne, Ynn, Yme, blocks, K, variance, options.symmetric, model.described)
-    return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes), checked, spline, uncertain)
+    correlation = None if stats is None else (stats.correlation, stats.correlation_z)
+    return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes), checked, spline, uncertain, correlation)
 
 
 def _units_check(freq: Frequency, Ymn, Yne, Yme, H, variance, cal, options: CouplingOptions, kron: bool, notes: list) -> np.ndarray | None:
@@ -330,11 +331,13 @@ def _exact(lines) -> bool:
 
 
 def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOptions, cal=None, applied=False, data_notes=(),
-            checked=None, spline: JointSplineFit | None = None, uncertain=None) -> CouplingResult:
+            checked=None, spline: JointSplineFit | None = None, uncertain=None,
+            residual_correlation: tuple[float, float] | None = None) -> CouplingResult:
     """Estimate over frequency (the joint spline fit, the structured model, or each term smoothed and relinearized),
     propagate the variance (and ``uncertain(K)``'s: the free model's parameter uncertainty,
     :mod:`.model_uncertainty`), set the flags (every term unreliable on the ``checked`` lines: the units or the model
-    check failed there)."""
+    check failed there); ``residual_correlation``: the model check's lag-1 correlation of the residuals and its z-score
+    (:class:`~.model_check.ResidualStatistics`), kept for the findings."""
     structured, note = _structured(freq, lines, options, cal, applied)
     if spline is not None:  # every line at once, on the FRFs as measured: its covariance from the Jacobian
         K, var_re, var_im = spline.stiffness, spline.std_real ** 2, spline.std_imag ** 2
@@ -376,7 +379,7 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     return CouplingResult(
         freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(np.maximum(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0), 0.0)),
         reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured, note, data_notes, checked,
-        spline,
+        spline, residual_correlation,
     )
 
 

@@ -18,6 +18,7 @@ from ...terms import term_names
 from ..estimate import JointEstimate
 from .column_calibration import ColumnCalibration
 from .options import CouplingOptions
+from .model_check import CORRELATED_RESIDUAL_Z
 from .spline_fit import JointSplineFit
 from .structured_select import StructuredEstimate
 
@@ -71,6 +72,9 @@ class CouplingResult(JointEstimate):
         Lines flagged unreliable on every term by the units or the model check (a data note says why).
     spline : JointSplineFit or None
         The joint spline fit of every term over all lines (``smoothing = "spline"``): it is the result.
+    residual_correlation : (float, float) or None
+        Lag-1 correlation over frequency of the per-line fit's whitened residuals and its z-score
+        (:class:`~jointid.methods.receptance.model_check.ResidualStatistics`); None when the model check did not run.
     """
 
     std_real: np.ndarray
@@ -91,6 +95,7 @@ class CouplingResult(JointEstimate):
     data_notes: tuple[str, ...] = ()
     checked_unreliable: np.ndarray | None = None
     spline: JointSplineFit | None = None
+    residual_correlation: tuple[float, float] | None = None
 
     method: ClassVar[str] = "receptance"
 
@@ -183,6 +188,20 @@ class CouplingResult(JointEstimate):
             "smoothing_edf": {k: (None if v is None else float(v)) for k, v in self.smoothing_edf.items()},
         }
 
+    def _correlated_residuals(self) -> str:
+        """Why a whiteness rejection may not be the joint's: the FRFs' own residuals correlated over frequency, else ""."""
+        if self.residual_correlation is None:
+            return ""
+        rho, z = self.residual_correlation
+        if not (np.isfinite(z) and z > CORRELATED_RESIDUAL_Z):
+            return ""
+        return (f"the FRFs' residuals to the free model are themselves correlated over frequency (lag-1 correlation "
+                f"{rho:.2f}, {z:.0f} standard deviations above 0, its value for errors independent from line to line): the "
+                "FRFs' errors are shared by neighbouring lines (an impact test's window or leakage bias, FRFs smoothed or "
+                "interpolated onto a finer grid) or the free model is slightly off: the structured model's whiteness test cannot "
+                "tell these from a joint outside its class, so its bands are kept wide; longer records with less windowing (or a "
+                "step-sine test), FRFs on their measured grid, or an updated free model (`jointid update`) would tighten them")
+
     def findings(self) -> list[str]:
         """One line per term that the FRFs cannot determine on some lines, naming the bands and the predicted error."""
         f = self.frequency.hz
@@ -192,6 +211,9 @@ class CouplingResult(JointEstimate):
             out.append(st.finding.replace("; each term smoothed on its own instead",
                                           "; the structured estimate is kept with bands that hold its difference from each "
                                           "term smoothed on its own"))
+            said = self._correlated_residuals()
+            if said:
+                out.append(said)
         elif st is not None and not st.accepted:  # why: chi^2, non-finite values
             out.append(st.finding)
         if self.estimator_note:

@@ -46,7 +46,8 @@ import numpy as np
 from ...parallel import single_threaded_blas
 from .coupling_lines import symmetric_parametrization, whitened_line_design
 
-__all__ = ["ResidualStatistics", "residual_statistics", "ModelCheck", "check_model", "octave_bands", "MODEL_RESIDUAL_RATIO", "BAND_MIN_LINES", "MIN_NOISE_LEVEL"]
+__all__ = ["ResidualStatistics", "residual_statistics", "ModelCheck", "check_model", "octave_bands", "MODEL_RESIDUAL_RATIO", "BAND_MIN_LINES", "MIN_NOISE_LEVEL",
+           "CORRELATED_RESIDUAL_Z"]
 
 #: A band whose median residual is above this many times the noise (both per degree of freedom) fails.
 MODEL_RESIDUAL_RATIO = 4.0
@@ -55,6 +56,9 @@ BAND_MIN_LINES = 16
 #: Smallest noise level per degree of freedom a ratio is taken against (in the weights' units: with relative
 #: weights ``|H|^2`` a relative standard deviation of 1e-4): exact data's round-off says nothing about the model.
 MIN_NOISE_LEVEL = 1e-8
+#: ``correlation_z`` above this: the residuals are correlated from line to line (one-sided, about 1e-4 for independent
+#: lines, as the structured model's whiteness test).
+CORRELATED_RESIDUAL_Z = 3.7
 #: Fewest residual degrees of freedom per line (complex) for the check.
 MIN_REDUNDANCY = 3
 
@@ -69,10 +73,20 @@ class ResidualStatistics:
         ``sum_k |r_fk|^2 / (|m||e| - p)`` of the whitened residual (units of the weights' scale).
     noise : ndarray, shape (F,)
         ``noise_f`` of the module docstring (NaN on the first and last line).
+    correlation : float
+        Lag-1 correlation of the whitened residuals over frequency, pooled over the values: the mean over the
+        ``2 |m||e|`` real series ``s`` (real and imaginary parts) of ``sum_f s_f s_(f+1) / sum_f s_f^2``. About 0
+        (standard deviation ``1 / sqrt(2 (|m||e| - p) F)``) when the FRFs' errors are independent from line to line; positive
+        when they are not (an impact test's window or leakage bias, FRFs smoothed or interpolated onto a finer grid) or
+        when the free model is off (its residual is smooth over frequency). NaN when not measured.
+    correlation_z : float
+        ``correlation`` in standard deviations of its value for independent lines.
     """
 
     chi2: np.ndarray
     noise: np.ndarray
+    correlation: float = float("nan")
+    correlation_z: float = float("nan")
 
 
 def residual_statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, variance: np.ndarray,
@@ -108,7 +122,24 @@ def residual_statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, va
     d2 = r[2:] - 2.0 * r[1:-1] + r[:-2]
     noise = np.full(F, np.nan)
     noise[1:-1] = np.median(d2.real ** 2 + d2.imag ** 2, axis=1) / (6.0 * np.log(2.0) * dof / (m * e))
-    return ResidualStatistics(chi2, noise)
+    rho, z = _lag_correlation(r, dof)
+    return ResidualStatistics(chi2, noise, rho, z)
+
+
+def _lag_correlation(r: np.ndarray, dof: int) -> tuple[float, float]:
+    """Pooled lag-1 correlation over the first axis of the real series of ``r`` (F, k) complex, and its z-score.
+
+    For lines with independent errors the mean of ``sum_f s_f s_(f+1)`` over the series has variance ``(F - 1) * 2 dof``
+    times that of one product (the ``k`` values of a line span ``dof`` complex dimensions of residual), so
+    ``z = rho sqrt(2 dof (F - 1))`` is about N(0, 1).
+    """
+    s = np.concatenate([r.real, r.imag], axis=1)
+    den = np.sum(s * s, axis=0)
+    use = den > 0
+    if not use.any():
+        return float("nan"), float("nan")
+    rho = float(np.mean(np.sum(s[1:, use] * s[:-1, use], axis=0) / den[use]))
+    return rho, rho * float(np.sqrt(2.0 * dof * (s.shape[0] - 1)))
 
 
 def octave_bands(hz: np.ndarray, min_lines: int = BAND_MIN_LINES) -> list[tuple[int, int]]:
