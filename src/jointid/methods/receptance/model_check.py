@@ -133,13 +133,14 @@ def _lag_correlation(r: np.ndarray, dof: int) -> tuple[float, float]:
     times that of one product (the ``k`` values of a line span ``dof`` complex dimensions of residual), so
     ``z = rho sqrt(2 dof (F - 1))`` is about N(0, 1).
     """
-    s = np.concatenate([r.real, r.imag], axis=1)
-    den = np.sum(s * s, axis=0)
+    re, im = r.real, r.imag
+    den = np.concatenate([np.einsum("fk,fk->k", re, re), np.einsum("fk,fk->k", im, im)])
+    lag = np.concatenate([np.einsum("fk,fk->k", re[1:], re[:-1]), np.einsum("fk,fk->k", im[1:], im[:-1])])
     use = den > 0
     if not use.any():
         return float("nan"), float("nan")
-    rho = float(np.mean(np.sum(s[1:, use] * s[:-1, use], axis=0) / den[use]))
-    return rho, rho * float(np.sqrt(2.0 * dof * (s.shape[0] - 1)))
+    rho = float(np.mean(lag[use] / den[use]))
+    return rho, rho * float(np.sqrt(2.0 * dof * (r.shape[0] - 1)))
 
 
 def octave_bands(hz: np.ndarray, min_lines: int = BAND_MIN_LINES) -> list[tuple[int, int]]:
