@@ -132,7 +132,8 @@ def forked_pool(processes: int, initializer: Callable[[], None] | None = None):
     Each worker first sets its own handlers -- SIGTERM ends it (``Pool.terminate`` sends it), SIGINT is
     ignored (Ctrl-C reaches the whole process group: the parent answers it) -- then runs ``initializer``,
     then unblocks the signals. (A worker that kept a handler inherited from the parent, such as the recording
-    one above, swallowed the pool's SIGTERM, and ``terminate()`` then waited for it forever.)
+    one above, swallowed the pool's SIGTERM, and ``terminate()`` then waited for it forever.) On Linux the
+    workers end with the thread that made the pool (:func:`_end_with_parent`): make and use it in one thread.
     """
     got: list[int] = []
     main = threading.current_thread() is threading.main_thread()
@@ -172,9 +173,11 @@ def _start_worker(initializer: Callable[[], None] | None, parent: int) -> None:
 def _end_with_parent(parent: int) -> None:
     """Have the kernel send this worker SIGTERM when the thread that forked it ends (Linux ``PR_SET_PDEATHSIG``).
 
-    A worker outliving its parent (killed with SIGKILL, or ended by a test runner's timeout) would wait on the
-    pool's queue forever, holding the pipes it inherited: whoever reads the parent's output then never sees its
-    end. Elsewhere nothing is done. A parent already gone before the call (``getppid`` changed) ends it at once.
+    A worker outliving its parent (killed with SIGKILL, or ended by a test runner's timeout) finished its task first
+    (a whole study: seconds to minutes), and one waiting for the queue's lock that the parent held when it died (it
+    does while it ends the pool) waited forever -- holding the pipes it inherited, so whoever read the parent's output
+    never saw its end. Elsewhere nothing is done. A parent already gone before the call (``getppid`` changed) ends it
+    at once. The signal comes when the *thread* that forked the worker ends: a pool is made and used in one thread.
     """
     if not sys.platform.startswith("linux"):
         return

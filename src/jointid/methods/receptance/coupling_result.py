@@ -17,8 +17,8 @@ from ...frequency import Frequency
 from ...terms import term_names
 from ..estimate import JointEstimate
 from .column_calibration import ColumnCalibration
-from .options import CouplingOptions
 from .model_check import CORRELATED_RESIDUAL_Z
+from .options import CouplingOptions
 from .spline_fit import JointSplineFit
 from .structured_select import StructuredEstimate
 
