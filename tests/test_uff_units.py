@@ -207,3 +207,19 @@ def test_cli_prints_the_conversion_line(case, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0] == f"{p}: units: 21 FRF records in g/N (labels) converted to SI: x 9.80665"
     assert out[1].startswith("identified 2x2 joint stiffness on 200 lines")
+
+
+@pytest.mark.parametrize("binary", [0, 1])
+def test_real_valued_frf_records_are_refused_naming_the_record(case, binary):
+    """Magnitudes only (ordinate data type 4: real, no phase) are no FRF: refused in one line, never read as complex."""
+    d, study, sim, _ = case
+    sets = _records(sim.frf, binary=binary)
+    for s in sets:
+        s["data"], s["ord_data_type"] = np.abs(s["data"]), 4
+    p = _write(d / f"magnitudes{binary}.uff", sets)
+    with pytest.raises(DataError) as err:
+        read_measured(study, p)
+    assert str(err.value) == (
+        f"record 1 of {p} (function type 4, response node {sim.frf.responses[0].node} dir 3, reference node "
+        f"{sim.frf.references[0].node} dir 3): real-valued FRF data (ordinate data type 4): an FRF is complex; "
+        "export it with real and imaginary parts (data type 5 or 6)")

@@ -262,12 +262,19 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
                 continue
             cohs.append(Record(index, FUNC_COHERENCE, response, reference, 1.0, None, x, np.real(data).astype(float)))
             continue
+        if d.get("ord_data_type") in _REAL_DATA_TYPES:  # magnitudes only (or real parts): no phase, not an FRF
+            raise DataError(f"{where}: real-valued FRF data (ordinate data type {d['ord_data_type']}): an FRF is complex; "
+                            "export it with real and imaginary parts (data type 5 or 6)")
         x, data = _values(d, where)
         kind = _kind(d, where)
         units = ordinate_units(d, d["ordinate_spec_data_type"], system, where)
         text = f"{units.text} ({units.source})"
         frfs.append(Record(index, FUNC_FRF, response, reference, sign, kind, x, data, text, units.factor))
     return frfs, cohs
+
+
+#: UFF58 ordinate data types of real values (2 single, 4 double precision); 5 and 6 are complex.
+_REAL_DATA_TYPES = (2, 4)
 
 
 def axis_text(x: np.ndarray) -> str:
