@@ -204,6 +204,12 @@ def test_bad_input_exits_2_with_one_line(virtual, tmp_path, capsys):
     frf_file = write_uff_frf(tmp_path / "an_frf.uff", ex.frf)
     assert main(["frf", str(frf_file), "--out", str(out)]) == 2
     assert _err(capsys) == f"jointid frf: error: {frf_file}: no UFF58 time-response records (function type 1)"
+    header_only = tmp_path / "header_only.csv"
+    header_only.write_text(wrong.read_text().splitlines()[0].replace("frequency_hz,response,reference,real,imag",
+                                                                      "excited_node,hit,time_s,force_n,1w") + "\n")
+    assert main(["frf", str(header_only), "--out", str(out)]) == 2
+    assert _err(capsys) == (f"jointid frf: error: {header_only}: no hit in the file (no time samples, or none at the given "
+                            "points/axis); give each excited node's hits as time samples of the force and the responses")
     txt = tmp_path / "hits.txt"
     txt.write_text("x")
     assert main(["frf", str(txt), "--out", str(out)]) == 2

@@ -116,6 +116,9 @@ def read_hits(
     for p in map(Path, paths):
         recs, file_notes = _read_one(p, points, axis, n_nodes)
         notes.extend(file_notes)
+        if not recs:
+            raise DataError(f"{p}: no hit in the file (no time samples, or none at the given points/axis); give each "
+                            "excited node's hits as time samples of the force and the responses")
         for rec in recs:
             if rec.reference in source:
                 raise DataError(
