@@ -326,6 +326,22 @@ def test_simulate_free_with_truth_from_another_study(tmp_path, capsys):
     assert not (tmp_path / "sim2").exists()
 
 
+def test_simulate_and_simulate_free_keep_each_others_files_in_one_out(tmp_path):
+    """The jointed test's frf.uff and true_joint.csv stay when the free-free test is simulated into the same --out
+    (and the other way round): each is its own output set (before, --free removed them as its stale files)."""
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.replace("stop = 1000.0", "stop = 200.0"))
+    out = tmp_path / "sim"
+    assert main(["simulate", str(study), "--out", str(out)]) == 0
+    jointed = {p.name: p.read_bytes() for p in out.iterdir() if p.name in ("frf.uff", "true_joint.csv")}
+    assert set(jointed) == {"frf.uff", "true_joint.csv"}
+    assert main(["simulate", str(study), "--free", "--out", str(out)]) == 0
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.name in jointed} == jointed
+    free = (out / "free_frf.uff").read_bytes()
+    assert main(["simulate", str(study), "--out", str(out)]) == 0
+    assert (out / "free_frf.uff").read_bytes() == free
+
+
 def test_a_free_free_test_of_the_structure_gives_no_finding(chain):
     report = json.loads((chain / "upd" / "update.json").read_text())
     assert report["finding"] is None and all(p["status"] == "determined" for p in report["parameters"].values())

@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     other = load_study(args.truth) if args.truth else None
     true = true_study(study, other)
     if args.free:
-        with OutputSet(args.out, command="simulate") as out:
+        with OutputSet(args.out, command="simulate --free") as out:  # its own set: a jointed test's files stay
             frf = simulate_free(study, noise=args.noise, seed=args.seed, truth=other)
             uff = out.write_file("free_frf.uff", lambda p: write_uff_frf(p, frf, kind="accelerance", description="jointid free-free test"))
             spec = true.structure
