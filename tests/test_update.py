@@ -16,7 +16,7 @@ from jointid.frf import FRF
 from jointid.io.uff import write_uff_frf
 from jointid.physics.synthesis import synthesize_frf
 from jointid.study import load_study, parse_study
-from jointid.study.edit import replace_study_values
+from jointid.study.edit import replace_study_table, replace_study_values
 
 E0, RHO0, ETA0 = 69e9, 2700.0, 0.006
 TRUE = {"elastic_modulus": E0 * 1.02, "density": RHO0 * 0.99, "loss_factor": ETA0 * 0.7}
@@ -401,3 +401,14 @@ def test_resonances_left_misaligned_are_a_finding_even_when_the_misfit_is_small(
     assert MAX_FREQUENCY_SHIFT == 0.02 and finding.startswith(
         "these FRFs do not look like a free-free test of the study's structure (this beam): the measured resonances lie +5 % "
         "from the updated model's (3 matched)")
+
+
+def test_a_parameter_name_with_a_dot_is_written_as_one_key():
+    """``accelerometers.mass`` in [uncertainty] is one quoted key (bare, TOML reads it as a dotted table, and the
+    update of the accelerometers' mass could never be written: "could not write [uncertainty] ...")."""
+    import tomllib
+
+    text = "[beam]\nnodes = 19\n"
+    out = replace_study_table(text, "uncertainty", {"accelerometers.mass": 6e-8, "elastic_modulus": 1e8})
+    assert out.endswith('[uncertainty]\n"accelerometers.mass" = 6e-08\nelastic_modulus = 100000000.0\n')
+    assert tomllib.loads(out)["uncertainty"] == {"accelerometers.mass": 6e-8, "elastic_modulus": 1e8}

@@ -128,6 +128,14 @@ def _value_text(value) -> str:
     return _format(value)
 
 
+def _key_text(key: str) -> str:
+    """A TOML key: bare when it can be, else quoted (``"accelerometers.mass"`` is one key, not a dotted table)."""
+    return key if _BARE_KEY.fullmatch(key) else json.dumps(key)
+
+
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
 def replace_study_table(text: str, table: str, entries: Mapping[str, object], comment: Sequence[str] = (),
                         source: str = "<study>") -> str:
     """``text`` with the top-level table ``[table]`` replaced by ``entries`` (appended when it has none).
@@ -153,7 +161,7 @@ def replace_study_table(text: str, table: str, entries: Mapping[str, object], co
     if keep and not keep[-1].endswith(("\n", "\r")):
         keep[-1] += newline
     block = [newline] + [f"# {c}{newline}" for c in comment] + [f"[{table}]{newline}"]
-    block += [f"{k} = {_value_text(v)}{newline}" for k, v in entries.items()]
+    block += [f"{_key_text(k)} = {_value_text(v)}{newline}" for k, v in entries.items()]
     out = "".join(keep) + "".join(block)
     try:
         expected = tomllib.loads(text)
