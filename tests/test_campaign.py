@@ -181,6 +181,42 @@ def test_bad_manifest_row_one_line_exit_2_nothing_computed(campaign, tmp_path, c
     assert not out.exists()  # validated before anything was computed or created
 
 
+@pytest.mark.parametrize("column", ["status", "term"])
+def test_a_free_column_named_like_a_computed_one_is_refused_before_computing(campaign, tmp_path, capsys, column):
+    """A free column of the name of a column jointid computes (was: internal error, ArrowInvalid, after computing)."""
+    manifest, _, _ = campaign
+    rows = manifest_rows(manifest)
+    for r in rows:
+        r[column] = "7"
+    m = write_manifest(manifest.parent / f"named_{column}.csv", rows)
+    out = tmp_path / "out"
+    assert main(["campaign", str(m), "--out", str(out)]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"jointid campaign: error: {m} line 1: column {column!r} is one jointid computes into its tables; rename it (e.g. "
+        "with a prefix)"]
+    assert not out.exists()
+
+
+def test_a_free_column_named_like_a_tests_result_is_refused_and_the_tests_kept(campaign, tmp_path, capsys):
+    """``median_loss_factor`` (a direct test's result in tests.csv) as a free column: one line, exit 2; the computed
+    tests stay in the cache, so the rerun with the column renamed computes nothing again."""
+    manifest, _, _ = campaign
+    rows = manifest_rows(manifest)
+    for r in rows:
+        r["median_loss_factor"] = "0.2"
+    m = write_manifest(manifest.parent / "named_result.csv", rows)
+    out = tmp_path / "out"
+    assert main(["campaign", str(m), "--out", str(out), "--no-plots", "--workers", "1"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"jointid campaign: error: {m}: column 'median_loss_factor' is a result jointid writes for each test (tests.csv); "
+        "rename it in the manifest (the computed tests are kept: a rerun reuses them)"]
+    for r in rows:
+        r["their_loss_factor"] = r.pop("median_loss_factor")
+    m = write_manifest(manifest.parent / "renamed_result.csv", rows)
+    result = run_campaign(m, out, CampaignOptions(plots=False), workers=1, stream=open(os.devnull, "w"))
+    assert (result.summary["computed"], result.summary["reused"]) == (0, len(rows))
+
+
 def test_missing_column_and_empty_manifest(tmp_path, capsys):
     m = tmp_path / "m.csv"
     m.write_text("file,specimen,temperature_c,amplitude_m\na.csv,S1,20,1e-5\n")
@@ -335,3 +371,20 @@ def test_a_users_results_csv_is_refused_before_any_test_runs(campaign, tmp_path,
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"jointid campaign: error: {out / 'results.csv'} exists and was not written by jointid; move it or choose another --out"]
     assert sorted(p.name for p in out.iterdir()) == ["results.csv"] and not (out / CACHE_DIR).exists()
+
+
+def test_a_tolerance_that_leaves_the_modulus_undetermined_is_reported_not_an_internal_error(tmp_path, capsys):
+    """``--tolerance 1e-4`` rejects most lines of two example tests: the Zener fit's search went to exp() overflow
+    (internal error, OverflowError); now the fit ends and says its parameters are not identified."""
+    data = tmp_path / "data"
+    data.mkdir()
+    assert main(["direct", "--example", str(data / "t1.csv")]) == 0
+    shutil.copy(data / "t1.csv", data / "t2.csv")
+    m = data / "m.csv"
+    m.write_text("file,specimen,temperature_c,amplitude_m,preload_n\nt1.csv,S1,20,2.5e-5,0\nt2.csv,S1,40,2.5e-5,0\n")
+    out = tmp_path / "out"
+    assert main(["campaign", str(m), "--out", str(out), "--workers", "1", "--no-plots", "--tolerance", "0.0001"]) == 0, \
+        capsys.readouterr().err
+    modulus = _json(out / "master_curve.json")["specimens"]["S1"]["modulus"]
+    assert modulus["identified"] is False
+    assert {modulus[k]["status"] for k in ("K0_n_m", "Kinf_n_m", "tau_s", "alpha")} <= {"not_identified", "at_bound"}

@@ -35,6 +35,7 @@ from pathlib import Path
 
 from ..errors import DataError
 from ..io.text import check_separator, read_utf8
+from .tables import COMPUTED_COLUMNS
 
 __all__ = ["CampaignTest", "Manifest", "read_manifest", "REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "KINDS"]
 
@@ -237,6 +238,10 @@ def read_manifest(path: str | os.PathLike) -> Manifest:
         if h in seen:
             raise DataError(f"{path} line {header_line}: column {h!r} appears twice; keep one")
         seen.add(h)
+    computed = [h for h in header if h in COMPUTED_COLUMNS]
+    if computed:
+        raise DataError(f"{path} line {header_line}: column {computed[0]!r} is one jointid computes into its tables; "
+                        "rename it (e.g. with a prefix)")
     missing = [c for c in REQUIRED_COLUMNS if c not in header]
     if missing:
         raise DataError(f"{path}: missing column {missing[0]!r} (columns present: {', '.join(header)}); "

@@ -34,7 +34,8 @@ import math
 
 import numpy as np
 
-__all__ = ["results_table", "tests_table", "fit_table", "table_csv", "table_parquet", "STANDARD_LINE_COLUMNS"]
+__all__ = ["results_table", "tests_table", "fit_table", "table_csv", "table_parquet", "STANDARD_LINE_COLUMNS",
+           "COMPUTED_COLUMNS"]
 
 #: Line columns of the results table, in order (absent from a method: null).
 STANDARD_LINE_COLUMNS = (
@@ -42,6 +43,10 @@ STANDARD_LINE_COLUMNS = (
     "stiffness_real_std", "stiffness_imag_std", "amplitude_ok", "amplitude_ratio", "reliable",
 )
 _BOOL = {"amplitude_ok", "reliable"}
+#: Columns jointid computes into the results and tests tables besides the line columns and each test's parameters
+#: (a manifest's own free column must not be named like one of them).
+COMPUTED_COLUMNS = ("manifest_row", "status", "reason", "file_sha256", "log10_shift", "reduced_frequency_hz",
+                    *STANDARD_LINE_COLUMNS)
 
 
 def _meta_columns(manifest) -> list[tuple[str, str]]:
@@ -165,6 +170,12 @@ def tests_table(manifest, outcomes, analysis=None, sha256=None):
     names: dict[str, None] = {}
     for t in manifest.tests:
         names.update(dict.fromkeys(outcomes[t.row].parameters))
+    clash = [c for c in manifest.extra_columns if c in names]
+    if clash:  # a test's result of that name: both cannot be one column
+        from ..errors import DataError
+
+        raise DataError(f"{manifest.path}: column {clash[0]!r} is a result jointid writes for each test (tests.csv); "
+                        "rename it in the manifest (the computed tests are kept: a rerun reuses them)")
     cols: dict[str, list] = {"manifest_row": [], **{m: [] for m, _ in meta}, "status": [], "reason": [], "file_sha256": []}
     cols.update({p: [] for p in names})
     cols["log10_shift"] = []

@@ -42,6 +42,8 @@ __all__ = ["ZenerFit", "fit_zener", "zener_modulus", "ZENER_LIMITS"]
 #: more than ``band_factor`` above the top or below the bottom of the band, ``Einf/E0``
 #: outside (1 + ratio_min, ratio_max), ``alpha`` within ``alpha_margin`` of 0 or 1.
 ZENER_LIMITS = {"band_factor": 1e3, "ratio_min": 1e-6, "ratio_max": 1e4, "alpha_margin": 1e-3}
+#: Largest |log-parameter| the fit evaluates (exp(700) ~ 1e304, finite in double precision).
+_MAX_EXPONENT = 700.0
 
 
 def zener_modulus(f_hz, E0: float, Einf: float, tau_s: float, alpha: float) -> np.ndarray:
@@ -160,9 +162,10 @@ def fit_zener(frequency_hz, modulus_pa, initial: tuple[float, float, float, floa
         raise DataError(f"a Zener fit needs at least 3 lines, got {f.size}")
     w = np.abs(E)
 
-    def unpack(p):
-        E0 = math.exp(p[0])
-        return E0, E0 * (1.0 + math.exp(p[1])), math.exp(p[2]), 1.0 / (1.0 + math.exp(-p[3]))
+    def unpack(p):  # exponents held below exp's overflow (a far step is then a huge residual, rejected, not an error)
+        q = np.clip(p, -_MAX_EXPONENT, _MAX_EXPONENT)
+        E0 = math.exp(q[0])
+        return E0, E0 * (1.0 + math.exp(q[1])), math.exp(q[2]), 1.0 / (1.0 + math.exp(-q[3]))
 
     def resid(p):
         r = (zener_modulus(f, *unpack(p)) - E) / w
