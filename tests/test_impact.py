@@ -433,3 +433,19 @@ def test_uff_time_record_minus_z_is_sign_flipped_and_rotations_rejected(tmp_path
     with pytest.raises(DataError):
         write_impact_uff(p, [ImpactRecord(force, resp, 1024.0, ["4theta"], "9w")])
     assert p.read_bytes() == before
+
+
+def test_an_exponential_window_with_no_resonance_to_correct_says_so():
+    """No peak 10 dB above its surroundings (a window short enough to flatten every resonance): the FRFs are returned
+    as they are and a note says they were not corrected, never silently."""
+    from jointid.measurement.impact_windows import correct_exponential_window
+
+    hz = np.linspace(1.0, 500.0, 500)
+    s = 2j * np.pi * hz
+    wn, zeta = 2 * np.pi * 100.0, 0.2  # |H| peaks 8 dB above its surroundings
+    H = (-(s ** 2) / (s ** 2 + 2 * zeta * wn * s + wn ** 2))[:, None, None]
+    out, modes, notes = correct_exponential_window(hz, H, 0.01)
+    assert np.array_equal(out, H) and modes == ()
+    assert notes == ("exponential window (tau 10 ms) not corrected: no resonance stands 10 dB above its surroundings in "
+                     "these FRFs (the window's decay rate 1/tau = 100 1/s flattens the peaks), so the FRFs keep its damping "
+                     "and their peaks are too low; give the modes' bands (--mode-band-hz) or use a longer tau",)

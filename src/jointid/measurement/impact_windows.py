@@ -240,6 +240,11 @@ def correct_exponential_window(
     out = Hm.copy()
     modes, notes = [], []
     sigma_w = 1.0 / tau_s
+    if auto and not bands:  # nothing corrected: say so (the window's damping stays in every resonance)
+        notes.append(f"exponential window (tau {1e3 * tau_s:g} ms) not corrected: no resonance stands 10 dB above its "
+                     f"surroundings in these FRFs (the window's decay rate 1/tau = {sigma_w:.4g} 1/s flattens the peaks), "
+                     "so the FRFs keep its damping and their peaks are too low; give the modes' bands (--mode-band-hz) "
+                     "or use a longer tau")
     for lo, hi in bands:
         m = (hz >= lo) & (hz <= hi)
         try:
