@@ -96,3 +96,19 @@ def test_huge_grid_and_mesh_are_refused_naming_the_key(tmp_path, capsys):
     from jointid.study import load_study
 
     assert load_study(edge).frequency.stop == 999999.0
+
+
+@pytest.mark.parametrize("argv, line", [
+    (["simulate", "s.toml", "--noise", "abc", "--out", "o"],
+     "jointid simulate: error: argument --noise: invalid float value: 'abc' (see `jointid simulate --help`)"),
+    (["simulate", "s.toml"], "jointid simulate: error: the following arguments are required: --out (see `jointid simulate --help`)"),
+    (["nosuch"], "jointid: error: argument COMMAND: invalid choice: 'nosuch' (choose from 'reproduce', 'modes', 'simulate', "
+                 "'identify', 'update', 'experiment', 'frf', 'direct', 'design', 'campaign') (see `jointid --help`)"),
+])
+def test_a_usage_error_is_one_line_exit_2(capsys, argv, line):
+    """argparse's errors (a value of the wrong type, a missing option, an unknown command): one line, not the usage
+    block before it."""
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines() == [line]

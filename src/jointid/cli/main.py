@@ -29,9 +29,16 @@ __all__ = ["main", "entry_point", "build_parser", "COMMANDS"]
 COMMANDS = ("reproduce", "modes", "simulate", "identify", "update", "experiment", "frf", "direct", "design", "campaign")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser whose usage errors are one line (the rule for bad input), pointing to ``--help``."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser with every subcommand registered."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="jointid",
         description="Identify the frequency-dependent dynamic stiffness of elastomeric joints.",
     )
