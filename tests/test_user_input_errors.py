@@ -102,6 +102,10 @@ def test_huge_grid_and_mesh_are_refused_naming_the_key(tmp_path, capsys):
     (["simulate", "s.toml", "--noise", "abc", "--out", "o"],
      "jointid simulate: error: argument --noise: invalid float value: 'abc' (see `jointid simulate --help`)"),
     (["simulate", "s.toml"], "jointid simulate: error: the following arguments are required: --out (see `jointid simulate --help`)"),
+    (["modes", "--out", ""], "jointid modes: error: argument --out: expected a directory, got an empty path (for the "
+                             "current directory give '.') (see `jointid modes --help`)"),
+    (["campaign", "m.csv", "--out", " "], "jointid campaign: error: argument --out: expected a directory, got an empty path "
+                                         "(for the current directory give '.') (see `jointid campaign --help`)"),
     (["nosuch"], "jointid: error: argument COMMAND: invalid choice: 'nosuch' (choose from 'reproduce', 'modes', 'simulate', "
                  "'identify', 'update', 'experiment', 'frf', 'direct', 'design', 'campaign') (see `jointid --help`)"),
 ])

@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import OUT_HELP
+from .common import OUT_HELP, out_dir
 
 __all__ = ["add_parser", "run"]
 
@@ -32,7 +32,7 @@ def add_parser(sub) -> None:
         "some tests failed (the others are written), 2 on bad input.",
     )
     p.add_argument("manifest", type=Path, metavar="MANIFEST.csv", help="the campaign manifest (CSV, one row per test)")
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help=OUT_HELP)
+    p.add_argument("--out", required=True, type=out_dir, metavar="DIR", help=OUT_HELP)
     p.add_argument("--workers", type=int, default=None, metavar="N", help="local worker processes (default: every core; 1: no pool)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the tests on an existing Dask distributed cluster (e.g. tcp://host:8786; pip install 'jointid[dask]')")

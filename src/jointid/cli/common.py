@@ -15,7 +15,7 @@ from ..benchmark import benchmark_study_path
 from ..errors import StudyError
 from ..study import Study, load_study
 
-__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "OUT_HELP"]
+__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "out_dir", "OUT_HELP"]
 
 #: Help text of ``--out DIR``.
 OUT_HELP = (
@@ -49,4 +49,11 @@ def study_from_args(args: argparse.Namespace) -> Study:
 
 def add_out_argument(p: argparse.ArgumentParser) -> None:
     """Add the required ``--out DIR`` option."""
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help=OUT_HELP)
+    p.add_argument("--out", required=True, type=out_dir, metavar="DIR", help=OUT_HELP)
+
+
+def out_dir(text: str) -> Path:
+    """``--out``: a directory path; an empty one is refused (it would be the current directory, unnamed)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a directory, got an empty path (for the current directory give '.')")
+    return Path(text)

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import DataError
 from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
-from .common import OUT_HELP
+from .common import OUT_HELP, out_dir
 
 __all__ = ["add_parser", "run", "direct_summary"]
 
@@ -49,7 +49,7 @@ def add_parser(sub) -> None:
         "`jointid direct --example OUT.csv` writes built-in example data to try the command on.",
     )
     p.add_argument("data", type=Path, nargs="?", metavar="DATA.csv", help="step-sine time histories (CSV long format)")
-    p.add_argument("--out", type=Path, metavar="DIR", help=OUT_HELP + "; required with DATA.csv")
+    p.add_argument("--out", type=out_dir, metavar="DIR", help=OUT_HELP + "; required with DATA.csv")
     p.add_argument("--example", type=Path, metavar="OUT.csv",
                    help="write the built-in example step-sine test (Material B, 25-1500 Hz, two joints, 1%% noise) to OUT.csv and stop")
     p.add_argument("--parallel-joints", type=int, default=2, metavar="N", help="joints loaded in parallel (default 2, double shear)")
