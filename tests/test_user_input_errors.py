@@ -116,3 +116,23 @@ def test_a_usage_error_is_one_line_exit_2(capsys, argv, line):
         main(argv)
     assert stop.value.code == 2
     assert capsys.readouterr().err.splitlines() == [line]
+
+
+def test_an_frf_file_outside_the_study_band_names_the_unit_and_the_key(study):
+    """FRFs on an axis the study's band does not reach (a kHz axis read as Hz): the error says what to check."""
+    import dataclasses
+
+    from jointid.frequency import Frequency
+    from jointid.pipeline import simulate, study_frfs
+    from jointid.study import load_study
+
+    st = load_study(study)
+    frf = simulate(st).frf
+    khz = dataclasses.replace(frf, frequency=Frequency(frf.frequency.hz / 1000.0))
+    with pytest.raises(DataError) as err:
+        study_frfs(st, khz)
+    lo, hi = khz.frequency.hz[0], khz.frequency.hz[-1]
+    assert str(err.value) == (
+        f"the FRF file does not reach the study's band: no FRF line in {max(st.frequency.start, 1e-6)}..{st.frequency.stop} Hz "
+        f"(data cover {lo:g}..{hi:g} Hz); check the file's frequency unit (Hz; a kHz or rad/s axis is not converted "
+        f"without its label) or [frequency] start/stop in {st.source}")

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import DataError, StudyError
+from .errors import DataError, FrequencyError, StudyError
 from .frequency import Frequency
 from .frf import FRF
 from .methods.estimate import JointEstimate, estimate_joint
@@ -168,7 +168,12 @@ def study_frfs(study: Study, measured: FRF) -> FRF:
                 f"measure it or remove it from [measurement] in {study.source}"
             )
     # a 0 Hz line carries no information (and the free structure is singular there): skip it
-    return measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
+    try:
+        return measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
+    except FrequencyError as exc:
+        raise DataError(f"the FRF file does not reach the study's band: {exc}; check the file's frequency unit (Hz; a "
+                        f"kHz or rad/s axis is not converted without its label) or [frequency] start/stop in "
+                        f"{study.source}") from None
 
 
 def identify(study: Study, measured: FRF, options: InverseOptions | CouplingOptions | None = None) -> JointEstimate:
