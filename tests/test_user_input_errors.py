@@ -136,3 +136,14 @@ def test_an_frf_file_outside_the_study_band_names_the_unit_and_the_key(study):
         f"the FRF file does not reach the study's band: no FRF line in {max(st.frequency.start, 1e-6)}..{st.frequency.stop} Hz "
         f"(data cover {lo:g}..{hi:g} Hz); check the file's frequency unit (Hz; a kHz or rad/s axis is not converted "
         f"without its label) or [frequency] start/stop in {st.source}")
+
+
+def test_simulate_with_one_frequency_line_names_the_study_key(tmp_path, capsys):
+    p = tmp_path / "one_line.toml"
+    text = STUDY.splitlines()
+    text = "\n".join("step = 5000.0" if line.strip().startswith("step =") else line for line in text) + "\n"
+    p.write_text(text)
+    code, err = _run(capsys, "simulate", str(p), "--out", str(tmp_path / "o"))
+    assert code == 2 and err.startswith(f"jointid simulate: error: {p}: [frequency] gives 1 line (") and err.endswith(
+        "step 5000); a simulated FRF file needs at least 2: lower step or widen start..stop")
+    assert not (tmp_path / "o").exists()

@@ -78,6 +78,11 @@ def run(args: argparse.Namespace) -> int:
     if args.seed < 0:
         raise StudyError(f"--seed: expected an integer >= 0, got {args.seed}")
     study = study_from_args(args)
+    lines = study.frequency.frequency().hz.size
+    if lines < 2:  # a UFF58 record holds at least 2 lines
+        fq = study.frequency
+        raise StudyError(f"{study.source}: [frequency] gives {lines} line ({fq.start:g}..{fq.stop:g} Hz, step {fq.step:g}); "
+                         "a simulated FRF file needs at least 2: lower step or widen start..stop")
     other = load_study(args.truth) if args.truth else None
     true = true_study(study, other)
     if args.free:
