@@ -147,3 +147,15 @@ def test_simulate_with_one_frequency_line_names_the_study_key(tmp_path, capsys):
     assert code == 2 and err.startswith(f"jointid simulate: error: {p}: [frequency] gives 1 line (") and err.endswith(
         "step 5000); a simulated FRF file needs at least 2: lower step or widen start..stop")
     assert not (tmp_path / "o").exists()
+
+
+def test_matplotlib_notices_do_not_reach_the_terminal(tmp_path):
+    """An unwritable matplotlib config directory: matplotlib's two-line notice is not printed (--debug shows it)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "MPLCONFIGDIR": "/proc/nonexistent/mpl", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    r = subprocess.run([sys.executable, "-m", "jointid.cli.main", "modes", "--out", str(tmp_path / "o")],
+                       capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0 and r.stderr == "", r.stderr

@@ -91,6 +91,20 @@ def _signal_handlers():
             signal.signal(s, h)
 
 
+@contextlib.contextmanager
+def _quiet_logger(name: str):
+    """Logger ``name`` says only errors while the run lasts (without --debug)."""
+    import logging
+
+    logger = logging.getLogger(name)
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
 def _warning_line(command: str, caught: list) -> str | None:
     """One line for the warnings a run raised (numerical ones: overflow, invalid value), or None."""
     if not caught:
@@ -127,6 +141,7 @@ def main(argv: list[str] | None = None) -> int:
             warnings.simplefilter("always")
             for hidden in (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning):
                 warnings.simplefilter("ignore", hidden)  # hidden by Python's defaults too
+            stack.enter_context(_quiet_logger("matplotlib"))  # its notices (an unwritable config directory) are not ours
         try:
             with _signal_handlers():
                 code = int(args.func(args) or 0)
