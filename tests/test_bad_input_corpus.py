@@ -421,16 +421,16 @@ def _direct(name: str, *extra: str):
 
 
 for cid, name, msg in [
-    ("clipped_force_30pct", "clipped_force.csv", "12 of 12 blocks are clipped or distorted (block at 25 Hz: force clipped (flat tops on"),
-    ("clipped_displacement", "clipped_disp.csv", "12 of 12 blocks are clipped or distorted (block at 25 Hz: displacement clipped"),
+    ("clipped_force_30pct", "clipped_force.csv", "{d}/clipped_force.csv: 12 of 12 blocks are clipped or distorted (block at 25 Hz: force clipped (flat tops on"),
+    ("clipped_displacement", "clipped_disp.csv", "{d}/clipped_disp.csv: 12 of 12 blocks are clipped or distorted (block at 25 Hz: displacement clipped"),
     ("ss_latin1", "ss_latin.csv", "{d}/ss_latin.csv line 4: not UTF-8 text (byte 0xb5)"),
     ("ss_semicolon", "ss_semicolon.csv", "{d}/ss_semicolon.csv line 1: the columns are separated by semicolons"),
     ("ss_missing_column", "ss_nocol.csv", "{d}/ss_nocol.csv"),
-    ("ss_nan", "ss_nan.csv", "block at 25 Hz"),
+    ("ss_nan", "ss_nan.csv", "{d}/ss_nan.csv: block at 25 Hz"),
     ("ss_word", "ss_word.csv", "{d}/ss_word.csv"),
-    ("ss_short", "ss_short.csv", "block at 25 Hz"),
-    ("ss_unsorted", "ss_unsorted.csv", "block at 25 Hz"),
-    ("ss_constant_displacement", "ss_const.csv", "block at 25 Hz"),
+    ("ss_short", "ss_short.csv", "{d}/ss_short.csv: block at 25 Hz"),
+    ("ss_unsorted", "ss_unsorted.csv", "{d}/ss_unsorted.csv: block at 25 Hz"),
+    ("ss_constant_displacement", "ss_const.csv", "{d}/ss_const.csv: block at 25 Hz"),
     ("ss_no_rows", "ss_empty.csv", "{d}/ss_empty.csv: no data rows after the header"),
     ("ss_missing_file", "nothere.csv", "{d}/nothere.csv"),
 ]:

@@ -158,7 +158,7 @@ class StepSineBlock:
         if np.any(dt <= 0):
             i = int(np.argmax(dt <= 0))
             raise DataError(
-                f"block at {_fhz(f)}: time is not strictly increasing (sample {i + 1}: {t[i + 1]!r} s after {t[i]!r} s); "
+                f"block at {_fhz(f)}: time is not strictly increasing (sample {i + 1}: {float(t[i + 1])!r} s after {float(t[i])!r} s); "
                 "sort the samples by time and remove duplicates"
             )
         spc = 1.0 / (f * float(np.median(dt)))
