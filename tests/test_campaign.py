@@ -388,3 +388,16 @@ def test_a_tolerance_that_leaves_the_modulus_undetermined_is_reported_not_an_int
     modulus = _json(out / "master_curve.json")["specimens"]["S1"]["modulus"]
     assert modulus["identified"] is False
     assert {modulus[k]["status"] for k in ("K0_n_m", "Kinf_n_m", "tau_s", "alpha")} <= {"not_identified", "at_bound"}
+
+
+def test_one_data_file_in_two_rows_is_refused(campaign, tmp_path, capsys):
+    """The same file twice (a copy-paste row) would count twice in the specimen's fits: one line, exit 2."""
+    manifest, _, _ = campaign
+    rows = manifest_rows(manifest)
+    rows[2] = {**rows[2], "file": rows[0]["file"]}
+    m = write_manifest(manifest.parent / "twice.csv", rows)
+    assert main(["campaign", str(m), "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"jointid campaign: error: {m}: rows 1 (line 2) and 3 (line 4) both use {Path(rows[0]['file']).name} as a direct "
+        "test; a repeated test needs its own data file: remove one row"]
+    assert not (tmp_path / "o").exists()

@@ -249,4 +249,11 @@ def read_manifest(path: str | os.PathLike) -> Manifest:
     if len(rows) < 2:
         raise DataError(f"{path}: no tests; add one row per test after the header")
     tests = tuple(_parse_row(path, header, cells, i, line) for i, (line, cells) in enumerate(rows[1:], start=1))
+    first: dict = {}
+    for t in tests:  # one data file read twice would count twice in the specimen's fits (bands too narrow)
+        key = (t.file.resolve(), t.kind, t.study)
+        if key in first:
+            raise DataError(f"{path}: rows {first[key].row} (line {first[key].line}) and {t.row} (line {t.line}) both use "
+                            f"{t.file.name} as a {t.kind} test; a repeated test needs its own data file: remove one row")
+        first[key] = t
     return Manifest(path=path, columns=tuple(header), tests=tests)
