@@ -263,3 +263,21 @@ def test_read_frf_dispatches_on_extension(tmp_path):
     np.testing.assert_array_equal(back.data, frf.data)
     with pytest.raises(DataError, match=r"\.uff, \.unv, \.58 .* \.csv"):
         read_frf(tmp_path / "a.txt")
+
+
+def test_a_file_without_any_uff_dataset_says_what_delimits_them(tmp_path):
+    """Separator lines with trailing spaces (another program's export): pyuff sees no dataset; the error says why."""
+    from jointid.benchmark import benchmark_study
+    from jointid.pipeline import simulate
+
+    frf = simulate(benchmark_study()).frf
+    good = write_uff_frf(tmp_path / "good.uff", frf, binary=False)
+    bad = tmp_path / "trailing.uff"
+    bad.write_text("".join(line.rstrip("\n") + ("   \n" if line.strip() == "-1" else "\n")
+                           for line in good.read_text().splitlines(keepends=True)))
+    with pytest.raises(DataError) as err:
+        read_uff_frf(bad)
+    assert str(err.value) == (
+        f"{bad} holds no FRF record to read (UFF dataset 58, function type 4, along Z); no UFF dataset was "
+        "found in it at all: datasets are delimited by lines that read exactly '    -1' (six characters: check for "
+        "trailing spaces, tabs or another file format)")

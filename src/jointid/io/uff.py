@@ -166,6 +166,9 @@ def read_uff_frf(
         hint = ""
         if any(k.startswith("in ") for k in sel.skipped):
             hint = "; if the beam was measured along another direction, give that axis (the study's [measurement].axis)"
+        elif not sel.skipped:  # not one dataset recognized
+            hint = ("; no UFF dataset was found in it at all: datasets are delimited by lines that read exactly '    -1' "
+                    "(six characters: check for trailing spaces, tabs or another file format)")
         raise DataError(
             f"{path} holds no FRF record to read (UFF dataset 58, function type 4, along {axis[1] if axis else 'X/Y/Z/RX/RY/RZ'})"
             + (f"; {skipped}" if skipped else "") + hint
