@@ -252,3 +252,20 @@ def test_jacobian_covariance_is_the_textbook_line_fit():
     cov3 = jacobian_covariance(np.column_stack([J, np.zeros_like(x)]), r)
     assert np.isinf(cov3[2, 2]) and np.isfinite(cov3[1, 1])
     assert np.isnan(correlation_matrix(cov3)[0, 2]) and correlation_matrix(cov3)[1, 1] == pytest.approx(1.0)
+
+
+def test_static_estimate_names_too_many_lines_and_a_line_that_is_not_quasi_static():
+    from jointid.errors import DataError
+    from jointid.methods.direct.material_fit import static_estimate
+
+    f = np.array([1.0, 2.0, 50.0])
+    k = np.array([1e5 + 1e4j, 1.01e5 + 1e4j, -2e4 + 1e4j])  # the top line past a resonance: storage negative
+    with pytest.raises(DataError, match=r"^static lines: 4 asked for, the test has 3; the static estimate averages the "
+                                        r"lowest few lines \(default 2\)$"):
+        static_estimate(f, k, lines=4)
+    with pytest.raises(DataError, match=r"^line 50 Hz: storage stiffness -20000 N/m is not positive: it is not "
+                                        r"quasi-static, yet one of the 3 lowest lines the static estimate averages; average fewer$"):
+        static_estimate(f, k, lines=3)
+    with pytest.raises(DataError, match=r"^line 1 Hz: storage stiffness -100000 N/m is not positive; check the force sign$"):
+        static_estimate(f, -k, lines=1)
+    assert static_estimate(f, k, lines=2) is not None

@@ -120,10 +120,16 @@ def static_estimate(
     f, k = as_band_arrays(frequency_hz, stiffness)
     if not (isinstance(lines, (int, np.integer)) and lines >= 1):
         raise DataError(f"static lines must be an integer >= 1, got {lines!r}")
+    if lines > f.size:
+        raise DataError(f"static lines: {lines} asked for, the test has {f.size}; the static estimate averages the lowest "
+                        "few lines (default 2)")
     idx = np.argsort(f)[: int(lines)]
     if np.any(k[idx].real <= 0):
         i = idx[int(np.argmax(k[idx].real <= 0))]
-        raise DataError(f"line {f[i]:g} Hz: storage stiffness {k[i].real:g} N/m is not positive; check the force sign")
+        if i == idx[0]:
+            raise DataError(f"line {f[i]:g} Hz: storage stiffness {k[i].real:g} N/m is not positive; check the force sign")
+        raise DataError(f"line {f[i]:g} Hz: storage stiffness {k[i].real:g} N/m is not positive: it is not quasi-static, "
+                        f"yet one of the {lines} lowest lines the static estimate averages; average fewer")
     ks = float(np.mean(k[idx].real))
     eta = float(np.mean(k[idx].imag / k[idx].real))
     A = math.pi * diameter_m**2 / 4.0 if area_m2 is None else float(area_m2)
