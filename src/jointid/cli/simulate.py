@@ -14,6 +14,10 @@ from .common import add_out_argument, add_study_argument, study_from_args
 __all__ = ["add_parser", "run", "write_true_joints"]
 
 
+#: Largest relative rms noise ``--noise`` takes (1000 %: beyond it the FRFs are noise and overflow soon follows).
+MAX_NOISE = 10.0
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "simulate",
@@ -73,8 +77,8 @@ def run(args: argparse.Namespace) -> int:
     from ..io.uff import write_uff_frf
     from ..pipeline import simulate, simulate_free, true_study
 
-    if not args.noise >= 0 or args.noise != args.noise or args.noise == float("inf"):
-        raise StudyError(f"--noise: expected a relative rms >= 0 (e.g. 0.01), got {args.noise}")
+    if not 0 <= args.noise <= MAX_NOISE:
+        raise StudyError(f"--noise: expected a relative rms >= 0 (e.g. 0.01 for 1 %) and at most {MAX_NOISE:g}, got {args.noise}")
     if args.seed < 0:
         raise StudyError(f"--seed: expected an integer >= 0, got {args.seed}")
     study = study_from_args(args)
