@@ -449,3 +449,12 @@ def test_an_exponential_window_with_no_resonance_to_correct_says_so():
     assert notes == ("exponential window (tau 10 ms) not corrected: no resonance stands 10 dB above its surroundings in "
                      "these FRFs (the window's decay rate 1/tau = 100 1/s flattens the peaks), so the FRFs keep its damping "
                      "and their peaks are too low; give the modes' bands (--mode-band-hz) or use a longer tau",)
+
+
+def test_a_word_in_a_hits_csv_is_quoted_as_text_not_numpy(tmp_path):
+    """Numbers and labels from the file appear as the file has them (no ``np.str_('...')``)."""
+    p = tmp_path / "hits.csv"
+    p.write_text("excited_node,hit,time_s,force_n,1w\n3w,0,0.0,1.0,0.5\n3w,0,0.001,abc,0.25\n")
+    with pytest.raises(DataError) as err:
+        read_impact_csv(p)
+    assert str(err.value) == f"{p}: row 3, column 'force_n': 'abc' is not a number (excited node 3w, hit 0)"

@@ -226,7 +226,7 @@ def read_impact_csv(path: str | Path, kind: str = "accelerance") -> tuple[Impact
         except ValueError:
             bad = next(i for i, x in enumerate(v) if not _is_float(x))
             raise DataError(
-                f"{path}: row {bad + 2}, column {name!r}: {v[bad]!r} is not a number "
+                f"{path}: row {bad + 2}, column {name!r}: {str(v[bad])!r} is not a number "
                 f"({where_hit(exc[bad], hit[bad])})"
             ) from None
 
@@ -240,7 +240,7 @@ def read_impact_csv(path: str | Path, kind: str = "accelerance") -> tuple[Impact
         forces, resps, fs0 = [], [], None
         for i, h in enumerate(hits):
             rows_h = on & (hit == h)
-            where = f"{path}: {where_hit(ref, i)} (hit column {h!r})"
+            where = f"{path}: {where_hit(ref, i)} (hit column {str(h)!r})"
             fs = _rate_from_time(t[rows_h], where)
             if fs0 is None:
                 fs0 = fs
