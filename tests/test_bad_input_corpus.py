@@ -166,6 +166,7 @@ def d(tmp_path_factory) -> Path:
     (base / "dupdof_dofs.csv").write_text(dofs.replace("2,x", "1,x", 1))
     (base / "empty_dofs.csv").write_text("node,component\n")
     (base / "zero_dofs.csv").write_text(dofs.replace("1,x", "0,x", 1))
+    (base / "huge_dofs.csv").write_text(dofs.replace("1,x", "99999999999999999999,x", 1))
 
     # step-sine data
     blocks = example_stepsine()[:12]
@@ -388,7 +389,9 @@ MATRIX_CASES = [
     ("dofs_component", {"dofs": "badcomp_dofs.csv"}, "[structure].dofs: row 7 of {d}/badcomp_dofs.csv: unknown component 'q'"),
     ("dofs_repeated", {"dofs": "dupdof_dofs.csv"}, "[structure].dofs: {d}/dupdof_dofs.csv: DOF 1x is listed twice"),
     ("dofs_empty", {"dofs": "empty_dofs.csv"}, "[structure].dofs: {d}/empty_dofs.csv: the DOF list has no rows"),
-    ("dofs_node_zero", {"dofs": "zero_dofs.csv"}, "[structure].dofs: row 2 of {d}/zero_dofs.csv: node must be an integer >= 1"),
+    ("dofs_node_zero", {"dofs": "zero_dofs.csv"}, "[structure].dofs: row 2 of {d}/zero_dofs.csv: node must be an integer from 1 to "),
+    ("dofs_node_huge", {"dofs": "huge_dofs.csv"}, "[structure].dofs: row 2 of {d}/huge_dofs.csv: node must be an integer from 1 to "
+                                                  "576460752303423487, got '99999999999999999999'"),
     ("dofs_missing", {"dofs": "nothere.csv"}, "[structure].dofs: {d}/nothere.csv: DOF list not found"),
 ]
 MOUNT_CASES = [

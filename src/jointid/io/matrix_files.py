@@ -321,6 +321,11 @@ def _negative_eigenvalues(A: sp.csr_array, sigma: float) -> int:
     return int(lam < -sigma)
 
 
+#: Largest node id of a DOF list (ids are packed with the component into one int64 key: 2^59 - 1; a Nastran grid id
+#: is at most 10^8).
+MAX_NODE_ID = (1 << 59) - 1
+
+
 def read_dof_list(path: "str | Path", base: "Path | None" = None) -> DofArray:
     """The DOF of each matrix row from a CSV of ``node,component`` rows.
 
@@ -362,8 +367,8 @@ def read_dof_list(path: "str | Path", base: "Path | None" = None) -> DofArray:
             node = int(cells[0])
         except ValueError:
             node = 0
-        if node < 1:
-            raise DataError(f"row {lineno} of {path}: node must be an integer >= 1, got {cells[0]!r}")
+        if not 1 <= node <= MAX_NODE_ID:
+            raise DataError(f"row {lineno} of {path}: node must be an integer from 1 to {MAX_NODE_ID}, got {cells[0]!r}")
         try:
             comp = parse_component(cells[1])
         except DofError:
