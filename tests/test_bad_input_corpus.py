@@ -401,6 +401,9 @@ MOUNT_CASES = [
      "[[joint]] 'j' [joint.model].loss_factor: 1e9 is outside 0-2"),
     ("structure_loss_huge", "loss_factor = 0.01", "loss_factor = 5.0", "[structure].loss_factor: 5 is outside 0-2"),
     ("structure_scale_tiny", "loss_factor = 0.01", "loss_factor = 0.01\nmass_scale = 1e-300", "[structure].mass_scale: 1e-300 is outside 1e-6-1e6"),
+    ("joint_translation_opposite_rotation", 'dofs = ["2z", "2ry"]', 'dofs = ["2z", "2ry"]\nother = ["3rx", "3y"]',
+     "[[joint]] 'j'.other: 3rx (rad) is opposite 2z (m) of dofs; pair translations with translations and rotations with "
+     "rotations, in the order of dofs"),
 ]
 for cid, files, msg in MATRIX_CASES:
     _add("matrix files", cid, _structure(**files), 2, "jointid simulate: error: {d}/s_*.toml: " + msg)

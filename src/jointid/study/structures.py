@@ -370,6 +370,10 @@ def parse_joints(data: Any, model: DofArray, model_name: str, base: Path = Path(
             raise StudyError(f"{where}.dofs: {len(dofs)} DOFs; a joint has 1-6 DOFs per side")
         if other and len(other) != len(dofs):
             raise StudyError(f"{where}.other: {len(other)} DOFs for {len(dofs)} in dofs; a joint between two sets has as many DOFs on each side")
+        for a, b in zip(dofs, other):  # the joint acts on dofs[i] - other[i]: a translation minus a rotation has no unit
+            if a.unit != b.unit:
+                raise StudyError(f"{where}.other: {b} ({b.unit}) is opposite {a} ({a.unit}) of dofs; pair translations "
+                                 "with translations and rotations with rotations, in the order of dofs")
         for d in dofs + other:
             if d in owner:
                 same = owner[d] == name
