@@ -14,6 +14,7 @@ from jointid.errors import DataError  # noqa: E402
 from jointid.io.frf_files import write_frf  # noqa: E402
 from jointid.io.uff import read_uff_frf  # noqa: E402
 from jointid.io.uff_units import G0, INCH, LBF  # noqa: E402
+from jointid.io.uff_units import SI as SI_UNITS  # noqa: E402
 from jointid.pipeline import identify, read_measured, simulate  # noqa: E402
 from jointid.study import load_study  # noqa: E402
 from study_texts import beam_study_toml
@@ -223,3 +224,47 @@ def test_real_valued_frf_records_are_refused_naming_the_record(case, binary):
         f"record 1 of {p} (function type 4, response node {sim.frf.responses[0].node} dir 3, reference node "
         f"{sim.frf.references[0].node} dir 3): real-valued FRF data (ordinate data type 4): an FRF is complex; "
         "export it with real and imaginary parts (data type 5 or 6)")
+
+
+def _d(num="", den=""):
+    return {"ordinate_axis_units_lab": num, "orddenom_axis_units_lab": den}
+
+
+def test_rotational_records_take_no_length_unit():
+    """A rotational response has no length: the inch system converts only its force (rad/s^2 per lbf); an angle label
+    converts exactly (deg: pi/180); a moment excitation is force times length; a translation's label on a rotation
+    (or the reverse) is refused."""
+    from jointid.io.uff_units import UnitSystem, ordinate_units
+
+    inch = UnitSystem("IN", INCH, LBF, "in", "lbf", 1)
+    u = ordinate_units(_d(), 12, inch, "r", rotation=True)
+    assert u.factor == 1.0 / LBF and u.text == "(rad/s^2)/lbf"
+    assert ordinate_units(_d(), 12, inch, "r").factor == INCH / LBF  # the same file's translations
+    assert ordinate_units(_d(), 12, inch, "r", moment=True).factor == INCH / (LBF * INCH)
+    assert ordinate_units(_d("deg/s^2", "N*m"), 12, SI_UNITS, "r", rotation=True, moment=True).factor == np.pi / 180.0
+    assert ordinate_units(_d("rad/s^2/N"), 12, SI_UNITS, "r", rotation=True).factor == 1.0
+    for label, rotation, fix in (("g", True, "rad/s^2"), ("mm/s^2", True, "rad/s^2"), ("rad/s^2", False, "m/s^2")):
+        with pytest.raises(DataError) as err:
+            ordinate_units(_d(label), 12, SI_UNITS, "r", rotation=rotation)
+        assert str(err.value) == (f"r: ordinate units label {label!r} is for {'a translation' if rotation else 'a rotation'}, "
+                                  f"but the response is {'a rotation' if rotation else 'a translation'}; fix the label (e.g. {fix})")
+    with pytest.raises(DataError, match=r"^r: ordinate denominator units label 'N': the excitation is a moment; jointid reads "
+                                        r"N\*m, kN\*m, lbf\*in, lbf\*ft$"):
+        ordinate_units(_d("rad/s^2", "N"), 12, SI_UNITS, "r", rotation=True, moment=True)
+
+
+def test_rotational_records_are_written_with_angle_labels_and_read_back(tmp_path):
+    from jointid.dofs import parse_dof
+    from jointid.frequency import Frequency
+    from jointid.frf import FRF
+
+    hz = np.linspace(10.0, 100.0, 10)
+    rng = np.random.default_rng(0)
+    data = rng.standard_normal((10, 2, 2)) + 1j * rng.standard_normal((10, 2, 2))
+    frf = FRF(Frequency(hz), data, (parse_dof("3x"), parse_dof("3rx")), (parse_dof("2y"), parse_dof("2rz")), "accelerance")
+    p = write_frf(tmp_path / "rot.uff", frf, binary=True)
+    labels = {(s["rsp_dir"], s["ref_dir"]): (s["ordinate_axis_units_lab"].strip(), s["orddenom_axis_units_lab"].strip())
+              for s in pyuff.UFF(str(p)).read_sets() if s["type"] == 58}
+    assert labels == {(1, 2): ("m/s^2", "N"), (1, 6): ("m/s^2", "N*m"), (4, 2): ("rad/s^2", "N"), (4, 6): ("rad/s^2", "N*m")}
+    back = read_uff_frf(p, axis=None)
+    assert back.notes == () and np.array_equal(back.data, data)

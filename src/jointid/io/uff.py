@@ -321,7 +321,8 @@ def write_uff_frf(
         for j, r in enumerate(out.responses):
             for k, c in enumerate(out.references):
                 func_id += 1
-                extra = {} if den_unit is None else {"orddenom_axis_units_lab": den_unit}
+                # SI labels of this pair: an angle for a rotational response, N*m for a moment excitation
+                extra = {} if den_unit is None else {"orddenom_axis_units_lab": den_unit + ("*m" if c.unit == "rad" else "")}
                 d = pyuff.prepare_58(
                     func_type=func_type,
                     rsp_node=int(r.node),
@@ -329,7 +330,7 @@ def write_uff_frf(
                     ref_node=int(c.node),
                     ref_dir=_DIR_CODES[c.direction],
                     ordinate_spec_data_type=ord_type,
-                    ordinate_axis_units_lab=ord_unit,
+                    ordinate_axis_units_lab=("rad" + ord_unit[1:]) if r.unit == "rad" and ord_unit.startswith("m") else ord_unit,
                     orddenom_spec_data_type=den_type,
                     data=np.array(values[:, j, k]),
                     **extra,

@@ -267,7 +267,8 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
                             "export it with real and imaginary parts (data type 5 or 6)")
         x, data = _values(d, where)
         kind = _kind(d, where)
-        units = ordinate_units(d, d["ordinate_spec_data_type"], system, where)
+        units = ordinate_units(d, d["ordinate_spec_data_type"], system, where, rotation=response.unit == "rad",
+                               moment=reference.unit == "rad")
         text = f"{units.text} ({units.source})"
         frfs.append(Record(index, FUNC_FRF, response, reference, sign, kind, x, data, text, units.factor))
     return frfs, cohs

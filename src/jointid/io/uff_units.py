@@ -31,6 +31,13 @@ Rules (what :mod:`jointid.io.uff` applies to every FRF record it keeps)
   A label that names a length or force other than a non-SI dataset 164's is
   a contradiction and an error; with an SI dataset 164 (which exporters
   write by default) the labels are taken as they are.
+* **Rotations and moments.** A rotational response (UFF directions 4-6)
+  has no length: its labels are ``rad``, ``rad/s``, ``rad/s^2`` (or
+  ``deg`` ones, x pi/180), a blank label is radians whatever dataset 164
+  says, and a translation's label on it (``g``, ``mm/s^2``) is an error
+  (and the reverse). A moment excitation (reference directions 4-6) is in
+  ``N*m``, ``kN*m``, ``lbf*in``, ``lbf*ft``, or blank: the file's force
+  times length unit. jointid writes ``rad/s^2`` and ``N*m`` for them.
 * The abscissa (record 8) is in Hz: label blank, ``Hz`` or ``kHz``.
 
 Time records (function type 1, :func:`signal_units`)
@@ -70,6 +77,15 @@ for _name, _size in _LENGTHS.items():
         _MOTION[f"{_name}/s"] = (_VEL, _size, _name)
         _MOTION[f"{_name}/s^2"] = (_ACC, _size, _name)
 _FORCES = {"n": 1.0, "kn": 1e3, "mN": 1e-3, "lbf": LBF, "kgf": KGF}
+# a rotational response (UFF directions 4-6): angle labels, no length (its unit does not depend on dataset 164)
+_ROTATION: dict[str, tuple[str, float, str | None]] = {}
+for _name, _size in {"rad": 1.0, "deg": math.pi / 180.0}.items():
+    _ROTATION[_name] = (_DISP, _size, None)
+    _ROTATION[f"{_name}/s"] = (_VEL, _size, None)
+    _ROTATION[f"{_name}/s^2"] = (_ACC, _size, None)
+# a moment excitation (reference directions 4-6): force times length
+_MOMENTS = {"n*m": 1.0, "nm": 1.0, "n-m": 1.0, "n.m": 1.0, "kn*m": 1e3, "lbf*in": LBF * INCH, "in*lbf": LBF * INCH,
+            "lbf-in": LBF * INCH, "in-lbf": LBF * INCH, "lbf*ft": LBF * FOOT, "ft*lbf": LBF * FOOT}
 _DATA_QUANTITY = {8: _DISP, 11: _VEL, 12: _ACC, 13: _FORCE}
 
 # units code -> (name, length unit size m, force unit size N, length unit name, force unit name)
@@ -167,11 +183,16 @@ def _force(label: str) -> float | None:
     return _FORCES.get(s.lower())
 
 
-def _motion(label: str) -> tuple[str, float, str | None] | None:
+def _motion(label: str, rotation: bool = False) -> tuple[str, float, str | None] | None:
     s = label.strip()
     if s.startswith("(") and s.endswith(")"):
         s = s[1:-1]
-    return _MOTION.get(_norm(s).lower())
+    return (_ROTATION if rotation else _MOTION).get(_norm(s).lower())
+
+
+def _excitation(label: str, moment: bool) -> float | None:
+    """SI factor of a force (or, ``moment``, a force-times-length) label, None when it is not one."""
+    return _MOMENTS.get(_norm(label).lower()) if moment else _force(label)
 
 
 @dataclass(frozen=True)
@@ -183,8 +204,13 @@ class OrdinateUnits:
     source: str  # "labels", "dataset 164", "default SI"
 
 
-def ordinate_units(d: dict, num_type: int, system: UnitSystem, where: str) -> OrdinateUnits:
+def ordinate_units(d: dict, num_type: int, system: UnitSystem, where: str, rotation: bool = False,
+                   moment: bool = False) -> OrdinateUnits:
     """SI factor of a dataset 58 FRF record from its units labels (or the file's units).
+
+    A rotational response (``rotation``: ``rad``, ``rad/s``, ``rad/s^2``, or ``deg`` ones) has no length: the
+    file's length unit does not apply to it, and a length label on it is an error; a moment excitation
+    (``moment``: ``N*m``, ``kN*m``, ``lbf*in``, ``lbf*ft``) is in the file's force times length unit.
 
     Parameters
     ----------
@@ -210,18 +236,24 @@ def ordinate_units(d: dict, num_type: int, system: UnitSystem, where: str) -> Or
     num_text = ""
     den: float | None = None
     den_text = None
+    response = "a rotation" if rotation else "a translation"
     if not _blank(num_lab):
         lab = str(num_lab).strip()
-        num, num_text = _motion(lab), lab
+        num, num_text = _motion(lab, rotation), lab
         if num is None and "/" in lab:  # composite "g/N", "(m/s^2)/N", "mm/N"
             left, right = lab.rsplit("/", 1)
-            f = _force(right)
-            m = _motion(left)
+            f = _excitation(right, moment)
+            m = _motion(left, rotation)
             if f is not None and m is not None:
                 num, den, den_text = m, f, right.strip()
                 num_text = left.strip()
                 if num_text.startswith("(") and num_text.endswith(")"):
                     num_text = num_text[1:-1].strip()
+        if num is None and (_motion(lab, not rotation) is not None
+                            or ("/" in lab and _motion(lab.rsplit("/", 1)[0], not rotation) is not None)):
+            raise DataError(f"{where}: ordinate units label {lab!r} is for {'a translation' if rotation else 'a rotation'}, "
+                            f"but the response is {response}; fix the label (e.g. "
+                            f"{'rad/s^2' if rotation else 'm/s^2'})")
         if num is None:
             if _force(lab) is not None:
                 raise DataError(
@@ -239,8 +271,11 @@ def ordinate_units(d: dict, num_type: int, system: UnitSystem, where: str) -> Or
             )
     if not _blank(den_lab):
         lab = str(den_lab).strip()
-        f = _force(lab)
+        f = _excitation(lab, moment)
         if f is None:
+            if moment:
+                raise DataError(f"{where}: ordinate denominator units label {lab!r}: the excitation is a moment; jointid "
+                                "reads N*m, kN*m, lbf*in, lbf*ft")
             what = "a motion" if _motion(lab) is not None else "an unknown unit"
             raise DataError(
                 f"{where}: ordinate denominator units label {lab!r} is {what}, but the denominator data type is "
@@ -258,17 +293,21 @@ def ordinate_units(d: dict, num_type: int, system: UnitSystem, where: str) -> Or
                 f"{where}: ordinate units label {str(num_lab).strip()!r} (length in {num[2]}) contradicts the file's "
                 f"{system.describe()}; fix the label or the units dataset"
             )
-        if den is not None and abs(den / system.force_n - 1.0) > 1e-9:
+        if den is not None and abs(den / (system.force_n * (system.length_m if moment else 1.0)) - 1.0) > 1e-9:
             raise DataError(
                 f"{where}: force units label {den_text!r} contradicts the file's {system.describe()}; "
                 "fix the label or the units dataset"
             )
     fallback = "dataset 164" if system.record is not None else "default SI"
-    if num is None:
+    if num is None and rotation:  # an angle has no length unit: radians whatever dataset 164 says
+        num_factor, num_text, num_src = 1.0, f"rad{_SUFFIX[quantity]}", fallback
+    elif num is None:
         num_factor, num_text, num_src = system.length_m, f"{system.length_name}{_SUFFIX[quantity]}", fallback
     else:
         num_factor, num_src = num[1], "labels"
-    if den is None:
+    if den is None and moment:
+        den_factor, den_text, den_src = system.force_n * system.length_m, f"{system.force_name}*{system.length_name}", fallback
+    elif den is None:
         den_factor, den_text, den_src = system.force_n, system.force_name, fallback
     else:
         den_factor, den_src = den, "labels"
