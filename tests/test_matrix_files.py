@@ -66,7 +66,7 @@ def test_dof_list_reads_names_codes_scalar_points_and_a_header(tmp_path):
     "text, message",
     [
         ("1,x\n2,q\n", r"^row 2 of .*d\.csv: unknown component 'q'; use x, y, z, rx, ry, rz, 1-6, or 0 for a scalar point$"),
-        ("1,x\n0,y\n", r"^row 2 of .*d\.csv: node must be an integer >= 1, got '0'$"),
+        ("1,x\n0,y\n", r"^row 2 of .*d\.csv: node must be an integer from 1 to 576460752303423487, got '0'$"),
         ("1,x\n2,y,3\n", r"^row 2 of .*d\.csv: expected 'node,component', got '2,y,3'$"),
         ("1,x\n2,y\n1,1\n", r"^.*d\.csv: DOF 1x is listed twice \(rows 1 and 3\); each matrix row needs its own DOF$"),
         ("node,component\n", r"^.*d\.csv: the DOF list has no rows$"),
