@@ -393,3 +393,23 @@ def test_exact_frfs_of_a_mount_with_absent_couplings_give_the_exact_joint_by_def
     K = _matrix(read_table(tmp_path / "id" / "joint_stiffness.csv"), comp)
     # exact data through a 16-digit binary UFF: round-off of the per-line solve (condition ~1e4-1e6) x eps
     assert np.abs(K - truth).max() / np.abs(truth).max() < 1e-8
+
+
+def test_per_line_values_beyond_their_linearization_are_flagged_with_a_finding(tmp_path):
+    """A layout observing and exciting x only: the per-line values of a 6-DOF mount's other terms come from an inverse
+    that one standard deviation of the coupling estimate moves by far more than itself (their linearized std,
+    evaluated at the noisy estimate, was small: K_y_y 98 % off was flagged reliable). Every term of those lines is
+    flagged, with one finding; exact FRFs of a layout that sees every direction are not touched."""
+    x_only = grounded_study(tmp_path, observed=labels(1, ("x",)) + [f"{n}x" for n in range(2, 11)],
+                            excited=[f"{n}x" for n in range(2, 9)]).read_text()
+    x_only = x_only[:x_only.index('[[joint]]\nname = "rear"')] + x_only[x_only.index("[measurement]"):]
+    study = tmp_path / "x_only.toml"
+    study.write_text(x_only)
+    assert main(["simulate", str(study), "--noise", "0.01", "--seed", "2", "--out", str(tmp_path / "sim")]) == 0
+    assert main(["identify", str(study), "--frf", str(tmp_path / "sim" / "frf.uff"), "--out", str(tmp_path / "id"),
+                 "--no-plots"]) == 0
+    summary = json.loads((tmp_path / "id" / "summary.json").read_text())
+    found = [f for f in summary["findings"] if "moves the joint's inverse by more than 100 %" in f]
+    assert len(found) == 1 and found[0].startswith("on 20 of 20 lines one standard deviation"), found
+    table = read_table(tmp_path / "id" / "joint_stiffness.csv")
+    assert not np.any(table["reliable"])

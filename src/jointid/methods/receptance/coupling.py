@@ -74,7 +74,7 @@ from .coupling_result import CouplingResult
 from .column_redundancy import MIN_COLUMN_REDUNDANCY, column_redundancy
 from .noise_model_choice import choose_noise_model
 from .options import AUTO_SPLINE_MAX_DOFS, AUTO_STRUCTURED_MAX_DOFS, CouplingOptions
-from .coupling_lines import coupling_per_line, relinearize, uses_kronecker
+from .coupling_lines import MAX_INVERSE_PERTURBATION, coupling_per_line, inverse_perturbation, relinearize, uses_kronecker
 from .force_noise import detect_force_noise
 from .junk_lines import junk_lines
 from .model_uncertainty import ModelUncertainty, model_uncertainty
@@ -378,6 +378,21 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
         rel = np.hypot(std_re, std_im) / term_scale(K)
     reliable = (rel <= options.threshold(term_names(n_dofs))[None]) & (lines.condition <= MAX_CONDITION)[:, None, None]
     reliable[:, diag, diag] &= passive
+    per_line = (spline is None and not (structured is not None and (structured.accepted or structured.shape_only))
+                and all(v is None for v in edf.values()))
+    if per_line:  # the per-line values are the result: their linearized variance must hold (inverse_perturbation)
+        eta = inverse_perturbation(lines)
+        if eta is not None and np.any(eta > MAX_INVERSE_PERTURBATION):
+            far = eta > MAX_INVERSE_PERTURBATION
+            reliable &= ~far[:, None, None]
+            finite = eta[np.isfinite(eta)]
+            top = f"up to {finite.max():.2g}x" if finite.size else "no finite estimate"
+            data_notes = tuple(data_notes) + (
+                f"on {int(far.sum())} of {far.size} lines one standard deviation of the coupling estimate moves the "
+                f"joint's inverse by more than {100 * MAX_INVERSE_PERTURBATION:.0f} % ({top}): "
+                "the per-line values and their predicted errors do not hold there (the FRFs do not see some of the "
+                "joint's directions), so every term is flagged unreliable on those lines; observe the joint's DOFs "
+                "in every direction (`jointid design`) or let the terms be smoothed (smoothing = \"auto\")",)
     if checked is not None:
         reliable &= ~checked[:, None, None]
     return CouplingResult(

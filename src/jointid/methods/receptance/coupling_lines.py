@@ -100,7 +100,8 @@ from scipy.ndimage import uniform_filter1d
 
 __all__ = [
     "LineEstimates", "coupling_per_line", "symmetric_parametrization", "relinearize", "uses_kronecker", "DENSE_PATH_BYTES",
-    "separable_weights", "kronecker_basis", "kronecker_variance", "whitened_line_design",
+    "separable_weights", "kronecker_basis", "kronecker_variance", "whitened_line_design", "inverse_perturbation",
+    "MAX_INVERSE_PERTURBATION",
 ]
 
 #: The exact per-line path is taken while its arrays (the design, its weighted and Q copies, the p x p
@@ -450,6 +451,42 @@ def _kronecker_per_line(Ymn, Yne, Ynn, change, variance, symmetric, pool_lines) 
     V = kronecker_variance(I[None] + Du @ Ynn, I[None] + Ynn @ Du, U, mu_s, symmetric)
     iu = np.triu_indices(n) if symmetric else (np.repeat(np.arange(n), n), np.tile(np.arange(n), n))
     return LineEstimates(Du, V, scale, cond_a * cond_b, dof, np.zeros_like(V), X[:, iu[0], iu[1]], None, None, Ynn, symmetric, U, mu_s)
+
+
+#: Largest :func:`inverse_perturbation` of a line whose linearized per-line variance is trusted: one standard deviation
+#: of X then moves the inverted matrix by less than itself (rms over its entries, relative). Beyond it the per-line Du
+#: is biased and heavy-tailed (on a 6-DOF mount, lines above it had errors of 5-20 linearized standard deviations).
+MAX_INVERSE_PERTURBATION = 1.0
+
+
+def inverse_perturbation(lines: LineEstimates, chunk: int = 1024) -> np.ndarray | None:
+    """How far one standard deviation of X moves the inverse that gives Du, per line: ``sqrt(E||L dX Y[n,n]||_F^2)``.
+
+    ``Du = (I - X Y[n,n])^-1 X`` and ``(I - X Y[n,n])^-1 = L = I + Du Y[n,n]``: a change ``dX`` perturbs the
+    inverted matrix by ``L dX Y[n,n]`` relative to it. With ``M = A dx``, ``A = (L (x) Y[n,n]^T) P`` (row-major
+    vec, ``P`` the parametrization), ``E||M||_F^2 = tr(A^H A C)`` and ``A^H A = P^T ((L^H L) (x) (conj(Y) Y^T)) P``,
+    ``C`` the covariance of x. The first-order (linearized) variance of Du holds while this is well below 1 and
+    fails beyond it (a layout that does not see some of the joint's directions makes it >> 1 while the linearized
+    std of those terms, evaluated at the noisy estimate, can be small). Returns shape (F,), inf where the estimate
+    is not finite; None on the Kronecker path (no per-line covariance of x).
+    """
+    if lines.x_covariance is None or lines.Ynn is None:
+        return None
+    F, n, _ = lines.stiffness.shape
+    P = symmetric_parametrization(n, lines.symmetric)
+    out = np.full(F, np.inf)
+    for a in range(0, F, chunk):
+        b = min(a + chunk, F)
+        with np.errstate(invalid="ignore", over="ignore"):
+            L = np.eye(n)[None] + lines.stiffness[a:b] @ lines.Ynn[a:b]
+            LL = np.conj(np.swapaxes(L, 1, 2)) @ L
+            YY = np.conj(lines.Ynn[a:b]) @ np.swapaxes(lines.Ynn[a:b], 1, 2)
+            W = np.einsum("fij,fkl->fikjl", LL, YY).reshape(b - a, n * n, n * n)  # (L^H L) kron (conj(Y) Y^T)
+            G = P.T @ W @ P
+            e2 = np.real(np.einsum("fab,fba->f", G, lines.x_covariance[a:b]))
+        ok = np.isfinite(e2)
+        out[a:b][ok] = np.sqrt(np.maximum(e2[ok], 0.0))
+    return out
 
 
 def relinearize(lines: LineEstimates, around: np.ndarray) -> LineEstimates:
