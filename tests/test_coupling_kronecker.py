@@ -130,3 +130,29 @@ def test_identify_joint_coupling_takes_the_kronecker_path_for_a_large_problem():
     assert r.calibration is None and np.max(np.abs(r.stiffness - Du) / np.abs(Du)) < 1e-8  # measured 2e-10
     with pytest.raises(IdentificationError, match=r"^calibration = 'columns' needs the full per-line design, too large for 12 joint DOFs on 500 lines; use 'auto' or 'none'$"):
         identify_joint_coupling(model, frf, n, CouplingOptions(calibration="columns"))
+
+
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_inverse_perturbation_is_the_rms_of_the_perturbed_inverse(symmetric):
+    """``inverse_perturbation`` against its definition, per line: ``sqrt(tr(A C A^H))`` with ``A = (L kron Y^T) P``
+    formed explicitly; the batched Kronecker identity it uses is exact up to the round-off of n^4 products."""
+    from jointid.methods.receptance.coupling_lines import LineEstimates, inverse_perturbation, symmetric_parametrization
+
+    rng = np.random.default_rng(4)
+    F, n = 9, 3
+    P = symmetric_parametrization(n, symmetric)
+    p = P.shape[1]
+    cplx = lambda *s: rng.standard_normal(s) + 1j * rng.standard_normal(s)  # noqa: E731
+    Ynn = cplx(F, n, n)
+    Ynn = Ynn + np.swapaxes(Ynn, 1, 2)
+    K = cplx(F, n, n)
+    R = cplx(F, p, p)
+    C = R @ np.conj(np.swapaxes(R, 1, 2))
+    lines = LineEstimates(K, np.ones((F, n, n)), np.ones(F), np.ones(F), 3, x=cplx(F, p), x_covariance=C, Ynn=Ynn,
+                          symmetric=symmetric)
+    L = np.eye(n)[None] + K @ Ynn
+    ref = np.array([np.sqrt(np.real(np.trace(A @ C[f] @ np.conj(A.T)))) for f in range(F)
+                    for A in [np.kron(L[f], Ynn[f].T) @ P]])
+    got = inverse_perturbation(lines, chunk=4)
+    # both sides sum n^4 p^2 products of the same factors in another order: a few eps per product, relative
+    assert np.all(np.abs(got - ref) <= 8 * n ** 4 * p ** 2 * np.finfo(float).eps * ref)
