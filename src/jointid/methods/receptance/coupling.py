@@ -390,8 +390,8 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
             data_notes = tuple(data_notes) + (
                 f"on {int(far.sum())} of {far.size} lines one standard deviation of the coupling estimate moves the "
                 f"joint's inverse by more than {100 * MAX_INVERSE_PERTURBATION:.0f} % ({top}): "
-                "the per-line values and their predicted errors do not hold there (the FRFs do not see some of the "
-                "joint's directions), so every term is flagged unreliable on those lines; observe the joint's DOFs "
+                "the per-line values and their predicted errors do not hold there (the FRFs see some of the "
+                "joint's directions too weakly there), so every term is flagged unreliable on those lines; observe the joint's DOFs "
                 "in every direction (`jointid design`) or let the terms be smoothed (smoothing = \"auto\")",)
     if checked is not None:
         reliable &= ~checked[:, None, None]
