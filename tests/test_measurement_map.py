@@ -71,7 +71,7 @@ def files(tmp_path_factory):
     return d, study, load_study(d / "mapped.toml"), clean, export, coh
 
 
-SKIPPED = "skipped 68 records: 42 in X/Z, 21 coherence, 3 at points not in the study, 1 at points not in the point map, 1 time"
+SKIPPED = "skipped 68 records: 42 in X/Z, 21 coherence, 3 at DOFs not in the study, 1 at points not in the point map, 1 time"
 
 
 def test_export_with_point_map_and_minus_y_identifies_as_the_clean_file(files):
@@ -120,7 +120,7 @@ def test_csv_reader_takes_the_point_map(tmp_path, files):
     back = read_frf_csv(p, n_nodes=19, points={1000 + n: n for n in range(1, 20) if n != 19}, responses=["1w", "3w", "6w"])
     assert back.responses == study.measurement.observed_dofs[:3]
     np.testing.assert_array_equal(back.data, sim.frf.data[:, :3])
-    assert back.notes == (f"skipped {3 * 200 * 4} rows: {3 * 200 * 3} at points not in the study, {3 * 200} at points not in the point map",)
+    assert back.notes == (f"skipped {3 * 200 * 4} rows: {3 * 200 * 3} at DOFs not in the study, {3 * 200} at points not in the point map",)
     got = identify(mapped, read_measured(mapped, p))  # the study's map works on CSV files too
     ref = identify(study, read_measured(study, clean))
     # both files carry the same 12-digit values; measured 2e-9 (receptance method, 5 Hz line)

@@ -95,7 +95,7 @@ def _select_rows(
             if n_nodes is not None and d.node > n_nodes:
                 raise DataError(f"row {ln} of {path}: {column} {d} is outside the beam (nodes 1..{n_nodes})")
         if (responses is not None and a not in responses) or (references is not None and b not in references):
-            skipped["at points not in the study"] += 1
+            skipped["at DOFs not in the study"] += 1
             continue
         keep.append(i)
         out_r.append(a)

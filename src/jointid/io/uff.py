@@ -40,7 +40,7 @@ Conventions
   request; every other record (time histories, type 1; auto-/cross-spectra;
   ...), and FRFs the caller does not want (``responses``/``references``) are
   skipped, and the FRF's ``notes`` count them in one line ("skipped 42
-  records: 20 in X/Y, 19 coherence, 3 at points not in the study"). Only a
+  records: 20 in X/Y, 19 coherence, 3 at DOFs not in the study"). Only a
   record that is kept and cannot be read is an error. Other datasets
   (geometry, ...) are ignored.
 

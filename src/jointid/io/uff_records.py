@@ -83,7 +83,7 @@ class Selection:
     coherence_problem: str | None = None  # why the coherence records cannot be used (they are not needed)
 
     def skipped_line(self) -> str | None:
-        """``skipped 42 records: 20 in X/Z, 19 coherence, 3 at points not in the study`` (or None)."""
+        """``skipped 42 records: 20 in X/Z, 19 coherence, 3 at DOFs not in the study`` (or None)."""
         n = sum(self.skipped.values())
         if not n:
             return None
@@ -146,7 +146,7 @@ def map_record(d: dict, sel: Selection, where: str) -> tuple[Dof, Dof, float] | 
     if (sel.responses is not None and dofs[0] not in sel.responses) or (
         sel.references is not None and dofs[1] not in sel.references
     ):
-        return "at points not in the study"
+        return "at DOFs not in the study"
     if code is None:
         sign = (1.0 if dirs[0] > 0 else -1.0) * (1.0 if dirs[1] > 0 else -1.0)
     else:
