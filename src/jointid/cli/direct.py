@@ -129,14 +129,11 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     from ..methods.direct.material_fit import complex_modulus_per_line, fit_material, fit_zener, static_estimate
     from ..measurement.stepsine import process_stepsine, read_stepsine_csv
 
-    columns, scale = _pairs(args.column, "column", False), _pairs(args.scale, "scale", True)
+    blocks = read_stepsine_csv(args.data, columns=_pairs(args.column, "column", False), scale=_pairs(args.scale, "scale", True))
     try:
-        blocks = read_stepsine_csv(args.data, columns=columns, scale=scale)
         result = process_stepsine(blocks, parallel_joints=args.parallel_joints, commanded_amplitude_m=args.amplitude,
                                   tolerance=args.tolerance)
-    except DataError as exc:  # a block of this file: name the file (the reader's own errors already do)
-        if str(exc).startswith(str(args.data)):
-            raise
+    except DataError as exc:  # about the blocks of this file: name it
         raise DataError(f"{args.data}: {exc}") from None
     ok = result.amplitude_ok
     if ok.sum() < 2:

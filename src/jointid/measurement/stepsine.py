@@ -580,7 +580,10 @@ def read_stepsine_csv(
     blocks = []
     for f in np.unique(fcol):
         m = fcol == f
-        blocks.append(StepSineBlock(float(f), data["time"][m], data["displacement"][m], data["force"][m]))
+        try:
+            blocks.append(StepSineBlock(float(f), data["time"][m], data["displacement"][m], data["force"][m]))
+        except DataError as exc:  # a block's own check: name the file too
+            raise DataError(f"{path}: {exc}") from None
     return tuple(blocks)
 
 
