@@ -32,15 +32,16 @@ Procedure (:func:`fit_joint_spline`):
    per-line estimate, and :data:`STARTS` log-normal perturbations of its diagonal with
    the couplings shrunk - keeping the lowest cost (the cost has local minima in the
    weakly seen terms);
-2. ``nb = 2, 3, ...`` up to ``max_basis``, each started from the previous fit projected
-   onto the larger basis (the bases are nested up to 4);
+2. ``nb = 2, 3, ...`` up to ``max_basis``, each started from the previous fit projected onto the
+   larger basis (nested up to 4, and 4 in 5); while the richest order tried is the AIC's best, one
+   more (at most :data:`MAX_EXTENDED_BASIS`, and one coefficient per 4 lines);
 3. the order with the lowest AIC, ``2 N log(chi^2) + 4 P`` (N complex values, P complex
    coefficients; the noise scale is estimated, so only the weights' shape must be right);
 4. covariance ``cov(c) = s^2 (J^H J)^-1`` with ``s^2 = chi^2 / (N - P)``, errors circular
    (half the variance in each part), propagated to ``std_real``/``std_imag`` per term
-   and line; with per-term orders, each part's variance is ``max(var, var_rich + d^2)``,
-   ``d`` the difference from the richest uniform fit (the bias of a dropped coefficient,
-   :mod:`.spline_bands`).
+   and line; each part's variance is ``max(var, var_rich + d^2)``, ``d`` the difference from a
+   richer fit (the bias of the chosen class, :mod:`.spline_bands`): with per-term orders the
+   richest uniform fit, with the AIC's best at or past the cap the order above it.
 
 Units: ``frequency_hz`` in Hz; receptances in m/N, rad/N, m/(N*m), rad/(N*m); ``K`` in
 N/m, N/rad, N*m/m, N*m/rad; ``variance`` in the squared units of ``H``.
@@ -64,9 +65,11 @@ from .spline_bands import richer_fit_band
 
 __all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "legendre_log_basis", "spline_covariance", "term_variance", "MAX_ITERATIONS", "STARTS"]
 
-#: Levenberg-Marquardt iterations per order (at most).
 #: Most B-splines per term that :func:`fit_joint_spline` tries by default (orders 1..this, by AIC).
 DEFAULT_MAX_BASIS = 4
+#: Most B-splines per term when the AIC is best at the richest order tried (then added one at a time, <= F / 4).
+MAX_EXTENDED_BASIS = 12
+#: Levenberg-Marquardt iterations per order (at most).
 MAX_ITERATIONS = 200
 #: Perturbed starts of the constant fit, besides the per-line median itself.
 STARTS = 8
@@ -443,20 +446,27 @@ def _weights(variance: np.ndarray) -> np.ndarray:
     return w
 
 
-def _averaged(problem: _Problem, fits: dict, criterion: dict, best: int, average: bool, count: int, n: int, symmetric: bool):
+def _estimate_and_variance(problem: _Problem, fit: tuple, count: int, n: int) -> tuple:
+    """One order's fit ``(coef, cost, converged, basis)``: ``K`` (F, n, n), ``E|dK|^2`` (F, n, n), the coefficients'
+    covariance and ``s^2 = cost / (N - P)`` (its scale)."""
+    coef, cost, _, basis = fit
+    s2 = cost / max(count - coef.size, 1)
+    K = _stiffness(coef, basis, problem.pairs, n, problem.symmetric)
+    cov = s2 * _inverse(problem.normal(K, basis)[1])
+    return K, term_variance(cov, basis, n, problem.symmetric), cov, s2
+
+
+def _averaged(problem: _Problem, fits: dict, criterion: dict, best: int, average: bool, count: int, n: int):
     """Estimate, std (real, imag), covariance of the chosen order and s^2: with ``average``, the orders averaged by
     Akaike weight and the spread between them (a lower order's bias) added to the bands."""
     aic = np.array([criterion[k][0] for k in fits])
     weights = np.exp(-(aic - aic.min()) / 2.0) if average else (np.array(list(fits)) == best).astype(float)
     weights /= weights.sum()
     parts = {}
-    for (nb, (c_nb, cost_nb, _, basis_nb)), w in zip(fits.items(), weights):
+    for (nb, fit), w in zip(fits.items(), weights):
         if w < AVERAGE_MIN_WEIGHT and nb != best:
             continue
-        s2_nb = cost_nb / max(count - c_nb.size, 1)
-        K_nb = _stiffness(c_nb, basis_nb, problem.pairs, n, problem.symmetric)
-        cov_nb = s2_nb * _inverse(problem.normal(K_nb, basis_nb)[1])
-        parts[nb] = (w, K_nb, term_variance(cov_nb, basis_nb, n, symmetric), cov_nb, s2_nb)
+        parts[nb] = (w, *_estimate_and_variance(problem, fit, count, n))
     total = sum(v[0] for v in parts.values())
     K = sum(v[0] * v[1] for v in parts.values()) / total
     var_re = sum(v[0] * (v[2] / 2.0 + (v[1] - K).real ** 2) for v in parts.values()) / total
@@ -498,7 +508,7 @@ def fit_joint_spline(
     symmetric : bool
         ``K = K^T`` (p = n(n+1)/2 terms), else every entry.
     max_basis : int
-        Most B-splines per term; orders ``1..max_basis`` are fitted in turn, chosen by AIC.
+        Orders ``1..max_basis`` are fitted in turn, chosen by AIC (more while the richest one tried is the best).
     initial : ndarray, shape (F, n, n), complex, optional
         A per-line estimate (its componentwise median starts the constant fit); default: the
         weighted per-line least squares (:func:`~jointid.methods.receptance.coupling_lines.coupling_per_line`).
@@ -544,7 +554,12 @@ def fit_joint_spline(
     count = problem.count
     previous = basis1
     top = max_basis if n_basis is None else n_basis
-    for nb in range(1, top + 1):
+    nb = 0
+    while True:
+        nb += 1
+        if nb > top:  # past the cap while the last order tried is the AIC's best: one order past the best at least
+            if n_basis is not None or nb > min(MAX_EXTENDED_BASIS, F // 4) or min(criterion, key=lambda k: criterion[k][0]) != nb - 1:
+                break
         basis = log_frequency_basis(f, nb)
         if nb > 1:
             coef = _project(coef, previous, basis)
@@ -570,14 +585,15 @@ def fit_joint_spline(
         cov[np.ix_(a, a)] = s2 * _inverse(N[np.ix_(a, a)])
         var_sel = term_variance(cov, basis, n, symmetric) / 2.0  # circular errors: half in each part
         # the bias of the terms left with fewer coefficients, measured against the richest (uniform) fit
-        c_rich, cost_rich, _, basis_rich = fits[max_basis]
-        K_rich = _stiffness(c_rich, basis_rich, problem.pairs, n, problem.symmetric)
-        cov_rich = cost_rich / max(count - c_rich.size, 1) * _inverse(problem.normal(K_rich, basis_rich)[1])
-        std, std_im = richer_fit_band(K, var_sel, var_sel, K_rich, term_variance(cov_rich, basis_rich, n, symmetric))
+        std, std_im = richer_fit_band(K, var_sel, var_sel, *_estimate_and_variance(problem, fits[max_basis], count, n)[:2])
         best = int(orders.max())
         term_orders = orders
     else:
         term_orders = np.full(len(problem.pairs[0]), best)
         coef, cost, converged, _ = fits[best]
-        K, std, std_im, cov, s2 = _averaged(problem, fits, criterion, best, n_basis is None, count, n, symmetric)
+        K, std, std_im, cov, s2 = _averaged(problem, fits, criterion, best, n_basis is None, count, n)
+        if n_basis is None and best >= max_basis and best + 1 in fits:
+            # at or past the cap: the band also holds the bias measured against the order above the AIC's best (the
+            # one that stopped the search; :mod:`.spline_bands`)
+            std, std_im = richer_fit_band(K, std ** 2, std_im ** 2, *_estimate_and_variance(problem, fits[best + 1], count, n)[:2])
     return JointSplineFit(f, K, std, std_im, best, float(s2), bool(converged), coef, cov, criterion, len(candidates), symmetric, term_orders)
