@@ -147,8 +147,22 @@ def read_measured(study: Study, path: str | os.PathLike) -> FRF:
     from .io.frf_files import read_frf
 
     m = study.measurement
-    return read_frf(path, points=m.point_map, responses=m.observed_dofs, references=m.excited_dofs, coherence=True,
-                    **study.structure.frf_reading(m))
+    measured = read_frf(path, points=m.point_map, responses=m.observed_dofs, references=m.excited_dofs, coherence=True,
+                        **study.structure.frf_reading(m))
+    _require_study_dofs(study, measured, f"the FRF file {path}")
+    return measured
+
+
+def _require_study_dofs(study: Study, measured: FRF, what_file: str) -> None:
+    """Raise DataError (one line naming ``what_file`` and the DOFs) when ``measured`` lacks a DOF of [measurement]."""
+    m = study.measurement
+    for what, have, want in (("response", measured.responses, m.observed_dofs), ("reference", measured.references, m.excited_dofs)):
+        missing = [str(d) for d in want if d not in have]
+        if missing:
+            raise DataError(
+                f"{what_file} has no {what} at {', '.join(missing)} (it has {', '.join(map(str, have)) or 'none'}); "
+                f"measure it or remove it from [measurement] in {study.source}"
+            )
 
 
 def study_frfs(study: Study, measured: FRF) -> FRF:
@@ -160,13 +174,7 @@ def study_frfs(study: Study, measured: FRF) -> FRF:
         The file lacks one of the study's DOFs (one line naming them and what the file has).
     """
     m = study.measurement
-    for what, have, want in (("response", measured.responses, m.observed_dofs), ("reference", measured.references, m.excited_dofs)):
-        missing = [str(d) for d in want if d not in have]
-        if missing:
-            raise DataError(
-                f"the FRF file has no {what} at {', '.join(missing)} (it has {', '.join(map(str, have))}); "
-                f"measure it or remove it from [measurement] in {study.source}"
-            )
+    _require_study_dofs(study, measured, "the FRF file")
     # a 0 Hz line carries no information (and the free structure is singular there): skip it
     try:
         return measured.select(m.observed_dofs, m.excited_dofs).band(max(study.frequency.start, 1e-6), study.frequency.stop)
