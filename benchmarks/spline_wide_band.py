@@ -50,22 +50,10 @@ def stiffening(f_hz):
     return s[:, None, None] * m6.mount_stiffness(np.full(np.size(f_hz), m6.F_REF))
 
 
-CHAIN_MOUNT = """
-[joint.model]
-type = "mount"
-stiffness = [3e6, 2e6, 4e6, 3e3, 2.5e3, 1.5e3]
-couplings = [["1x", "1ry", 2e4], ["1y", "1rx", -1.5e4], ["1x", "1y", 4e5]]
-loss_factor = 0.12
-growth = 0.3
-reference_frequency = 100.0
-exponent = 0.8
-"""
-
-
 def chain(seeds: int) -> None:
     """The chain case through ``pipeline.identify`` (module docstring)."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    from structure_model import labels, write_model
+    from structure_model import MOUNT_A, labels, write_model
 
     from jointid import pipeline
     from jointid.reproduce.common import add_noise
@@ -88,7 +76,7 @@ def chain(seeds: int) -> None:
         [[joint]]
         name = "front"
         dofs = {_list(labels(1))}
-        """) + CHAIN_MOUNT + textwrap.dedent(f"""
+        """) + MOUNT_A.format(n=1) + textwrap.dedent(f"""
         [measurement]
         observed = {_list(observed)}
         excited = {_list(excited)}

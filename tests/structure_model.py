@@ -18,6 +18,19 @@ from jointid.io.matrix_files import write_dof_list
 
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
 
+#: A 6-DOF mount stiffening over frequency, as a study's ``[joint.model]`` (``.format(n=node)``):
+#: ``K0 (1 + 0.3 (f / 100)^0.8) (1 + 0.12 j)`` with three couplings.
+MOUNT_A = """
+[joint.model]
+type = "mount"
+stiffness = [3e6, 2e6, 4e6, 3e3, 2.5e3, 1.5e3]
+couplings = [["{n}x", "{n}ry", 2e4], ["{n}y", "{n}rx", -1.5e4], ["{n}x", "{n}y", 4e5]]
+loss_factor = 0.12
+growth = 0.3
+reference_frequency = 100.0
+exponent = 0.8
+"""
+
 
 def chain_matrices(n_nodes: int = 10, breaks: tuple[int, ...] = (), seed: int = 3):
     """(M, K, DofArray) of the spring chain, sparse."""

@@ -130,6 +130,17 @@ def test_richer_fit_band_keeps_the_nominal_level_for_any_bias():
     half = Z90 * np.sqrt(s ** 2 + d ** 2)
     prob = norm.cdf((half - d) / s) - norm.cdf((-half - d) / s)
     assert prob.min() >= 0.89995 and abs(prob[0] - 0.9) < 1e-9
+    # nested fits: K_sel - K_true = b + e_sel, d ~ N(b, r^2 - s^2) independent of e_sel, band z sqrt(r^2 + d^2):
+    # >= 0.89995 for s^2 / r^2 from 0.05 to 1 (expectation over d by 60-point Gauss-Hermite: exact for the
+    # polynomial part, the normal tails' remainder < 1e-12)
+    x, w = np.polynomial.hermite_e.hermegauss(60)
+    w = w / w.sum()
+    b = np.linspace(0.0, 12.0, 1201)[:, None]
+    for q in (1.0, 0.95, 0.8, 0.5, 0.2, 0.05):
+        s_sel, s_d = np.sqrt(q), np.sqrt(1.0 - q)
+        half = Z90 * np.sqrt(1.0 + (b + s_d * x[None, :]) ** 2)
+        cover = (norm.cdf((half - b) / s_sel) - norm.cdf((-half - b) / s_sel)) @ w
+        assert cover.min() >= 0.89995, (q, cover.min())
     # the function: per part, max(own variance, half the richest fit's + the squared difference)
     K = np.array([[[1.0 + 2.0j]]])
     std_re, std_im = richer_fit_band(K, np.array([[[0.5]]]), np.array([[[4.0]]]), K - (3.0 - 1.0j), np.array([[[2.0]]]))
@@ -212,7 +223,9 @@ def _coverage(fit, truth, std_real=None, std_imag=None):
 
 def test_orders_go_past_the_cap_while_the_aic_still_improves(wide_band):
     # 0.1 % noise, seed 1: the AIC falls from 1 to 6 coefficients per term and rises at 7; the cap (4) used to stop
-    # the search at 4, whose shape error left K_x_x's band holding the truth on a minority of the lines
+    # the search at 4, whose shape error left K_x_x's band holding the truth on a minority of the lines. The
+    # thresholds are this seed's measured values with margin (capped 0.16, full 0.95; errors at most 0.51 of the
+    # capped fit's), not bounds; the full fit's coverage also needs the band against order 7 (its own: 0.73 on K_x_x)
     freq, (Ymn, Ynn, Yne, Yme), H0, truth = wide_band
     H = _noisy(H0, 0.001, 1)
     args = (freq.hz, Ymn, Ynn, Yne, Yme, H, np.abs(H) ** 2)
@@ -227,10 +240,14 @@ def test_orders_go_past_the_cap_while_the_aic_still_improves(wide_band):
     assert _coverage(capped, truth).min() < 0.5 and _coverage(fit, truth).min() >= 0.8, (_coverage(capped, truth), _coverage(fit, truth))
 
 
-def test_bands_at_the_cap_hold_the_bias_measured_against_the_next_order(wide_band):
+def test_bands_at_the_cap_hold_the_bias_measured_against_the_next_order(wide_band, monkeypatch):
     # 1 % noise, seed 0: the AIC takes 4 (5 is worse), yet the 4-coefficient K_x_x is biased by 1-3 of its own sigma
-    # on the lines between the band's ends; the band max(var_4, var_5 + (K_4 - K_5)^2) holds it (cubic polynomials
-    # are in the cubic B-splines with one interior knot: the 5-coefficient space nests the 4-coefficient one)
+    # on the lines between the band's ends (up to 6.7 at 400 Hz, exact data). Each part's band is
+    # max(var_avg, var_5 / 2 + (K - K_5)^2), var_avg the Akaike average's (order 4 with weight 1 - w, w = e^(-dAIC/2)).
+    # Order 5 run to convergence here, so that it is the n_basis = 5 fit (the default stops it after 20 iterations)
+    import jointid.methods.receptance.spline_fit as spline_fit
+
+    monkeypatch.setattr(spline_fit, "EXTENSION_ITERATIONS", spline_fit.MAX_ITERATIONS)
     freq, (Ymn, Ynn, Yne, Yme), H0, truth = wide_band
     H = _noisy(H0, 0.01, 0)
     args = (freq.hz, Ymn, Ynn, Yne, Yme, H, np.abs(H) ** 2)
@@ -238,9 +255,28 @@ def test_bands_at_the_cap_hold_the_bias_measured_against_the_next_order(wide_ban
     assert fit.n_basis == 4 and max(fit.criterion) == 5 and fit.criterion[5][0] > fit.criterion[4][0]
     assert "per-term" not in fit.criterion
     own = np.sqrt(term_variance(fit.covariance, log_frequency_basis(freq.hz, 4), 6) / 2)
+    w = np.exp(-(fit.criterion[5][0] - fit.criterion[4][0]) / 2)
+    assert w < 1e-3
     d = fit.stiffness - five.stiffness
     var5 = five.std_real ** 2 + five.std_imag ** 2  # E|dK|^2 of the 5-coefficient fit
-    tol = 1e-9  # relative: the same sums in another order
-    assert np.all(fit.std_real ** 2 >= (var5 / 2 + d.real ** 2) * (1 - tol))
-    assert np.all(fit.std_imag ** 2 >= (var5 / 2 + d.imag ** 2) * (1 - tol))
+    for std, dpart in ((fit.std_real, d.real), (fit.std_imag, d.imag)):
+        bias = var5 / 2 + dpart ** 2
+        assert np.all(std ** 2 >= (1 - w) * own ** 2)  # never below the chosen order's own band
+        # where the bias term exceeds var_avg <= own^2 + w * bias it is the band: the same sums in another order
+        dominant = bias > own ** 2 * (1 + 1e-3)
+        assert dominant[:, 0, 0].mean() > 0.5
+        np.testing.assert_allclose(std[dominant] ** 2, bias[dominant], rtol=1e-9)
+    # measured on this seed (not bounds): own bands cover 0.56 of K_x_x's lines, these 0.96-1.0 on every term
     assert _coverage(fit, truth, own, own)[0] < 0.7 and _coverage(fit, truth).min() >= 0.8, (_coverage(fit, truth, own, own), _coverage(fit, truth))
+
+
+def test_a_search_stopped_by_the_line_count_still_measures_the_bias(wide_band):
+    # 16 lines: at most 16 / 4 = 4 coefficients per term are chosen, and the AIC's best is that limit; the order
+    # above it (5) is fitted for the band alone (not in the criterion), so the 4-coefficient bias is in the band
+    freq, (Ymn, Ynn, Yne, Yme), H0, truth = wide_band
+    k = slice(0, 16)
+    H = _noisy(H0[k], 0.01, 0)
+    fit = fit_joint_spline(freq.hz[k], Ymn[k], Ynn[k], Yne[k], Yme[k], H, np.abs(H) ** 2)
+    assert fit.n_basis == 4 and max(fit.criterion) == 4
+    own = np.sqrt(term_variance(fit.covariance, log_frequency_basis(freq.hz[k], 4), 6) / 2)
+    assert np.median(fit.std_real[:, 0, 0] / own[:, 0, 0]) > 1.2, np.median(fit.std_real[:, 0, 0] / own[:, 0, 0])

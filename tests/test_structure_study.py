@@ -15,23 +15,13 @@ from jointid.dofs import Dof
 from jointid.errors import StudyError
 from jointid.physics.mount import MountModel
 from jointid.study import load_study
-from structure_model import labels, write_model
+from structure_model import MOUNT_A, labels, write_model
 
 
 def _list(xs) -> str:
     return "[" + ", ".join(f'"{x}"' for x in xs) + "]"
 
 
-MOUNT_A = """
-[joint.model]
-type = "mount"
-stiffness = [3e6, 2e6, 4e6, 3e3, 2.5e3, 1.5e3]
-couplings = [["{n}x", "{n}ry", 2e4], ["{n}y", "{n}rx", -1.5e4], ["{n}x", "{n}y", 4e5]]
-loss_factor = 0.12
-growth = 0.3
-reference_frequency = 100.0
-exponent = 0.8
-"""
 MOUNT_B = """
 [joint.model]
 type = "mount"

@@ -14,24 +14,30 @@ estimates ``d = K_sel - K_rich`` as the measured bias of the chosen one. The ban
 
     sigma^2 = max(sigma_sel^2,  sigma_rich^2 + d^2)
 
-``K_true = K_sel - d - e_rich`` with ``e_rich ~ N(0, sigma_rich^2)`` independent of ``d`` (nested
-least squares), so ``P(|K_sel - K_true| <= z sigma) = P(|d + e_rich| <= z sqrt(sigma_rich^2 + d^2))``
-is the nominal level at ``d = 0`` and not below it by more than 5e-5 for any ``d`` (at ``z = 1.645``:
-0.89995 at ``|d| = 0.37 sigma_rich``, 0.908 at ``|d| = sigma_rich``, 1 as ``|d| -> inf``): the band
-keeps the richest fit's coverage while the estimate keeps the smaller error of the chosen orders.
+``K_sel - K_true = b + e_sel`` (``b`` the chosen class's bias, ``e_sel ~ N(0, sigma_sel^2)``) and
+``d ~ N(b, sigma_rich^2 - sigma_sel^2)`` independent of ``e_sel`` (nested least squares: the smaller
+fit's error is uncorrelated with the difference of the two fits, as in Hausman's test). The coverage
+``P(|b + e_sel| <= z sqrt(sigma_rich^2 + d^2))`` is then, computed exactly over ``b`` at ``z = 1.645``,
+never below 0.89995 for ``sigma_sel^2 / sigma_rich^2`` from 0.05 to 1 (the minimum, at equal
+variances and ``|b| = 0.37 sigma``; 0.906-0.919 for ratios 0.05-0.95; 1 as ``|b| -> inf``;
+``tests/test_spline_fit.py``): the band keeps the richer fit's coverage while the estimate keeps the
+smaller error of the chosen orders.
 
-The same band is used when the AIC's best order is the cap (4) or past it (the search went on while
-the richest order was the best): the richer fit is then the order above the best, fitted anyway to
-stop the search. A joint whose shape the cap cannot follow is biased by several of its own sigma
-although the AIC prefers 4 to 5: one more coefficient on all 21 terms of a 6-DOF mount costs more
-than it gains on the one term that needs it, and the richer class's extra directions are so poorly
-determined that no test on them sees the bias (``benchmarks/spline_wide_band.py``: a stiffening
-``1 + 0.3 (f / 100)^0.8`` over 10-400 Hz, K_x_x up to 6.7 sigma off with 4 coefficients; the
-diagonal terms' own bands cover 0.60-0.86 at 1 % noise, these 0.96-0.99). Cubic polynomials lie in the cubic B-splines with one interior
-knot, so 4 is nested in 5 and the argument above holds; past 5 the uniform-knot spaces are not nested
-and the band is the same formula without that proof (measured by the same script). Where the
-4-coefficient class is right, the noise in ``d`` makes these bands conservative
-(``benchmarks/mount_6dof.py``).
+The same band is used for a uniform order chosen by the AIC: the richer fit is then the order above
+the best (the one that stopped the search past the cap ``max_basis``, or one fitted for the band
+alone when the line count or :data:`~.spline_fit.MAX_EXTENDED_BASIS` stopped it). A joint whose
+shape the cap cannot follow is biased by several of its own sigma although the AIC prefers 4 to 5:
+one more coefficient on all 21 terms of a 6-DOF mount costs more than it gains on the one term that
+needs it, and the richer class's extra directions are so poorly determined that no test on them
+sees the bias (``benchmarks/spline_wide_band.py``: a stiffening ``1 + 0.3 (f / 100)^0.8`` over
+10-400 Hz, K_x_x up to 6.7 sigma off with 4 coefficients; the diagonal terms' own bands cover
+0.60-0.86 at 1 % noise, these 0.95-0.99). Cubic polynomials lie in the cubic B-splines with one
+interior knot, so 4 is nested in 5 and the argument above holds; 5 and 6, 6 and 7 are not nested,
+and there the band is the same formula without that proof (measured by the same script). An order
+past the cap that the AIC rejects stops after a few iterations (the well-determined directions,
+which set ``d`` where the band is narrow, converge in them; the others enter through their
+variance). Where the chosen class is right, the noise in ``d`` makes these bands conservative
+(``benchmarks/mount_6dof.py``: 0.93-0.99 where 0.9 is nominal).
 
 Caveats: ``d`` is itself noisy (its variance ``~ sigma_rich^2 - sigma_sel^2`` adds to the band
 where there is no bias: conservative by at most that); the richest fit's own linearized band is
@@ -52,18 +58,18 @@ __all__ = ["richer_fit_band"]
 
 def richer_fit_band(K: np.ndarray, var_real: np.ndarray, var_imag: np.ndarray, K_rich: np.ndarray,
                     var_rich: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """1-sigma bands of the chosen fit with the bias measured against the richest fit (module docstring).
+    """1-sigma bands of the chosen fit with the bias measured against a richer fit (module docstring).
 
     Parameters
     ----------
     K : ndarray, shape (F, n, n), complex
-        Chosen estimate (per-term orders), N/m, N/rad, N*m/m, N*m/rad.
+        Chosen estimate (per-term orders, or the Akaike average of uniform orders), N/m, N/rad, N*m/m, N*m/rad.
     var_real, var_imag : ndarray, shape (F, n, n)
-        Its linearized variance of the real and imaginary part (squared units of ``K``).
+        Its variance of the real and imaginary part (squared units of ``K``).
     K_rich : ndarray, shape (F, n, n), complex
-        Estimate of the richest uniform order on the same data.
+        Estimate of the richer fit on the same data (the richest uniform order, or the order above the best).
     var_rich : ndarray, shape (F, n, n)
-        ``E|dK|^2`` of the richest fit (circular: half in each part).
+        ``E|dK|^2`` of the richer fit (circular: half in each part).
 
     Returns
     -------

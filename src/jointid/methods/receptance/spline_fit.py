@@ -20,11 +20,9 @@ The model is holomorphic in ``c``, so the Gauss-Newton step is the complex one,
 ``L = (I + K Y[n,n])^-1``, ``R = (I + Y[n,n] K)^-1`` (``dX = L dK R``). The normal
 matrix is built from per-line ``p x p`` blocks (no Python loop over lines).
 
-Why a joint fit: the per-line estimate inverts ``X`` line by line, and where a term is
-weakly seen (a rotation of a mount whose rotations the measured translations hardly
-feel) its error is of the order of the term itself and far from Gaussian; smoothing
-those estimates afterwards keeps their bias. The joint fit uses the FRFs themselves,
-so the whole band informs each coefficient, and its bands come from the FRF noise.
+Why a joint fit: per line, a weakly seen term (a mount's rotation the measured translations hardly
+feel) has an error of the order of the term itself, far from Gaussian, and smoothing those estimates
+keeps their bias; here the whole band informs each coefficient and the bands come from the FRF noise.
 
 Procedure (:func:`fit_joint_spline`):
 
@@ -32,38 +30,38 @@ Procedure (:func:`fit_joint_spline`):
    per-line estimate, and :data:`STARTS` log-normal perturbations of its diagonal with
    the couplings shrunk - keeping the lowest cost (the cost has local minima in the
    weakly seen terms);
-2. ``nb = 2, 3, ...`` up to ``max_basis``, each started from the previous fit projected onto the
-   larger basis (nested up to 4, and 4 in 5); while the richest order tried is the AIC's best, one
-   more (at most :data:`MAX_EXTENDED_BASIS`, and one coefficient per 4 lines);
+2. ``nb = 2, 3, ...`` up to ``max_basis``, each from the previous fit projected (nested up to 4, and
+   4 in 5); while the richest order tried is the AIC's best, one more, at most
+   :data:`MAX_EXTENDED_BASIS` and ``F / 4`` (an order past the cap gets :data:`EXTENSION_ITERATIONS`
+   first, and converges only if it already beats every order: a rejected one's AIC is an upper bound);
 3. the order with the lowest AIC, ``2 N log(chi^2) + 4 P`` (N complex values, P complex
    coefficients; the noise scale is estimated, so only the weights' shape must be right);
 4. covariance ``cov(c) = s^2 (J^H J)^-1`` with ``s^2 = chi^2 / (N - P)``, errors circular
-   (half the variance in each part), propagated to ``std_real``/``std_imag`` per term
-   and line; each part's variance is ``max(var, var_rich + d^2)``, ``d`` the difference from a
-   richer fit (the bias of the chosen class, :mod:`.spline_bands`): with per-term orders the
-   richest uniform fit, with the AIC's best at or past the cap the order above it.
+   (half the variance in each part), propagated to ``std_real``/``std_imag`` per term and line;
+   each part's variance is ``max(var, var_rich / 2 + d^2)``, ``d`` the difference from a richer fit
+   (the bias of the chosen class, :mod:`.spline_bands`): with per-term orders the richest uniform
+   fit; else (Akaike-averaged ``var``) the order above the AIC's best, fitted for the band alone
+   if the limit stopped the search there.
 
 Units: ``frequency_hz`` in Hz; receptances in m/N, rad/N, m/(N*m), rad/(N*m); ``K`` in
 N/m, N/rad, N*m/m, N*m/rad; ``variance`` in the squared units of ``H``.
 
-Caveats: the bands hold when the joint is in the class (smooth in ``log f`` to the
-chosen order: a power-law or fractional modulus over a decade or two is; an internal
-resonance of the joint inside the band is not) and when the free model is right -
-model error is not in them. The linearization behind them holds while the predicted
-relative errors are small. The multi-start finds the global constant fit with high
-probability, not certainty; ``converged`` only reports that LM stopped on a small step.
+Caveats: the bands hold when the joint is smooth in ``log f`` (a power-law or fractional modulus is;
+an internal resonance of the joint inside the band is not) and the free model is right (its error is
+not in them), and while the predicted relative errors are small (linearization). The multi-start finds
+the global constant fit with high probability, not certainty; ``converged``: LM stopped on a small step.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from .smoothing import bspline_basis
 from .spline_bands import richer_fit_band
+from .spline_result import JointSplineFit
 
-__all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "legendre_log_basis", "spline_covariance", "term_variance", "MAX_ITERATIONS", "STARTS"]
+__all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "legendre_log_basis", "spline_covariance", "term_variance",
+           "DEFAULT_MAX_BASIS", "MAX_EXTENDED_BASIS", "MAX_ITERATIONS", "EXTENSION_ITERATIONS", "STARTS"]
 
 #: Most B-splines per term that :func:`fit_joint_spline` tries by default (orders 1..this, by AIC).
 DEFAULT_MAX_BASIS = 4
@@ -71,6 +69,9 @@ DEFAULT_MAX_BASIS = 4
 MAX_EXTENDED_BASIS = 12
 #: Levenberg-Marquardt iterations per order (at most).
 MAX_ITERATIONS = 200
+#: Iterations of an order past the cap before its AIC is compared (then to convergence only if the best: a rejected
+#: order sets the bias band by its well-determined directions; the others crawl, 49 iterations on mount_6dof.py).
+EXTENSION_ITERATIONS = 20
 #: Perturbed starts of the constant fit, besides the per-line median itself.
 STARTS = 8
 #: Standard deviation of the log-normal factor on each diagonal term of a perturbed start.
@@ -87,63 +88,6 @@ ACCELERATION_STEP = 0.1
 ACCELERATION_RATIO = 0.75
 #: LM stops when the scaled step is below this (relative to the scaled coefficients) or the cost stops falling by more.
 STEP_TOLERANCE = 1e-10
-
-
-@dataclass(frozen=True, eq=False)
-class JointSplineFit:
-    """A joint fitted as B-splines in log frequency to all lines (:func:`fit_joint_spline`).
-
-    Attributes
-    ----------
-    frequency_hz : ndarray, shape (F,)
-    stiffness : ndarray, shape (F, n, n), complex
-        N/m, N/rad, N*m/m, N*m/rad.
-    std_real, std_imag : ndarray, shape (F, n, n)
-        1-sigma standard deviation of the real and imaginary part of each term (linearized).
-    n_basis : int
-        B-spline functions per term of the chosen order.
-    chi2_per_dof : float
-        Whitened residual sum of squares per complex degree of freedom (``s^2``; ~1 when
-        ``variance`` is on an absolute scale and the model fits).
-    converged : bool
-        LM stopped on a small step at the chosen order.
-    coefficients : ndarray, shape (p, n_basis), complex
-        ``c`` per term (upper triangle row by row if symmetric, else every entry).
-    covariance : ndarray, shape (p * n_basis, p * n_basis), complex
-        ``E[dc dc^H]`` (scaled by ``s^2``), coefficients ordered term-major.
-    criterion : dict
-        ``n_basis -> (AIC, chi2_per_dof)`` of every order fitted.
-    starts : int
-        Starts of the constant fit.
-    symmetric : bool
-    term_basis : ndarray of int, shape (p,)
-        Coefficients per term (per-term orders: Legendre polynomials in ``log f``; else all ``n_basis``).
-    """
-
-    frequency_hz: np.ndarray
-    stiffness: np.ndarray
-    std_real: np.ndarray
-    std_imag: np.ndarray
-    n_basis: int
-    chi2_per_dof: float
-    converged: bool
-    coefficients: np.ndarray
-    covariance: np.ndarray
-    criterion: dict = field(default_factory=dict)
-    starts: int = 0
-    symmetric: bool = True
-    term_basis: np.ndarray | None = None
-
-    def describe(self) -> str:
-        """One line: the orders chosen, by what, the fit's chi^2/dof and convergence."""
-        orders = ", ".join(f"{k}: {v[1]:.3g}" for k, v in self.criterion.items())
-        tb = self.term_basis
-        if tb is not None and "per-term" in self.criterion:
-            what = f"{tb.min()}-{tb.max()} coefficients per term (Legendre in log f, per-term orders by score test)"
-        else:
-            what = f"{self.n_basis} B-spline(s) in log f (order by AIC)"
-        return (f"every term {what}, fitted to all lines jointly; chi^2/dof per order {orders}"
-                + ("" if self.converged else "; not converged"))
 
 
 def log_frequency_basis(frequency_hz: np.ndarray, n_basis: int) -> np.ndarray:
@@ -446,11 +390,25 @@ def _weights(variance: np.ndarray) -> np.ndarray:
     return w
 
 
+def _aic_and_scale(cost: float, count: int, P: int) -> tuple[float, float]:
+    """``(AIC, s^2)`` of a fit: ``2 N log(cost) + 4 P`` (N complex values, P complex coefficients) and ``cost / (N - P)``."""
+    return float(2.0 * count * np.log(max(cost, 1e-300)) + 4.0 * P), float(cost / max(count - P, 1))
+
+
+def _best_order(criterion: dict):
+    """The key of the lowest AIC."""
+    return min(criterion, key=lambda k: criterion[k][0])
+
+
+def _best_aic(criterion: dict) -> float:
+    return min(v[0] for v in criterion.values())
+
+
 def _estimate_and_variance(problem: _Problem, fit: tuple, count: int, n: int) -> tuple:
     """One order's fit ``(coef, cost, converged, basis)``: ``K`` (F, n, n), ``E|dK|^2`` (F, n, n), the coefficients'
     covariance and ``s^2 = cost / (N - P)`` (its scale)."""
     coef, cost, _, basis = fit
-    s2 = cost / max(count - coef.size, 1)
+    s2 = _aic_and_scale(cost, count, coef.size)[1]
     K = _stiffness(coef, basis, problem.pairs, n, problem.symmetric)
     cov = s2 * _inverse(problem.normal(K, basis)[1])
     return K, term_variance(cov, basis, n, problem.symmetric), cov, s2
@@ -508,7 +466,8 @@ def fit_joint_spline(
     symmetric : bool
         ``K = K^T`` (p = n(n+1)/2 terms), else every entry.
     max_basis : int
-        Orders ``1..max_basis`` are fitted in turn, chosen by AIC (more while the richest one tried is the best).
+        Orders ``1..max_basis`` are fitted in turn, chosen by AIC, and more while the richest one tried is the
+        best (not a hard maximum: ``n_basis`` fixes the order, e.g. ``n_basis=1`` for a constant joint).
     initial : ndarray, shape (F, n, n), complex, optional
         A per-line estimate (its componentwise median starts the constant fit); default: the
         weighted per-line least squares (:func:`~jointid.methods.receptance.coupling_lines.coupling_per_line`).
@@ -552,32 +511,32 @@ def fit_joint_spline(
     coef = min(scored, key=lambda t: t[0])[1]
     fits, criterion = {}, {}
     count = problem.count
-    previous = basis1
-    top = max_basis if n_basis is None else n_basis
-    nb = 0
-    while True:
-        nb += 1
-        if nb > top:  # past the cap while the last order tried is the AIC's best: one order past the best at least
-            if n_basis is not None or nb > min(MAX_EXTENDED_BASIS, F // 4) or min(criterion, key=lambda k: criterion[k][0]) != nb - 1:
-                break
+
+    def order(nb: int, iterations: int) -> tuple:
+        """Fit of ``nb`` coefficients per term from the previous order projected; a short one (``iterations <
+        MAX_ITERATIONS``) goes on to convergence only if its AIC already beats every order's."""
+        previous = fits[nb - 1] if nb > 1 else (coef, None, None, basis1)
         basis = log_frequency_basis(f, nb)
-        if nb > 1:
-            coef = _project(coef, previous, basis)
-        coef, cost, converged = _levenberg_marquardt(problem, coef, basis, MAX_ITERATIONS)
-        P = coef.size
-        dof = max(count - P, 1)
-        s2 = cost / dof
-        aic = 2.0 * count * np.log(max(cost, 1e-300)) + 4.0 * P
-        fits[nb] = (coef, cost, converged, basis)
-        criterion[nb] = (float(aic), float(s2))
-        previous = basis
-    best = n_basis if n_basis is not None else min(criterion, key=lambda k: criterion[k][0])
+        c = _project(previous[0], previous[3], basis) if nb > 1 else previous[0]
+        c, cost, converged = _levenberg_marquardt(problem, c, basis, iterations)
+        if not converged and iterations < MAX_ITERATIONS and _aic_and_scale(cost, count, c.size)[0] < _best_aic(criterion):
+            c, cost, converged = _levenberg_marquardt(problem, c, basis, MAX_ITERATIONS)
+        return c, cost, converged, basis
+
+    for nb in range(1, (max_basis if n_basis is None else n_basis) + 1):
+        fits[nb] = order(nb, MAX_ITERATIONS)
+        criterion[nb] = _aic_and_scale(fits[nb][1], count, fits[nb][0].size)
+    limit = min(MAX_EXTENDED_BASIS, F // 4)
+    while n_basis is None and _best_order(criterion) == max(fits) < limit:  # past the cap while the richest is the best
+        nb = max(fits) + 1
+        fits[nb] = order(nb, EXTENSION_ITERATIONS)
+        criterion[nb] = _aic_and_scale(fits[nb][1], count, fits[nb][0].size)
+    best = n_basis if n_basis is not None else _best_order(criterion)
     if n_basis is None and best < max_basis <= 4:
         # per-term orders: the terms that need more coefficients get them, one at a time
         coef, cost, converged, basis, active, orders = _per_term_orders(problem, fits[best][0], fits[best][3], f, max_basis)
-        P = int(active.sum())
-        s2 = cost / max(count - P, 1)
-        criterion["per-term"] = (float(2.0 * count * np.log(max(cost, 1e-300)) + 4.0 * P), float(s2))
+        criterion["per-term"] = _aic_and_scale(cost, count, int(active.sum()))
+        s2 = criterion["per-term"][1]
         K = _stiffness(coef, basis, problem.pairs, n, problem.symmetric)
         N = problem.normal(K, basis)[1]
         a = np.flatnonzero(active)
@@ -592,8 +551,9 @@ def fit_joint_spline(
         term_orders = np.full(len(problem.pairs[0]), best)
         coef, cost, converged, _ = fits[best]
         K, std, std_im, cov, s2 = _averaged(problem, fits, criterion, best, n_basis is None, count, n)
-        if n_basis is None and best >= max_basis and best + 1 in fits:
-            # at or past the cap: the band also holds the bias measured against the order above the AIC's best (the
-            # one that stopped the search; :mod:`.spline_bands`)
-            std, std_im = richer_fit_band(K, std ** 2, std_im ** 2, *_estimate_and_variance(problem, fits[best + 1], count, n)[:2])
+        if n_basis is None and (best + 1) * len(problem.pairs[0]) < count:
+            # the band also holds the bias measured against the order above the AIC's best (:mod:`.spline_bands`):
+            # the one that stopped the search, or (stopped by the limit) one fitted for the band alone
+            above = fits[best + 1] if best + 1 in fits else order(best + 1, EXTENSION_ITERATIONS)
+            std, std_im = richer_fit_band(K, std ** 2, std_im ** 2, *_estimate_and_variance(problem, above, count, n)[:2])
     return JointSplineFit(f, K, std, std_im, best, float(s2), bool(converged), coef, cov, criterion, len(candidates), symmetric, term_orders)
