@@ -161,7 +161,7 @@ def per_term_fits(case):
 
 def test_per_term_bands_hold_the_bias_measured_against_the_richest_fit(per_term_fits):
     fit, rich, truth = per_term_fits
-    assert "per-term" in fit.criterion and fit.term_basis.min() < 4
+    assert "per-term" in fit.criterion and fit.term_basis.min() < 4 and fit.bias_basis == 4
     # the richest fit inside the default one is the n_basis = 4 fit (same starts, same seed): its estimate and bands
     d = fit.stiffness - rich.stiffness
     assert np.abs(d).max() > 0
@@ -253,7 +253,8 @@ def test_bands_at_the_cap_hold_the_bias_measured_against_the_next_order(wide_ban
     args = (freq.hz, Ymn, Ynn, Yne, Yme, H, np.abs(H) ** 2)
     fit, five = fit_joint_spline(*args), fit_joint_spline(*args, n_basis=5)
     assert fit.n_basis == 4 and max(fit.criterion) == 5 and fit.criterion[5][0] > fit.criterion[4][0]
-    assert "per-term" not in fit.criterion
+    assert "per-term" not in fit.criterion and fit.bias_basis == 5 and five.bias_basis is None
+    assert "; bands hold the difference from the 5-coefficient fit" in fit.describe()
     own = np.sqrt(term_variance(fit.covariance, log_frequency_basis(freq.hz, 4), 6) / 2)
     w = np.exp(-(fit.criterion[5][0] - fit.criterion[4][0]) / 2)
     assert w < 1e-3
@@ -277,6 +278,6 @@ def test_a_search_stopped_by_the_line_count_still_measures_the_bias(wide_band):
     k = slice(0, 16)
     H = _noisy(H0[k], 0.01, 0)
     fit = fit_joint_spline(freq.hz[k], Ymn[k], Ynn[k], Yne[k], Yme[k], H, np.abs(H) ** 2)
-    assert fit.n_basis == 4 and max(fit.criterion) == 4
+    assert fit.n_basis == 4 and max(fit.criterion) == 4 and fit.bias_basis == 5
     own = np.sqrt(term_variance(fit.covariance, log_frequency_basis(freq.hz[k], 4), 6) / 2)
     assert np.median(fit.std_real[:, 0, 0] / own[:, 0, 0]) > 1.2, np.median(fit.std_real[:, 0, 0] / own[:, 0, 0])

@@ -130,7 +130,8 @@ class CouplingResult(JointEstimate):
         if self.spline is not None:
             sp = self.spline
             out["spline"] = {"n_basis": int(sp.n_basis), "chi2_per_dof": float(sp.chi2_per_dof), "converged": bool(sp.converged),
-                             "aic_and_chi2_per_dof": {str(k): [float(v[0]), float(v[1])] for k, v in sp.criterion.items()}}
+                             "aic_and_chi2_per_dof": {str(k): [float(v[0]), float(v[1])] for k, v in sp.criterion.items()},
+                             "bias_band_n_basis": sp.bias_basis}
         return out
 
     def _structured_summary(self) -> dict:

@@ -401,6 +401,7 @@ def _best_order(criterion: dict):
 
 
 def _best_aic(criterion: dict) -> float:
+    """The lowest AIC."""
     return min(v[0] for v in criterion.values())
 
 
@@ -545,15 +546,19 @@ def fit_joint_spline(
         var_sel = term_variance(cov, basis, n, symmetric) / 2.0  # circular errors: half in each part
         # the bias of the terms left with fewer coefficients, measured against the richest (uniform) fit
         std, std_im = richer_fit_band(K, var_sel, var_sel, *_estimate_and_variance(problem, fits[max_basis], count, n)[:2])
+        bias_basis = max_basis
         best = int(orders.max())
         term_orders = orders
     else:
         term_orders = np.full(len(problem.pairs[0]), best)
         coef, cost, converged, _ = fits[best]
         K, std, std_im, cov, s2 = _averaged(problem, fits, criterion, best, n_basis is None, count, n)
+        bias_basis = None
         if n_basis is None and (best + 1) * len(problem.pairs[0]) < count:
             # the band also holds the bias measured against the order above the AIC's best (:mod:`.spline_bands`):
             # the one that stopped the search, or (stopped by the limit) one fitted for the band alone
             above = fits[best + 1] if best + 1 in fits else order(best + 1, EXTENSION_ITERATIONS)
             std, std_im = richer_fit_band(K, std ** 2, std_im ** 2, *_estimate_and_variance(problem, above, count, n)[:2])
-    return JointSplineFit(f, K, std, std_im, best, float(s2), bool(converged), coef, cov, criterion, len(candidates), symmetric, term_orders)
+            bias_basis = best + 1
+    return JointSplineFit(f, K, std, std_im, best, float(s2), bool(converged), coef, cov, criterion, len(candidates), symmetric, term_orders,
+                          bias_basis)

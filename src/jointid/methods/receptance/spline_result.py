@@ -40,6 +40,8 @@ class JointSplineFit:
     symmetric : bool
     term_basis : ndarray of int, shape (p,)
         Coefficients per term (per-term orders: Legendre polynomials in ``log f``; else all ``n_basis``).
+    bias_basis : int or None
+        Coefficients per term of the richer fit whose difference is in the bands (:mod:`.spline_bands`); None: none.
     """
 
     frequency_hz: np.ndarray
@@ -55,6 +57,7 @@ class JointSplineFit:
     starts: int = 0
     symmetric: bool = True
     term_basis: np.ndarray | None = None
+    bias_basis: int | None = None
 
     def describe(self) -> str:
         """One line: the orders chosen, by what, the fit's chi^2/dof and convergence."""
@@ -64,5 +67,6 @@ class JointSplineFit:
             what = f"{tb.min()}-{tb.max()} coefficients per term (Legendre in log f, per-term orders by score test)"
         else:
             what = f"{self.n_basis} B-spline(s) in log f (order by AIC)"
-        return (f"every term {what}, fitted to all lines jointly; chi^2/dof per order {orders}"
+        bias = "" if self.bias_basis is None else f"; bands hold the difference from the {self.bias_basis}-coefficient fit"
+        return (f"every term {what}, fitted to all lines jointly; chi^2/dof per order {orders}{bias}"
                 + ("" if self.converged else "; not converged"))
