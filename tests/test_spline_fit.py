@@ -281,3 +281,23 @@ def test_a_search_stopped_by_the_line_count_still_measures_the_bias(wide_band):
     assert fit.n_basis == 4 and max(fit.criterion) == 4 and fit.bias_basis == 5
     own = np.sqrt(term_variance(fit.covariance, log_frequency_basis(freq.hz[k], 4), 6) / 2)
     assert np.median(fit.std_real[:, 0, 0] / own[:, 0, 0]) > 1.2, np.median(fit.std_real[:, 0, 0] / own[:, 0, 0])
+
+
+def test_a_square_layout_skips_the_noise_model_choice_and_names_its_ill_conditioned_lines(case):
+    # 6 observed = 6 excited DOFs (x, y, z of grids 3 and 5) for the 6-DOF mount: no residual outside the excitation
+    # columns' directions, so the noise-model choice (which leaves that part out) has nothing to compare. It used to
+    # pick "a floor" on these relative-noise FRFs, weight by it, and the model check then blamed the exact free model
+    # on every line (every term 0 % reliable). Lines where the per-line design's condition number exceeds 1e8 are
+    # named as such, not as "above its target" with a predicted error below the target
+    free, freq = case[0], case[1]
+    obs = tuple(f"{g}{c}" for g in (3, 5) for c in ("x", "y", "z"))
+    H0 = JointedModel(free, [ComplexStiffness(JOINT, power_law, "mount")]).receptance(freq, obs, obs)
+    r = identify_joint_coupling(free, FRF(freq, _noisy(H0, 0.01, 0), obs, obs), JOINT)
+    found = r.findings()
+    assert found[0].startswith("this layout (6 observed x 6 excited DOFs for 6 joint DOFs) leaves no residual outside")
+    assert not any("noise is not relative" in x or "the free model does not explain" in x for x in found), found
+    ill = r.condition > 1e8
+    assert ill.any() and found[1].startswith("the FRFs do not separate the joint's terms in 2-30 Hz")
+    assert not r.reliable_terms[ill].any()
+    d = np.arange(3)
+    assert np.all(r.reliable_terms[:, d, d].mean(axis=0) > 0.5)  # the translations elsewhere

@@ -73,7 +73,7 @@ from .column_calibration import estimate_column_calibration, residual_variance
 from .coupling_result import CouplingResult
 from .column_redundancy import MIN_COLUMN_REDUNDANCY, column_redundancy
 from .noise_model_choice import choose_noise_model
-from .options import AUTO_SPLINE_MAX_DOFS, AUTO_STRUCTURED_MAX_DOFS, CouplingOptions
+from .options import AUTO_SPLINE_MAX_DOFS, AUTO_STRUCTURED_MAX_DOFS, MAX_CONDITION, CouplingOptions
 from .coupling_lines import MAX_INVERSE_PERTURBATION, coupling_per_line, inverse_perturbation, relinearize, uses_kronecker
 from .force_noise import detect_force_noise
 from .junk_lines import junk_lines
@@ -93,8 +93,6 @@ __all__ = ["identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION"
 
 #: Terms whose per-line predicted relative standard deviation (median) is below this are not smoothed.
 SMOOTH_MIN_RELATIVE_STD = 1e-6
-#: Weighted designs above this condition number make a line unreliable.
-MAX_CONDITION = 1e8
 #: Gauss-Newton steps: per-line estimates relinearized around the smoothed estimate, smoothed again.
 RELINEARIZATIONS = 2
 #: Fewest lines for the structured estimate.
@@ -185,15 +183,16 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     params = nn * (nn + 1) // 2 if options.symmetric else nn * nn
     measurable = nm * len(e_dofs) - params >= RESIDUAL_MIN_REDUNDANCY
     floor = False  # no coherence, and the noise is not relative (a hammer's floor): measured like an unknown level
-    if source == "relative" and options.weighting == "auto" and measurable and not kron:
+    # the column checks (calibration, units, force noise) and the noise-model choice need equations beyond the joint's
+    # terms and the excitation columns' directions (the choice leaves the columns' part of the residuals out)
+    columns_checked = kron or column_redundancy(Ymn, Yne, Yme, variance, options.symmetric) >= MIN_COLUMN_REDUNDANCY
+    if source == "relative" and options.weighting == "auto" and measurable and not kron and columns_checked:
         choice = choose_noise_model(Ymn, Yne, Yme - H, H, options.symmetric)
         if choice is not None and choice.floor:  # the floor shape weights the calibration, then the variance is measured
             floor = unknown = True
             variance = shape = choice.variance
             notes.append(choice.finding)
     cal, applied = None, False
-    # the column checks (calibration, units, force noise) need equations beyond the joint's terms and the columns
-    columns_checked = kron or column_redundancy(Ymn, Yne, Yme, variance, options.symmetric) >= MIN_COLUMN_REDUNDANCY
     if not columns_checked:
         if options.calibration == "columns":
             raise IdentificationError("calibration = 'columns': this layout leaves no residual outside the excitation columns' "

@@ -18,7 +18,7 @@ from ...terms import term_names
 from ..estimate import JointEstimate
 from .column_calibration import ColumnCalibration
 from .model_check import CORRELATED_RESIDUAL_Z
-from .options import CouplingOptions
+from .options import MAX_CONDITION, CouplingOptions
 from .spline_fit import JointSplineFit
 from .structured_select import StructuredEstimate
 
@@ -230,20 +230,22 @@ class CouplingResult(JointEstimate):
             )
         rel = self.relative_std
         limit = self.options.threshold(self.term_names())  # max_relative_std, or a term's own target below it
+        said = np.zeros(f.size, bool) if self.checked_unreliable is None else self.checked_unreliable  # those lines' finding is the check's
+        ill = (self.condition > MAX_CONDITION) & ~said
+        if ill.any():
+            out.append(f"the FRFs do not separate the joint's terms {_where(f, ill)} (per-line condition number up to "
+                       f"{np.max(self.condition[ill]):.2g} > {MAX_CONDITION:.0e}): every term flagged unreliable there, whatever its "
+                       "predicted error; a layout that sees the joint there: `jointid design`")
         done = set()
         for a, b, name in self.term_names():
             if (b, a) in done:
                 continue
             done.add((a, b))
-            bad = ~self.reliable_terms[:, a, b]
-            if self.checked_unreliable is not None:  # those lines' finding is the check's
-                bad &= ~self.checked_unreliable
+            bad = ~self.reliable_terms[:, a, b] & ~said & ~ill
             if not bad.any():
                 continue
-            edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(int), 0]))
-            spans = [(f[s], f[e - 1]) for s, e in zip(edges[::2], edges[1::2]) if e - s >= max(2, f.size // 100)]
             median = np.nanmedian(rel[bad, a, b]) if np.isfinite(rel[bad, a, b]).any() else np.nan
-            where = "on every line" if bad.all() else ("in " + ", ".join(f"{lo:g}-{hi:g} Hz" for lo, hi in spans[:4]) + (" ..." if len(spans) > 4 else "")) if spans else f"on {int(bad.sum())} scattered lines"
+            where = _where(f, bad)
             err = f"predicted error {100 * median:.2g} %" if np.isfinite(median) else "no uncertainty: the layout has no redundancy"
             if limit[a, b] < self.options.max_relative_std:  # the study's own target for this term
                 out.append(f"{name}: above its target {100 * limit[a, b]:.2g} % {where} ({err}, {100 * bad.mean():.0f} % of lines): "
@@ -251,3 +253,14 @@ class CouplingResult(JointEstimate):
             else:
                 out.append(f"{name}: not identifiable from these FRFs {where} ({err}, {100 * bad.mean():.0f} % of lines)")
         return out
+
+
+def _where(f: np.ndarray, lines: np.ndarray) -> str:
+    """Where ``lines`` (bool, per line) are, for a finding: "on every line", "in a-b Hz, ..." or "on N scattered lines"."""
+    if lines.all():
+        return "on every line"
+    edges = np.flatnonzero(np.diff(np.r_[0, lines.astype(int), 0]))
+    spans = [(f[s], f[e - 1]) for s, e in zip(edges[::2], edges[1::2]) if e - s >= max(2, f.size // 100)]
+    if not spans:
+        return f"on {int(lines.sum())} scattered lines"
+    return "in " + ", ".join(f"{lo:g}-{hi:g} Hz" for lo, hi in spans[:4]) + (" ..." if len(spans) > 4 else "")

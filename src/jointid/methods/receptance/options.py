@@ -10,7 +10,7 @@ from ...errors import IdentificationError
 from .column_calibration import CALIBRATION_BASIS
 from .frf_variance import WEIGHTINGS
 
-__all__ = ["CouplingOptions", "SMOOTHINGS", "CALIBRATIONS", "AUTO_STRUCTURED_MAX_DOFS", "AUTO_SPLINE_MAX_DOFS"]
+__all__ = ["CouplingOptions", "SMOOTHINGS", "CALIBRATIONS", "AUTO_STRUCTURED_MAX_DOFS", "AUTO_SPLINE_MAX_DOFS", "MAX_CONDITION"]
 
 #: Values of ``CouplingOptions.smoothing``.
 SMOOTHINGS = ("auto", "structured", "gcv", "spline", "none")
@@ -22,6 +22,8 @@ AUTO_STRUCTURED_MAX_DOFS = 3
 #: spline fit (every term over all lines at once: the per-term P-spline's bands cover 0.3-0.7 on a 6-DOF mount,
 #: the spline fit's 0.93-0.99; ``benchmarks/mount_6dof.py``).
 AUTO_SPLINE_MAX_DOFS = 6
+#: Weighted per-line designs above this condition number make a line unreliable (the FRFs do not separate the terms).
+MAX_CONDITION = 1e8
 
 
 @dataclass(frozen=True)
