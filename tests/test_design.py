@@ -206,3 +206,32 @@ def test_bad_input_is_one_line_exit_2_and_no_output(tmp_path, capsys, extra, mes
     err = capsys.readouterr().err
     assert err == f"jointid design: error: {message}\n"
     assert not out.exists()
+
+
+def test_monte_carlo_coherence_is_the_noisy_frfs_so_its_variance_is_the_simulated_one(monkeypatch):
+    # a measured coherence comes from the same records as H1: |H1|^2 (1 - g^2) / g^2 is the noise power whatever the
+    # noise did to H1. A coherence from the exact H made that estimate var |H_noisy|^2 / |H|^2: near anti-resonances a
+    # random factor, down to ~0 (weights 1e3-1e4 too large, a 6-DOF mount's rotations 20-300 % off on one seed in four)
+    from jointid.methods.design import check
+
+    st = coarse(20.0)
+    obs, exc = MODEL3
+    pred = LayoutPredictor(free_model(st, with_accelerometers=False), true_joint(st), st.joint.joint_dofs, st.grid,
+                           range(1, 20), 0.01, study_sensors(st), noise_model="additive")
+    seen, identify_frf = [], check.identify_joint_coupling
+
+    def capture(model, frf, joint_dofs, options):
+        seen.append(frf)
+        return identify_frf(model, frf, joint_dofs, options)
+
+    monkeypatch.setattr(check, "identify_joint_coupling", capture)
+    check.monte_carlo_errors(pred, obs, exc, 2)
+    var = pred.frf_variance(pred.exact_receptance(obs, exc))
+    assert len(seen) == 2 and not np.allclose(seen[0].data, seen[1].data)
+    for frf in seen:
+        g2 = frf.coherence
+        a = var / np.abs(frf.data) ** 2  # (1 - g^2) / g^2 in exact arithmetic
+        implied = np.abs(frf.data) ** 2 * (1 - g2) / g2
+        # rounding: 1 / (1 + a) and 1 - g^2 lose about eps (1 + 1 / a) relative, a few operations each
+        tol = 8 * np.finfo(float).eps * (1 + 1 / a)
+        assert np.all(np.abs(implied / var - 1) <= tol)
