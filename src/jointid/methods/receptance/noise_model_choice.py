@@ -31,7 +31,11 @@ each value is measured from the residuals
 (:func:`~jointid.methods.receptance.column_calibration.residual_variance`).
 
 The lines compared are every line up to :data:`CHOICE_LINES`, else blocks of consecutive
-lines spread over the band (second differences within each block).
+lines spread over the band (second differences within each block). The identification asks
+only where the layout leaves residuals outside the excitation columns' directions
+(:func:`~jointid.methods.receptance.column_redundancy.column_redundancy`): a 6 x 6 layout of a
+6-DOF mount leaves none, the comparison there is of round-off, and it chose "a floor" on
+relative noise.
 
 Caveats: a free-model error that shifts a lightly damped resonance or anti-resonance makes
 residuals that change within a few lines there, which second differences keep; near
