@@ -28,7 +28,6 @@ import argparse
 import collections
 import sys
 import tempfile
-import textwrap
 import time
 from pathlib import Path
 
@@ -53,39 +52,16 @@ def stiffening(f_hz):
 def chain(seeds: int) -> None:
     """The chain case through ``pipeline.identify`` (module docstring)."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    from structure_model import MOUNT_A, labels, write_model
+    from structure_model import labels, write_grounded_study
 
     from jointid import pipeline
     from jointid.reproduce.common import add_noise
     from jointid.study import load_study
 
-    def _list(xs):
-        return "[" + ", ".join(f'"{x}"' for x in xs) + "]"
-
     d = Path(tempfile.mkdtemp())
-    mass, dofs = write_model(d, 10)
     observed = [x for n in (1, 2, 4, 5, 7, 9) for x in labels(n, ("x", "y", "z"))]
     excited = [x for n in (2, 4, 5, 7) for x in labels(n, ("x", "y", "z"))]
-    (d / "study.toml").write_text(textwrap.dedent(f"""
-        [structure]
-        mass = "{mass}"
-        stiffness = "{mass}"
-        dofs = "{dofs}"
-        loss_factor = 0.003
-
-        [[joint]]
-        name = "front"
-        dofs = {_list(labels(1))}
-        """) + MOUNT_A.format(n=1) + textwrap.dedent(f"""
-        [measurement]
-        observed = {_list(observed)}
-        excited = {_list(excited)}
-
-        [frequency]
-        start = 10.0
-        stop = 400.0
-        step = 10.0
-        """))
+    write_grounded_study(d, observed, excited, joints=("front",), step=10.0, smoothing=None)
     study = load_study(d / "study.toml")
     test = pipeline.simulate(study)
     T = test.truth

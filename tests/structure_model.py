@@ -8,6 +8,7 @@ nodes (each spring a random symmetric positive definite 6x6 block ``k`` acting a
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +31,50 @@ growth = 0.3
 reference_frequency = 100.0
 exponent = 0.8
 """
+#: A second 6-DOF mount (``.format(n=node)``).
+MOUNT_B = """
+[joint.model]
+type = "mount"
+stiffness = [1.5e6, 2.5e6, 3e6, 2e3, 3e3, 2e3]
+couplings = [["{n}z", "{n}rz", 1e4], ["{n}rx", "{n}ry", 300.0]]
+loss_factor = 0.08
+growth = 0.5
+"""
+
+
+def toml_list(xs) -> str:
+    """``["a", "b"]``: a TOML array of strings."""
+    return "[" + ", ".join(f'"{x}"' for x in xs) + "]"
+
+
+def structure_table(mass: str, dofs: str) -> str:
+    """The ``[structure]`` table of the chain's files (``mass`` holds M and K), loss factor 0.003."""
+    return f'\n[structure]\nmass = "{mass}"\nstiffness = "{mass}"\ndofs = "{dofs}"\nloss_factor = 0.003\n'
+
+
+def write_grounded_study(directory: Path, observed, excited, joints=("front", "rear"), step: float = 20.0,
+                         smoothing: str | None = "none", extra: str = "") -> Path:
+    """The 10-node chain with grounded mounts (``"front"``: MOUNT_A at node 1, ``"rear"``: MOUNT_B at node 10), 10-400 Hz
+    every ``step`` Hz, written with its model files to ``directory/study.toml``; ``smoothing`` None: the default."""
+    text = structure_table(*write_model(directory, 10))
+    for name, node, model in (("front", 1, MOUNT_A), ("rear", 10, MOUNT_B)):
+        if name in joints:
+            text += textwrap.dedent(f"""
+                [[joint]]
+                name = "{name}"
+                dofs = {toml_list(labels(node))}
+                """) + model.format(n=node)
+    text += textwrap.dedent(f"""
+        [measurement]
+        observed = {toml_list(observed)}
+        excited = {toml_list(excited)}
+        """)
+    if smoothing is not None:
+        text += f'\n[identification]\nsmoothing = "{smoothing}"\n'
+    text += f"\n[frequency]\nstart = 10.0\nstop = 400.0\nstep = {step}\n" + extra
+    path = Path(directory) / "study.toml"
+    path.write_text(text)
+    return path
 
 
 def chain_matrices(n_nodes: int = 10, breaks: tuple[int, ...] = (), seed: int = 3):

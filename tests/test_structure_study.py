@@ -15,70 +15,24 @@ from jointid.dofs import Dof
 from jointid.errors import StudyError
 from jointid.physics.mount import MountModel
 from jointid.study import load_study
-from structure_model import MOUNT_A, labels, write_model
+from structure_model import MOUNT_A, MOUNT_B, labels, structure_table, write_grounded_study, write_model
 
 
 def _list(xs) -> str:
     return "[" + ", ".join(f'"{x}"' for x in xs) + "]"
 
 
-MOUNT_B = """
-[joint.model]
-type = "mount"
-stiffness = [1.5e6, 2.5e6, 3e6, 2e3, 3e3, 2e3]
-couplings = [["{n}z", "{n}rz", 1e4], ["{n}rx", "{n}ry", 300.0]]
-loss_factor = 0.08
-growth = 0.5
-"""
-
-
 def grounded_study(tmp_path, observed=None, excited=None, extra="") -> "Path":
-    mass, dofs = write_model(tmp_path, 10)
     observed = observed or [l for n in (1, 2, 4, 5, 6, 7, 9, 10) for l in labels(n, ("x", "y", "z"))]
     excited = excited or [l for n in (2, 4, 5, 7, 9) for l in labels(n, ("x", "y", "z"))]
-    text = textwrap.dedent(f"""
-        [structure]
-        mass = "{mass}"
-        stiffness = "{mass}"
-        dofs = "{dofs}"
-        loss_factor = 0.003
-
-        [[joint]]
-        name = "front"
-        dofs = {_list(labels(1))}
-        """) + MOUNT_A.format(n=1) + textwrap.dedent(f"""
-        [[joint]]
-        name = "rear"
-        dofs = {_list(labels(10))}
-        """) + MOUNT_B.format(n=10) + textwrap.dedent(f"""
-        [measurement]
-        observed = {_list(observed)}
-        excited = {_list(excited)}
-
-        [identification]
-        smoothing = "none"
-
-        [frequency]
-        start = 10.0
-        stop = 400.0
-        step = 20.0
-        """) + extra
-    p = tmp_path / "study.toml"
-    p.write_text(text)
-    return p
+    return write_grounded_study(tmp_path, observed, excited, extra=extra)
 
 
 def between_study(tmp_path) -> "Path":
     mass, dofs = write_model(tmp_path, 10, breaks=(5,))  # two parts: nodes 1-5 and 6-10
     observed = [l for n in (1, 2, 4, 5, 6, 7, 9, 10) for l in labels(n, ("x", "y", "z"))]
     excited = [l for n in (1, 3, 5, 6, 8, 10) for l in labels(n, ("x", "y", "z"))]
-    text = textwrap.dedent(f"""
-        [structure]
-        mass = "{mass}"
-        stiffness = "{mass}"
-        dofs = "{dofs}"
-        loss_factor = 0.003
-
+    text = structure_table(mass, dofs) + textwrap.dedent(f"""
         [[joint]]
         name = "link"
         dofs = {_list(labels(5))}
