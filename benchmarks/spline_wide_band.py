@@ -58,30 +58,29 @@ def chain(seeds: int) -> None:
     from jointid.reproduce.common import add_noise
     from jointid.study import load_study
 
-    d = Path(tempfile.mkdtemp())
     observed = [x for n in (1, 2, 4, 5, 7, 9) for x in labels(n, ("x", "y", "z"))]
     excited = [x for n in (2, 4, 5, 7) for x in labels(n, ("x", "y", "z"))]
-    write_grounded_study(d, observed, excited, joints=("front",), step=10.0, smoothing=None)
-    study = load_study(d / "study.toml")
-    test = pipeline.simulate(study)
-    T = test.truth
-    err, cover, wrong, orders = [], [], [], collections.Counter()
-    for seed in range(seeds):
-        est = pipeline.identify(study, add_noise(test.frf, 0.01, np.random.default_rng(seed)))
-        orders[est.spline.n_basis if est.spline is not None else est.estimator] += 1
-        i = np.arange(6)
-        dK = est.stiffness[:, i, i] - T[:, i, i]
-        zr, zi = np.abs(dK.real) / est.std_real[:, i, i], np.abs(dK.imag) / est.std_imag[:, i, i]
-        err.append(np.abs(dK) / np.abs(T[:, i, i]))
-        cover.append(np.r_[zr <= m6.Z90, zi <= m6.Z90])
-        reliable = est.reliable_terms[:, i, i]
-        wrong.append((reliable & (np.maximum(zr, zi) > 3)).sum(0) / np.maximum(reliable.sum(0), 1))
-    err, cover, wrong = np.concatenate(err), np.concatenate(cover), np.array(wrong)
-    print(f"chain: one grounded 6-DOF mount, 40 lines 10-400 Hz, 18 x 12 FRFs, 1 % noise, {seeds} seeds; "
-          f"orders chosen {dict(orders)}")
-    print(f"{'term':10s} {'median err':>11s} {'coverage':>9s} {'reliable z>3':>13s}")
-    for t, name in enumerate(TERMS):
-        print(f"{name:10s} {100 * np.median(err[:, t]):9.3g} % {cover[:, t].mean():9.2f} {wrong[:, t].mean():13.3f}")
+    with tempfile.TemporaryDirectory() as d:  # the study and its model files (read by each identification)
+        study = load_study(write_grounded_study(Path(d), observed, excited, joints=("front",), step=10.0, smoothing=None))
+        test = pipeline.simulate(study)
+        T = test.truth
+        err, cover, wrong, orders = [], [], [], collections.Counter()
+        for seed in range(seeds):
+            est = pipeline.identify(study, add_noise(test.frf, 0.01, np.random.default_rng(seed)))
+            orders[est.spline.n_basis if est.spline is not None else est.estimator] += 1
+            i = np.arange(6)
+            dK = est.stiffness[:, i, i] - T[:, i, i]
+            zr, zi = np.abs(dK.real) / est.std_real[:, i, i], np.abs(dK.imag) / est.std_imag[:, i, i]
+            err.append(np.abs(dK) / np.abs(T[:, i, i]))
+            cover.append(np.r_[zr <= m6.Z90, zi <= m6.Z90])
+            reliable = est.reliable_terms[:, i, i]
+            wrong.append((reliable & (np.maximum(zr, zi) > 3)).sum(0) / np.maximum(reliable.sum(0), 1))
+        err, cover, wrong = np.concatenate(err), np.concatenate(cover), np.array(wrong)
+        print(f"chain: one grounded 6-DOF mount, 40 lines 10-400 Hz, 18 x 12 FRFs, 1 % noise, {seeds} seeds; "
+              f"orders chosen {dict(orders)}")
+        print(f"{'term':10s} {'median err':>11s} {'coverage':>9s} {'reliable z>3':>13s}")
+        for t, name in enumerate(TERMS):
+            print(f"{name:10s} {100 * np.median(err[:, t]):9.3g} % {cover[:, t].mean():9.2f} {wrong[:, t].mean():13.3f}")
 
 
 def main(argv=None):

@@ -92,8 +92,7 @@ def test_exact_data_of_a_joint_in_the_class_recovered_to_its_conditioning(case):
 def test_noisy_mount_bands_hold_the_truth_and_beat_the_per_line_estimate(case):
     free, freq, (Ymn, Ynn, Yne, Yme) = case
     H0, truth = _data(case, power_law)
-    rng = np.random.default_rng(3)
-    H = H0 * (1 + 0.01 * (rng.standard_normal(H0.shape) + 1j * rng.standard_normal(H0.shape)) / np.sqrt(2))
+    H = _noisy(H0, 0.01, 3)
     lines = identify_joint_coupling(free, FRF(freq, H, MEASURED, MEASURED), JOINT, CouplingOptions(smoothing="none"))
     # through the estimator: smoothing = "spline" makes the result of the joint spline fit, its bands the fit's
     r = identify_joint_coupling(free, FRF(freq, H, MEASURED, MEASURED), JOINT, CouplingOptions(smoothing="spline"))
@@ -153,8 +152,7 @@ def per_term_fits(case):
     freq = case[1]
     Ymn, Ynn, Yne, Yme = case[2]
     H0, truth = _data(case, power_law)
-    rng = np.random.default_rng(7)
-    H = H0 * (1 + 0.01 * (rng.standard_normal(H0.shape) + 1j * rng.standard_normal(H0.shape)) / np.sqrt(2))
+    H = _noisy(H0, 0.01, 7)
     args = (freq.hz, Ymn, Ynn, Yne, Yme, H, np.abs(H) ** 2)
     return fit_joint_spline(*args), fit_joint_spline(*args, n_basis=4), truth
 
