@@ -38,7 +38,8 @@ Procedure (:func:`fit_joint_spline`):
    coefficients; the noise scale is estimated, so only the weights' shape must be right);
 4. covariance ``cov(c) = s^2 (J^H J)^-1`` with ``s^2 = chi^2 / (N - P)``, errors circular
    (half the variance in each part), propagated to ``std_real``/``std_imag`` per term and line;
-   each part's variance is ``max(var, var_rich / 2 + d^2)``, ``d`` the difference from a richer fit
+   each part's variance is ``var + max(0, q d^2 - c tau^2)``, ``d`` the difference from a richer fit, ``tau^2`` its noise
+   (``max(var, var_rich / 2 + d^2)`` where the richer class does not hold the chosen one)
    (the bias of the chosen class, :mod:`.spline_bands`): with per-term orders the richest uniform
    fit; else (Akaike-averaged ``var``) the order above the AIC's best, fitted for the band alone
    if the limit stopped the search there.
@@ -558,7 +559,9 @@ def fit_joint_spline(
             # the band also holds the bias measured against the order above the AIC's best (:mod:`.spline_bands`):
             # the one that stopped the search, or (stopped by the limit) one fitted for the band alone
             above = fits[best + 1] if best + 1 in fits else order(best + 1, EXTENSION_ITERATIONS)
-            std, std_im = richer_fit_band(K, std ** 2, std_im ** 2, *_estimate_and_variance(problem, above, count, n)[:2])
+            # nested up to 4 in 5 (polynomials of log f, then a cubic in the one-knot cubic splines); not 5 in 6, ...
+            std, std_im = richer_fit_band(K, std ** 2, std_im ** 2, *_estimate_and_variance(problem, above, count, n)[:2],
+                                          nested=best <= 4)
             bias_basis = best + 1
     return JointSplineFit(f, K, std, std_im, best, float(s2), bool(converged), coef, cov, criterion, len(candidates), symmetric, term_orders,
                           bias_basis)

@@ -1,0 +1,130 @@
+"""The table of the joint spline fit's bias band (``jointid.methods.receptance.spline_bands``): computed, then checked.
+
+For the chosen fit's error ``b + e`` (``e ~ N(0, s^2)``) and the measured bias ``d ~ N(b, tau^2)``
+independent of ``e`` (nested fits), the band of one part is ``z sqrt(s^2 + max(0, q d^2 - c tau^2))``
+(``z = 1.645``). Per ratio ``rho = tau^2 / s^2`` (nodes ``log10 rho = -3, -2.75, ..., 2``) this script
+finds the ``(q, c)`` with the smallest expected half-width at zero bias among those whose coverage is
+>= 0.90 for every bias ``b`` (``q`` on a grid of step 0.05, the largest ``c`` by bisection; coverage by
+80-point Gauss-Hermite over ``d`` and exact normal probabilities over ``e``, on a grid of ``b``), and
+prints per node ``q``, ``c``, the coverage at zero bias and the expected half-width (in ``z s``)
+against the band it replaced, ``z sqrt(s^2 + tau^2 + d^2)``.
+
+Then it checks the table as the module uses it (``q``, ``c`` interpolated linearly in ``log10 rho``,
+clamped outside): the smallest coverage over ``b`` on 241 ratios from ``1e-4`` to ``1e4``.
+
+Not a test (about a minute): ``python benchmarks/spline_band_table.py [--check]``; the module's constants are its output
+(``tests/test_spline_fit.py`` checks the guarantee on a finer grid).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import norm
+
+from jointid.methods.receptance.spline_bands import BIAS_BAND_C, BIAS_BAND_LOG10_RHO, BIAS_BAND_Q, bias_band_variance
+
+Z90 = 1.6448536269514722
+NODES = np.arange(-3.0, 2.0001, 0.25)
+X, W = np.polynomial.hermite_e.hermegauss(80)
+W = W / W.sum()
+
+
+def coverage_and_width(q: float, c: float, rho: float, b: np.ndarray) -> tuple[np.ndarray, float]:
+    """Coverage per bias ``b`` (in s) and the expected half-width at ``b = 0`` (in ``z s``) of one ``(q, c)``."""
+    d = b[:, None] + np.sqrt(rho) * X[None, :]
+    w = Z90 * np.sqrt(1.0 + np.maximum(0.0, q * d ** 2 - c * rho))
+    cover = (norm.cdf(w - b[:, None]) - norm.cdf(-w - b[:, None])) @ W
+    return cover, float(w[0] @ W / Z90) if b[0] == 0 else np.nan
+
+
+def bias_grid(rho: float) -> np.ndarray:
+    """Biases (in s) where the coverage is checked: fine near zero, out past where the band is |d| itself."""
+    return np.r_[np.linspace(0.0, 4.0, 161), np.linspace(4.05, 10.0 + 8.0 * np.sqrt(rho), 400)]
+
+
+def best(rho: float) -> tuple[float, float, float, float]:
+    """``(q, c, coverage at b = 0, expected half-width)`` of the narrowest band that holds 0.90 for every bias."""
+    b = bias_grid(rho)
+    found = None
+    for q in np.arange(0.9, 3.0001, 0.05):
+        lo, hi = -3.0, 1.0
+        if coverage_and_width(q, lo, rho, b)[0].min() < 0.9:
+            continue
+        for _ in range(30):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if coverage_and_width(q, mid, rho, b)[0].min() >= 0.9 else (lo, mid)
+        cover, width = coverage_and_width(q, lo, rho, b)
+        if found is None or width < found[3]:
+            found = (float(q), float(lo), float(cover[0]), width)
+    return found
+
+
+def interpolated_min_coverage(qs: np.ndarray, cs: np.ndarray, lr: float) -> float:
+    """Smallest coverage over the bias of the table ``(qs, cs)`` interpolated at ``log10 rho = lr``."""
+    rho = 10.0 ** lr
+    q, c = np.interp(lr, NODES, qs), np.interp(lr, NODES, cs)
+    return float(coverage_and_width(q, c, rho, bias_grid(rho))[0].min())
+
+
+def repair(qs: np.ndarray, cs: np.ndarray) -> np.ndarray:
+    """``cs`` lowered (the band widened: coverage grows as ``c`` falls) until the interpolated table holds 0.90
+    between the nodes too (8 points per interval), interval by interval from the left."""
+    cs = cs.copy()
+    for i in range(NODES.size - 1):
+        for lr in np.linspace(NODES[i], NODES[i + 1], 9)[1:-1]:
+            while interpolated_min_coverage(qs, cs, lr) < 0.9:
+                cs[i:i + 2] -= 0.005
+    return cs
+
+
+def main(argv=None) -> None:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="only check the module's table (seconds)")
+    if not ap.parse_args(argv).check:
+        compute()
+    check()
+
+
+def compute() -> None:
+    """Search and print the table (about a minute)."""
+    print("node  log10 rho      q        c    coverage b=0   E half-width (z s)   replaced band: coverage b=0, E half-width")
+    qs, cs = [], []
+    for k, lr in enumerate(NODES):
+        rho = 10.0 ** lr
+        q, c, cov0, width = best(rho)
+        old_cover, old_width = coverage_and_width(1.0, -1.0, rho, bias_grid(rho))
+        qs.append(q)
+        cs.append(c)
+        print(f"{k:4d} {lr:10.2f} {q:6.2f} {c:8.4f} {cov0:13.4f} {width:20.3f} {old_cover[0]:22.4f} {old_width:12.3f}", flush=True)
+    cs = repair(np.array(qs), np.array(cs))
+    print("\nBIAS_BAND_Q = (" + ", ".join(f"{v:.2f}" for v in qs) + ")")
+    print("BIAS_BAND_C = (" + ", ".join(f"{np.floor(v * 1e4) / 1e4:.4f}" for v in cs) + ")")
+
+
+def check() -> None:
+    """The module's table (its constants, not the ones just printed): guarantee and figures."""
+    assert np.array_equal(BIAS_BAND_LOG10_RHO, NODES), "the module's nodes differ from this script's"
+    worst = 1.0
+    for lr in np.linspace(-4.0, 4.0, 241):
+        worst = min(worst, float(module_coverage(10.0 ** lr)[0].min()))
+    print(f"\nthe module's table (q {min(BIAS_BAND_Q):.2f}-{max(BIAS_BAND_Q):.2f}, c {min(BIAS_BAND_C):.3f}-{max(BIAS_BAND_C):.3f}): "
+          f"smallest coverage over every bias, rho 1e-4 to 1e4: {worst:.5f}")
+    print("rho    coverage at b = 0 (replaced -> module)   E half-width at b = 0, z s (replaced -> module)")
+    for rho in (0.1, 0.3, 1.0, 3.0, 10.0):
+        cover, width = module_coverage(rho)
+        old_cover, old_width = coverage_and_width(1.0, -1.0, rho, bias_grid(rho))
+        print(f"{rho:<6g} {old_cover[0]:.4f} -> {cover[0]:.4f}   {old_width:.3f} -> {width:.3f} ({100 * (1 - width / old_width):.0f} % narrower)")
+
+
+def module_coverage(rho: float) -> tuple[np.ndarray, float]:
+    """Coverage per bias and expected half-width at zero bias (in ``z s``) of the module's band at ``rho``."""
+    b = bias_grid(rho)
+    d = b[:, None] + np.sqrt(rho) * X[None, :]
+    w = Z90 * np.sqrt(bias_band_variance(np.ones_like(d), np.full_like(d, rho), d))
+    return (norm.cdf(w - b[:, None]) - norm.cdf(-w - b[:, None])) @ W, float(w[0] @ W / Z90)
+
+
+if __name__ == "__main__":
+    main()
