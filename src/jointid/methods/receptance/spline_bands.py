@@ -24,10 +24,11 @@ the narrowest band of that form (smallest expected width at ``b = 0``) whose cov
 holds 0.90 between the nodes; ``tests/test_spline_fit.py`` checks >= 0.8999 for ``rho`` from 1e-4 to 1e4.
 Where ``d`` is precise (``rho -> 0``), ``q -> 1``, ``c -> 1``: ``s^2 + d^2 - tau^2``, the bias's unbiased
 square. The band it replaced, ``sigma_rich^2 + d^2`` (``q = 1``, ``c = -1``), held >= 0.906 with zero-bias
-coverage 0.927, 0.957, 0.990, 0.9997 at ``rho`` = 0.1, 0.3, 1, 3; this one 0.909, 0.924, 0.972, 0.998 with
-expected widths 6, 10, 8, 6 % smaller (``benchmarks/spline_band_table.py --check`` prints these). It cannot do much better: a band that holds for every bias while ``d`` is noisier
-than the fit (``rho >~ 1``) must over-cover where there is no bias (the bias hides in the noise of ``d``).
-The estimate keeps the smaller error of the chosen orders.
+coverage 0.927, 0.957, 0.990, 0.9997 at ``rho`` = 0.1, 0.3, 1, 3; this one 0.909, 0.924, 0.972, 0.998
+with expected widths 6, 10, 8, 6 % smaller (``benchmarks/spline_band_table.py --check`` prints these).
+It cannot do much better: a band that holds for every bias while ``d`` is noisier than the fit
+(``rho >~ 1``) must over-cover where there is no bias (a bias of the size of that noise cannot be told
+from none). The estimate keeps the smaller error of the chosen orders.
 
 The same band is used for a uniform order chosen by the AIC: the richer fit is then the order above
 the best (the one that stopped the search past the cap ``max_basis``, or one fitted for the band
@@ -48,8 +49,9 @@ variance). Where the chosen class is right, the noise in ``d`` makes these bands
 (``benchmarks/mount_6dof.py``: 0.93-0.99 where 0.9 is nominal with the band it replaced).
 
 Caveats: ``d`` is itself noisy, so where there is no bias the band over-covers as ``rho`` grows (above);
-``tau^2`` is the difference of two linearized variances, exact for nested linear least squares only; the richest fit's own linearized band is
-too narrow by 5-20 % on the weakly seen terms of a mount whose true couplings are zero (the
+``tau^2`` is the difference of two linearized variances, exact for nested linear least squares only (a
+negative one, e.g. an Akaike average's spread above the richer fit's variance, counts as 0); the
+richest fit's own linearized band is too narrow by 5-20 % on the weakly seen terms of a mount whose true couplings are zero (the
 information on a rotation grows as soon as a coupling estimate leaves zero, so the Jacobian at
 the estimate overstates it); that part is not corrected separately: on the mount the noise in
 ``d`` widens the band by about as much (50 seeds, per-term orders only: 90 % bands cover 0.88-0.93 on
@@ -66,10 +68,11 @@ __all__ = ["richer_fit_band", "bias_band_variance", "BIAS_BAND_LOG10_RHO", "BIAS
 #: Nodes ``log10 rho`` of the bias band's table, ``rho = tau^2 / s^2`` (:func:`bias_band_variance`).
 BIAS_BAND_LOG10_RHO = np.arange(-3.0, 2.0001, 0.25)
 #: ``q`` per node: the weight of the measured bias ``d^2`` (``benchmarks/spline_band_table.py`` prints them).
-BIAS_BAND_Q = (1.05, 1.05, 1.05, 1.05, 1.05, 1.05, 1.10, 1.15, 1.25, 1.40, 1.70, 1.80, 1.45, 1.30, 1.20, 1.15, 1.10, 1.05, 1.00, 1.00, 0.95)
+BIAS_BAND_Q = (1.05, 1.05, 1.05, 1.05, 1.05, 1.05, 1.10, 1.15, 1.25, 1.40, 1.70,
+               1.80, 1.45, 1.30, 1.20, 1.15, 1.10, 1.05, 1.00, 1.00, 0.95)
 #: ``c`` per node: the part of the bias's noise ``tau^2`` taken off (rounded down: the band errs wide).
-BIAS_BAND_C = (0.9999, 0.9999, 0.9999, 0.9999, 0.9999, 0.9339, 0.9999, 0.9999, 0.9999, 0.9733, 0.9424, 0.3791, -0.2355, -0.4479, -0.6267,
-               -0.7277, -0.8112, -0.8736, -0.9286, -0.9341, -0.9585)
+BIAS_BAND_C = (0.9999, 0.9999, 0.9999, 0.9999, 0.9999, 0.9339, 0.9999, 0.9999, 0.9999, 0.9733, 0.9424,
+               0.3791, -0.2355, -0.4479, -0.6267, -0.7277, -0.8112, -0.8736, -0.9286, -0.9341, -0.9585)
 
 
 def bias_band_variance(var: np.ndarray, tau2: np.ndarray, d: np.ndarray) -> np.ndarray:
