@@ -9,10 +9,13 @@ finds the ``(q, c)`` with the smallest expected half-width at zero bias among th
 prints per node ``q``, ``c``, the coverage at zero bias and the expected half-width (in ``z s``)
 against the band it replaced, ``z sqrt(s^2 + tau^2 + d^2)``.
 
-Then it checks the table as the module uses it (``q``, ``c`` interpolated linearly in ``log10 rho``,
-clamped outside): the smallest coverage over ``b`` on 241 ratios from ``1e-4`` to ``1e4``.
+The search's quadrature is a guide only (too coarse where ``rho`` is large); ``c`` is then lowered until the table
+as the module uses it (``q``, ``c`` interpolated linearly in ``log10 rho``, clamped outside) holds 0.90 at and
+between the nodes and beyond them, by the accurate
+:func:`~jointid.methods.receptance.spline_bands.band_coverage`. ``--check``: the module's table by that function,
+the smallest coverage over ``b`` on 161 ratios from ``1e-4`` to ``1e4`` and in the limit ``rho -> inf``.
 
-Not a test (about a minute): ``python benchmarks/spline_band_table.py [--check]``; the module's constants are its output
+Not a test (about 90 s; ``--check`` 10 s): ``python benchmarks/spline_band_table.py [--check]``; the module's constants are its output
 (``tests/test_spline_fit.py`` checks the guarantee on a finer grid).
 """
 
@@ -21,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import norm
 
-from jointid.methods.receptance.spline_bands import BIAS_BAND_C, BIAS_BAND_LOG10_RHO, BIAS_BAND_Q, bias_band_variance
+from jointid.methods.receptance.spline_bands import BIAS_BAND_C, BIAS_BAND_LOG10_RHO, BIAS_BAND_Q, band_coverage, bias_band_table
 
 Z90 = 1.6448536269514722
 NODES = np.arange(-3.0, 2.0001, 0.25)
@@ -60,20 +63,30 @@ def best(rho: float) -> tuple[float, float, float, float]:
 
 
 def interpolated_min_coverage(qs: np.ndarray, cs: np.ndarray, lr: float) -> float:
-    """Smallest coverage over the bias of the table ``(qs, cs)`` interpolated at ``log10 rho = lr``."""
+    """Smallest coverage over the bias of the table ``(qs, cs)`` at ``log10 rho = lr`` (interpolated, clamped; ``inf``:
+    the limit), by :func:`~jointid.methods.receptance.spline_bands.band_coverage` (not the search's quadrature, too
+    coarse where ``rho`` is large: 0.898 at ``rho = 100`` where it said 0.900)."""
     rho = 10.0 ** lr
     q, c = np.interp(lr, NODES, qs), np.interp(lr, NODES, cs)
-    return float(coverage_and_width(q, c, rho, bias_grid(rho))[0].min())
+    b = np.linspace(0.0, 10.0, 2001) if np.isinf(lr) else bias_grid(rho)
+    return float(band_coverage(q, c, rho, b).min())
+
+
+#: Where the table is checked beyond its last node (it is clamped there), ``log10 rho``; ``inf``: the limit.
+BEYOND = (2.25, 2.5, 3.0, 4.0, np.inf)
 
 
 def repair(qs: np.ndarray, cs: np.ndarray) -> np.ndarray:
     """``cs`` lowered (the band widened: coverage grows as ``c`` falls) until the interpolated table holds 0.90
-    between the nodes too (8 points per interval), interval by interval from the left."""
+    at the nodes, between them (8 points per interval) and beyond the last, interval by interval from the left."""
     cs = cs.copy()
     for i in range(NODES.size - 1):
-        for lr in np.linspace(NODES[i], NODES[i + 1], 9)[1:-1]:
+        for lr in np.linspace(NODES[i], NODES[i + 1], 9):
             while interpolated_min_coverage(qs, cs, lr) < 0.9:
-                cs[i:i + 2] -= 0.005
+                cs[i:i + 2] -= 0.002
+    for lr in BEYOND:
+        while interpolated_min_coverage(qs, cs, lr) < 0.9:
+            cs[-1] -= 0.002
     return cs
 
 
@@ -106,24 +119,18 @@ def compute() -> None:
 def check() -> None:
     """The module's table (its constants, not the ones just printed): guarantee and figures."""
     assert np.array_equal(BIAS_BAND_LOG10_RHO, NODES), "the module's nodes differ from this script's"
-    worst = 1.0
-    for lr in np.linspace(-4.0, 4.0, 241):
-        worst = min(worst, float(module_coverage(10.0 ** lr)[0].min()))
-    print(f"\nthe module's table (q {min(BIAS_BAND_Q):.2f}-{max(BIAS_BAND_Q):.2f}, c {min(BIAS_BAND_C):.3f}-{max(BIAS_BAND_C):.3f}): "
-          f"smallest coverage over every bias, rho 1e-4 to 1e4: {worst:.5f}")
+    qs, cs = np.asarray(BIAS_BAND_Q), np.asarray(BIAS_BAND_C)
+    worst = min(interpolated_min_coverage(qs, cs, lr) for lr in (*np.linspace(-4.0, 4.0, 161), np.inf))
+    print(f"\nthe module's table (q {qs.min():.2f}-{qs.max():.2f}, c {cs.min():.3f}-{cs.max():.3f}): smallest coverage over "
+          f"every bias, rho 1e-4 to 1e4 and its limit: {worst:.5f}")
     print("rho    coverage at b = 0 (replaced -> module)   E half-width at b = 0, z s (replaced -> module)")
     for rho in (0.1, 0.3, 1.0, 3.0, 10.0):
-        cover, width = module_coverage(rho)
-        old_cover, old_width = coverage_and_width(1.0, -1.0, rho, bias_grid(rho))
-        print(f"{rho:<6g} {old_cover[0]:.4f} -> {cover[0]:.4f}   {old_width:.3f} -> {width:.3f} ({100 * (1 - width / old_width):.0f} % narrower)")
-
-
-def module_coverage(rho: float) -> tuple[np.ndarray, float]:
-    """Coverage per bias and expected half-width at zero bias (in ``z s``) of the module's band at ``rho``."""
-    b = bias_grid(rho)
-    d = b[:, None] + np.sqrt(rho) * X[None, :]
-    w = Z90 * np.sqrt(bias_band_variance(np.ones_like(d), np.full_like(d, rho), d))
-    return (norm.cdf(w - b[:, None]) - norm.cdf(-w - b[:, None])) @ W, float(w[0] @ W / Z90)
+        q, c = bias_band_table(rho)
+        _, width = coverage_and_width(float(q), float(c), rho, np.zeros(1))
+        cover = band_coverage(float(q), float(c), rho, np.zeros(1))[0]
+        _, old_width = coverage_and_width(1.0, -1.0, rho, np.zeros(1))
+        old_cover = band_coverage(1.0, -1.0, rho, np.zeros(1))[0]
+        print(f"{rho:<6g} {old_cover:.4f} -> {cover:.4f}   {old_width:.3f} -> {width:.3f} ({100 * (1 - width / old_width):.0f} % narrower)")
 
 
 if __name__ == "__main__":

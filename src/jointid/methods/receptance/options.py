@@ -20,7 +20,7 @@ CALIBRATIONS = ("auto", "columns", "none")
 AUTO_STRUCTURED_MAX_DOFS = 3
 #: ``smoothing = "auto"`` fits a symmetric joint of more DOFs than the structured model's, up to this many, by the joint
 #: spline fit (every term over all lines at once: the per-term P-spline's bands cover 0.3-0.7 on a 6-DOF mount,
-#: the spline fit's 0.93-0.99; ``benchmarks/mount_6dof.py``).
+#: the spline fit's 0.89-0.98; ``benchmarks/mount_6dof.py``).
 AUTO_SPLINE_MAX_DOFS = 6
 #: Weighted per-line designs above this condition number make a line unreliable (the FRFs do not separate the terms).
 MAX_CONDITION = 1e8

@@ -41,8 +41,8 @@ Procedure (:func:`fit_joint_spline`):
    each part's variance is ``var + max(0, q d^2 - c tau^2)``, ``d`` the difference from a richer fit, ``tau^2`` its noise
    (``max(var, var_rich / 2 + d^2)`` where the richer class does not hold the chosen one)
    (the bias of the chosen class, :mod:`.spline_bands`): with per-term orders the richest uniform
-   fit; else (Akaike-averaged ``var``) the order above the AIC's best, fitted for the band alone
-   if the limit stopped the search there.
+   fit; else the order above the AIC's best (fitted for the band alone if the limit stopped the
+   search there) against the best order, that bias term added to the Akaike average's ``var``.
 
 Units: ``frequency_hz`` in Hz; receptances in m/N, rad/N, m/(N*m), rad/(N*m); ``K`` in
 N/m, N/rad, N*m/m, N*m/rad; ``variance`` in the squared units of ``H``.
@@ -559,9 +559,14 @@ def fit_joint_spline(
             # the band also holds the bias measured against the order above the AIC's best (:mod:`.spline_bands`):
             # the one that stopped the search, or (stopped by the limit) one fitted for the band alone
             above = fits[best + 1] if best + 1 in fits else order(best + 1, EXTENSION_ITERATIONS)
-            # nested up to 4 in 5 (polynomials of log f, then a cubic in the one-knot cubic splines); not 5 in 6, ...
-            std, std_im = richer_fit_band(K, std ** 2, std_im ** 2, *_estimate_and_variance(problem, above, count, n)[:2],
-                                          nested=best <= 4)
+            # the bias term is the best order's against the next (the average holds the next order with its Akaike
+            # weight: its difference from the next is not the nested d), added to the average's variance; nested
+            # up to 4 in 5 (polynomials of log f, then a cubic in the one-knot cubic splines), not 5 in 6, ...
+            K_b, V_b = _estimate_and_variance(problem, fits[best], count, n)[:2]
+            b_re, b_im = richer_fit_band(K_b, V_b / 2.0, V_b / 2.0, *_estimate_and_variance(problem, above, count, n)[:2],
+                                         nested=best <= 4)
+            std = np.sqrt(std ** 2 + np.maximum(b_re ** 2 - V_b / 2.0, 0.0))
+            std_im = np.sqrt(std_im ** 2 + np.maximum(b_im ** 2 - V_b / 2.0, 0.0))
             bias_basis = best + 1
     return JointSplineFit(f, K, std, std_im, best, float(s2), bool(converged), coef, cov, criterion, len(candidates), symmetric, term_orders,
                           bias_basis)
