@@ -122,7 +122,7 @@ def test_noisy_mount_bands_hold_the_truth_and_beat_the_per_line_estimate(case):
 def test_the_bias_band_keeps_the_nominal_level_for_any_bias_and_is_narrower_than_the_band_it_replaced():
     # K_sel - K_true = b + e, e ~ N(0, 1) independent of the measured bias d ~ N(b, rho) (nested fits); band
     # 1.645 sqrt(1 + max(0, q d^2 - c rho)), (q, c) the module's table at rho. Coverage over b by band_coverage
-    # (exact over e, trapezoid over d: within ~1e-6 of a 20x finer rule), b on a grid of step 0.01 near 0 (the
+    # (exact over e, trapezoid over d: within 1.3e-6 of a rule of step 5e-4), b on a grid of step 0.01 near 0 (the
     # coverage's curvature in b is O(1): between grid points it dips by < 1e-4); rho between and beyond the
     # table's nodes and its limit rho -> inf (b in units of tau there)
     for rho in (*np.logspace(-4.0, 4.0, 41), np.inf):
