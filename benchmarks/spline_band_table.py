@@ -24,9 +24,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import norm
 
-from jointid.methods.receptance.spline_bands import BIAS_BAND_C, BIAS_BAND_LOG10_RHO, BIAS_BAND_Q, band_coverage, bias_band_table
+from jointid.methods.receptance.spline_bands import BIAS_BAND_C, BIAS_BAND_LOG10_RHO, BIAS_BAND_Q, Z90, band_coverage, bias_band_table
 
-Z90 = 1.6448536269514722
 NODES = np.arange(-3.0, 2.0001, 0.25)
 X, W = np.polynomial.hermite_e.hermegauss(80)
 W = W / W.sum()

@@ -69,7 +69,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["richer_fit_band", "bias_band_variance", "bias_band_table", "band_coverage", "BIAS_BAND_LOG10_RHO", "BIAS_BAND_Q",
+__all__ = ["richer_fit_band", "bias_band_variance", "bias_band_table", "band_coverage", "Z90", "BIAS_BAND_LOG10_RHO", "BIAS_BAND_Q",
            "BIAS_BAND_C"]
 
 #: Nodes ``log10 rho`` of the bias band's table, ``rho = tau^2 / s^2`` (:func:`bias_band_variance`).
