@@ -259,12 +259,15 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
     columns scaled to unit norm by ``cs``.
 
     One identification asks for the same design several times (the junk-line test, the column
-    calibration, the per-line fit and the model check weight the lines alike): the last one
-    computed in this thread is kept with a copy of its inputs and returned again (read-only
-    arrays) for the same ``Ymn``, ``Yne`` and ``symmetric`` and a variance within
+    calibration, the per-line fit and the model check weight the lines alike): the last
+    :data:`DESIGNS_KEPT` computed in this thread are kept with a copy of their inputs and returned
+    again (read-only arrays) for the same ``Ymn``, ``Yne`` and ``symmetric`` and a variance within
     :data:`DESIGN_VARIANCE_RTOL` (relative) of its own: weights ``sw`` within ``2 eps`` of the
     ones asked for, about the rounding of ``1 / sqrt(variance)`` itself (the variances of one
-    identification are the same numbers computed in different orders, 1 ulp apart).
+    identification are the same numbers computed in different orders, 1 ulp apart). More than
+    one is kept because the noise-model choice asks for designs of a subset of the lines between
+    the junk-line test and the calibration (which then reuse one design instead of computing two):
+    the newest design is kept and, of the older ones, the one of most lines (the most recent of equals).
 
     Returns
     -------
@@ -274,19 +277,27 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
         ``Q R = diag(sw) A diag(1 / cs)`` per line.
     """
     inputs = (np.asarray(Ymn), np.asarray(Yne), np.asarray(variance))
-    last = getattr(_LAST_DESIGN, "entry", None)
-    if (last is not None and last[1] == bool(symmetric) and _equal(inputs[0], last[0][0]) and _equal(inputs[1], last[0][1])
-            and _close(inputs[2], last[0][2], DESIGN_VARIANCE_RTOL)):
-        return last[2]
+    kept = getattr(_LAST_DESIGN, "entries", None)
+    if kept is None:
+        kept = _LAST_DESIGN.entries = []
+    for k, last in enumerate(kept):
+        if (last[1] == bool(symmetric) and _equal(inputs[0], last[0][0]) and _equal(inputs[1], last[0][1])
+                and _close(inputs[2], last[0][2], DESIGN_VARIANCE_RTOL)):
+            kept.insert(0, kept.pop(k))  # most recently used first
+            return last[2]
     out = _line_design(*inputs, bool(symmetric))
     for a in out:
         a.flags.writeable = False
-    _LAST_DESIGN.entry = (tuple(a.copy() for a in inputs), bool(symmetric), out)
+    kept.insert(0, (tuple(a.copy() for a in inputs), bool(symmetric), out))
+    while len(kept) > DESIGNS_KEPT:  # the newest stays; of the older ones the one of fewest lines (a subset's), the oldest of equals, goes
+        kept.pop(min(range(1, len(kept)), key=lambda k: (kept[k][2][2].shape[0], -k)))
     return out
 
 
-#: The last design of :func:`whitened_line_design` in each thread: (inputs, symmetric, outputs).
+#: The last designs of :func:`whitened_line_design` in each thread, most recent first: (inputs, symmetric, outputs).
 _LAST_DESIGN = threading.local()
+#: Designs kept per thread (:func:`whitened_line_design`).
+DESIGNS_KEPT = 2
 
 
 #: A design is reused for a variance within this relative distance of its own (:func:`whitened_line_design`).
