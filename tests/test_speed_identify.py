@@ -234,19 +234,20 @@ def test_a_design_is_reused_only_for_the_same_blocks_and_a_variance_within_its_r
     assert whitened_line_design(Y2, Yne, var)[2] is not first[2]
 
 
-def test_a_subset_design_in_between_does_not_evict_the_whole_one(case):
+def test_a_subset_design_not_kept_leaves_the_whole_one(case):
     """The noise-model choice asks for designs of a subset of the lines between the junk-line test and the
-    calibration: the whole design is kept (the newest and, of the older ones, the one of most lines stay)."""
+    calibration with ``keep=False``: the whole design stays kept for the calibration."""
     from jointid.methods.receptance.coupling_lines import whitened_line_design
 
     _, Ymn, Yne, _, H = _blocks(case)
     var = (0.003 * np.abs(H)) ** 2
-    whitened_line_design(Ymn, Yne, 3.0 * var)  # an older design of as many lines: it goes before the newer one
     whole = whitened_line_design(Ymn, Yne, var)
     sub = slice(0, 40)
-    for scale in (1.0, 2.0):  # two subset designs, as the relative and the floor noise model ask for
-        whitened_line_design(Ymn[sub], Yne[sub], scale * var[sub])
+    for scale in (1.0, 2.0):  # as the relative and the floor noise model ask for
+        whitened_line_design(Ymn[sub], Yne[sub], scale * var[sub], keep=False)
     assert whitened_line_design(Ymn, Yne, var)[2] is whole[2]
+    whitened_line_design(Ymn[sub], Yne[sub], var[sub])  # kept (the default): replaces it
+    assert whitened_line_design(Ymn, Yne, var)[2] is not whole[2]
 
 
 @posix_only

@@ -96,7 +96,8 @@ import threading
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
+
+from .running_mean import running_mean
 
 __all__ = [
     "LineEstimates", "coupling_per_line", "symmetric_parametrization", "relinearize", "uses_kronecker", "DENSE_PATH_BYTES",
@@ -251,7 +252,7 @@ def coupling_per_line(
     return LineEstimates(Du, V, scale, cond, dof, common, x, C * scale[:, None, None], common_x_covariance, Ynn, symmetric)
 
 
-def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray, symmetric: bool = True):
+def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray, symmetric: bool = True, keep: bool = True):
     """The weighted, column-equilibrated per-line design of the coupling parameters, factored.
 
     Row ``(r, c)`` of ``A`` is ``vec`` of ``Y[m,n] X Y[n,e]`` at ``(r, c)`` in the parameters ``x``
@@ -259,15 +260,14 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
     columns scaled to unit norm by ``cs``.
 
     One identification asks for the same design several times (the junk-line test, the column
-    calibration, the per-line fit and the model check weight the lines alike): the last
-    :data:`DESIGNS_KEPT` computed in this thread are kept with a copy of their inputs and returned
-    again (read-only arrays) for the same ``Ymn``, ``Yne`` and ``symmetric`` and a variance within
+    calibration, the per-line fit and the model check weight the lines alike): the last one
+    computed in this thread is kept with a copy of its inputs and returned again (read-only
+    arrays) for the same ``Ymn``, ``Yne`` and ``symmetric`` and a variance within
     :data:`DESIGN_VARIANCE_RTOL` (relative) of its own: weights ``sw`` within ``2 eps`` of the
     ones asked for, about the rounding of ``1 / sqrt(variance)`` itself (the variances of one
-    identification are the same numbers computed in different orders, 1 ulp apart). More than
-    one is kept because the noise-model choice asks for designs of a subset of the lines between
-    the junk-line test and the calibration (which then reuse one design instead of computing two):
-    the newest design is kept and, of the older ones, the one of most lines (the most recent of equals).
+    identification are the same numbers computed in different orders, 1 ulp apart). ``keep=False``
+    (the noise-model choice's designs of a subset of the lines, asked for between the junk-line
+    test and the calibration, and never again) computes a design without replacing the kept one.
 
     Returns
     -------
@@ -277,27 +277,20 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
         ``Q R = diag(sw) A diag(1 / cs)`` per line.
     """
     inputs = (np.asarray(Ymn), np.asarray(Yne), np.asarray(variance))
-    kept = getattr(_LAST_DESIGN, "entries", None)
-    if kept is None:
-        kept = _LAST_DESIGN.entries = []
-    for k, last in enumerate(kept):
-        if (last[1] == bool(symmetric) and _equal(inputs[0], last[0][0]) and _equal(inputs[1], last[0][1])
-                and _close(inputs[2], last[0][2], DESIGN_VARIANCE_RTOL)):
-            kept.insert(0, kept.pop(k))  # most recently used first
-            return last[2]
+    last = getattr(_LAST_DESIGN, "entry", None)
+    if (last is not None and last[1] == bool(symmetric) and _equal(inputs[0], last[0][0]) and _equal(inputs[1], last[0][1])
+            and _close(inputs[2], last[0][2], DESIGN_VARIANCE_RTOL)):
+        return last[2]
     out = _line_design(*inputs, bool(symmetric))
     for a in out:
         a.flags.writeable = False
-    kept.insert(0, (tuple(a.copy() for a in inputs), bool(symmetric), out))
-    while len(kept) > DESIGNS_KEPT:  # the newest stays; of the older ones the one of fewest lines (a subset's), the oldest of equals, goes
-        kept.pop(min(range(1, len(kept)), key=lambda k: (kept[k][2][2].shape[0], -k)))
+    if keep:
+        _LAST_DESIGN.entry = (tuple(a.copy() for a in inputs), bool(symmetric), out)
     return out
 
 
-#: The last designs of :func:`whitened_line_design` in each thread, most recent first: (inputs, symmetric, outputs).
+#: The last design of :func:`whitened_line_design` in each thread: (inputs, symmetric, outputs).
 _LAST_DESIGN = threading.local()
-#: Designs kept per thread (:func:`whitened_line_design`).
-DESIGNS_KEPT = 2
 
 
 #: A design is reused for a variance within this relative distance of its own (:func:`whitened_line_design`).
@@ -354,7 +347,7 @@ def _pooled_scale(chi2: np.ndarray, dof: int, pool_lines: int | None) -> np.ndar
     if dof <= 0:
         return np.full(F, np.nan)
     w = pool_lines or (max(1, F // 40) | 1)
-    return uniform_filter1d(chi2 / dof, size=min(w, F), mode="nearest")
+    return running_mean(chi2 / dof, min(w, F))
 
 
 def separable_weights(variance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -68,11 +68,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 from scipy.special import fdtrc
 
 from ...parallel import single_threaded_blas
 from .coupling_lines import LineEstimates, symmetric_parametrization, whitened_line_design
+from .running_mean import running_mean
 
 __all__ = ["ForceNoise", "detect_force_noise", "column_split", "FORCE_NOISE_P_VALUE", "FORCE_NOISE_MIN_F", "FORCE_NOISE_MIN_LEVEL", "FORCE_NOISE_LINES"]
 
@@ -210,7 +210,7 @@ def detect_force_noise(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, H: 
     tiny = np.finfo(float).tiny
 
     def run(x):
-        return uniform_filter1d(x, width, axis=0, mode="nearest")
+        return running_mean(x, width, axis=0)
 
     a = np.maximum(run(perp) / rest, tiny)  # (F,)
     # the F test, each line normalized by its own smoothed a
@@ -231,17 +231,18 @@ def detect_force_noise(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, H: 
     return ForceNoise(a, b, float(f_stat), p_value, (d1, d2))
 
 
-def column_split(Ymn, Yne, change, H, variance, symmetric):
+def column_split(Ymn, Yne, change, H, variance, symmetric, keep: bool = True):
     """The per-line weighted fit's residual and the excitation columns' directions outside the fit's range.
 
     Returns ``(sw, Q, r, Uz, Rz)``: the weights ``sw`` (F, m e) and the orthonormal design ``Q`` (F, m e, p) of
     :func:`~.coupling_lines.whitened_line_design`, the weighted residual ``r = (I - Q Q^H) d_w`` (F, m e), and
     ``Uz R_z = (I - Q Q^H) G_w`` (QR; ``G_w[:, :, j]``: column j of the weighted ``H``, what a scale error of that
-    column changes), shapes (F, m e, e) and (F, e, e).
+    column changes), shapes (F, m e, e) and (F, e, e). ``keep``: passed to ``whitened_line_design`` (False: a
+    design of a subset of the lines, not kept for the calls that follow).
     """
     F, m, n = Ymn.shape
     e = Yne.shape[2]
-    sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric)
+    sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric, keep=keep)
     Qh = np.conj(np.swapaxes(Q, 1, 2))
     dw = (change.reshape(F, m * e) * sw)[:, :, None]
     r = (dw - Q @ (Qh @ dw))[:, :, 0]
@@ -296,7 +297,7 @@ def _gls_lines(Ymn, Yne, Ynn, change, H, resp_var, col_var, symmetric, pool_line
     with np.errstate(divide="ignore", invalid="ignore"):
         cond = sv[:, 0] / sv[:, -1]
     w = pool_lines or (max(1, F // 40) | 1)
-    scale = uniform_filter1d(np.sum(np.abs(resid) ** 2, axis=1) / dof, size=min(w, F), mode="nearest") if dof > 0 else np.full(F, np.nan)
+    scale = running_mean(np.sum(np.abs(resid) ** 2, axis=1) / dof, min(w, F)) if dof > 0 else np.full(F, np.nan)
     C = (Ri @ np.conj(np.swapaxes(Ri, 1, 2))) / (cs[:, :, None] * cs[:, None, :])
     X = (x @ P.T).reshape(F, n, n)
     I = np.eye(n)

@@ -105,7 +105,7 @@ def _minus_two_log_likelihood(Ymn, Yne, change, H, V, symmetric, inner) -> tuple
     F, m, _ = Ymn.shape
     e = Yne.shape[2]
     with single_threaded_blas():
-        sw, Q, rw, Uz, _ = column_split(Ymn, Yne, change, H, V, symmetric)
+        sw, Q, rw, Uz, _ = column_split(Ymn, Yne, change, H, V, symmetric, keep=False)  # a subset of the lines: not kept
     # the residual along the excitation columns' directions (a scale error per column: units, force calibration,
     # force noise) is left out: it follows |H| whatever the noise is
     rw = rw - np.einsum("fkc,fc->fk", Uz, np.einsum("fkc,fk->fc", np.conj(Uz), rw))

@@ -43,7 +43,6 @@ from dataclasses import dataclass, replace
 from types import SimpleNamespace
 
 import numpy as np
-from scipy.optimize import leastsq
 
 from .structured_model import (
     StructuredModel, default_scale, drop_last_mode, extend, pack, structured_stiffness, structured_terms, sym_basis, unpack,
@@ -249,6 +248,8 @@ class _Problem:
 def _solve(prob: _Problem, theta0: np.ndarray, max_nfev: int = 200):
     """MINPACK ``lmder`` as ``least_squares(method="lm", x_scale="jac")`` calls it, without its per-call wrappers: ``x``,
     ``fun``, ``jac`` (at ``x``), ``cost``."""
+    from scipy.optimize import leastsq  # here: importing scipy.optimize costs ~0.1 s, and only a fit needs it
+
     with np.errstate(all="ignore"):
         x, _, info, _, _ = leastsq(prob.residual, theta0, Dfun=prob.jacobian, full_output=True, ftol=_FTOL, xtol=_TOL,
                                    gtol=1e-8, maxfev=max_nfev, factor=100.0, diag=None)
