@@ -25,6 +25,8 @@ def _plain_csv(columns) -> str:
     {"name": ["a,b", 'q"t', "plain"], "x": [1.5, 2.0, 3.0]},  # text columns: the csv module's quoting
     {"a": []},
     {},
+    {"a": np.array([0.5, -0.0, np.nan]), "b": np.array([0.5, -0.0, np.nan]), "c": np.array([0.5, 0.0, np.nan]),  # repeated columns
+     "d": np.float32([0.5, -0.0, np.nan]), "e": np.array([1, 0, 0]), "f": np.array([True, False, False])},
 ])
 def test_bulk_csv_text_equals_the_per_field_text(columns):
     assert format_csv(columns) == _plain_csv(columns)

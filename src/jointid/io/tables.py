@@ -36,6 +36,25 @@ def _column_text(col: np.ndarray) -> list[str] | None:
     return None
 
 
+def _columns_text(cols: list[np.ndarray]) -> list[list[str] | None]:
+    """:func:`_column_text` of each column; a column bit-identical to an earlier one (a symmetric joint's mirrored
+    terms) reuses its fields (the same text: the same bits format alike)."""
+    out: list[list[str] | None] = []
+    seen: dict[tuple, list[str]] = {}
+    for c in cols:
+        if c.ndim != 1:
+            out.append(None)
+            continue
+        key = (c.dtype.str, c.tobytes()) if c.dtype.kind in "biuf" else None
+        if key is not None and key in seen:
+            out.append(seen[key])
+            continue
+        out.append(_column_text(c))
+        if key is not None and out[-1] is not None:
+            seen[key] = out[-1]
+    return out
+
+
 def format_csv(columns: Mapping[str, Sequence]) -> str:
     """The CSV text of equal-length ``columns`` (name -> values), header row first.
 
@@ -52,7 +71,7 @@ def format_csv(columns: Mapping[str, Sequence]) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(names)
-    text = [_column_text(c) if c.ndim == 1 else None for c in cols]
+    text = _columns_text(cols)
     if all(t is not None for t in text):
         if cols and len(cols[0]):
             buf.write("\n".join(map(",".join, zip(*text))))
