@@ -61,11 +61,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 from scipy.special import fdtrc
 
 from ...parallel import single_threaded_blas
 from .coupling_lines import symmetric_parametrization, whitened_line_design
-from .running_mean import running_mean
 from .smoothing import bspline_basis
 
 __all__ = ["ColumnCalibration", "estimate_column_calibration", "residual_variance", "RESIDUAL_VARIANCE_LINES", "CALIBRATION_BASIS", "CALIBRATION_P_VALUE", "CALIBRATION_MIN_F", "CALIBRATION_MIN_ERROR"]
@@ -364,8 +364,8 @@ def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, vari
     r2 = (np.abs(rw) / sw) ** 2  # |residual|^2, (m/N)^2
     free = np.clip(1.0 - np.sum(np.abs(Q) ** 2, axis=2), 0.0, None)
     width = min(int(lines), max(1, F // 10)) | 1
-    num = running_mean(r2, width, axis=0)
-    den = running_mean(free, width, axis=0)
+    num = uniform_filter1d(r2, width, axis=0, mode="nearest")
+    den = uniform_filter1d(free, width, axis=0, mode="nearest")
     with np.errstate(divide="ignore", invalid="ignore"):
         v = num / den
     return np.where(np.isfinite(v) & (v > 0), v, variance.reshape(F, m * e)).reshape(F, m, e)

@@ -29,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+from scipy.interpolate import BSpline
 
 from ...parallel import single_threaded_blas
-from .bspline_design import design_csr
 
 __all__ = ["SmoothedSeries", "smooth_series", "bspline_basis", "MAX_BASIS", "LOG_LAMBDA_GRID"]
 
@@ -58,7 +58,7 @@ def bspline_basis(x: np.ndarray, n_basis: int, degree: int = 3):
     u = (x - x[0]) / (x[-1] - x[0])
     inner = np.linspace(0.0, 1.0, n_basis - degree + 1)
     t = np.r_[[0.0] * degree, inner, [1.0] * degree]
-    return design_csr(np.clip(u, 0.0, 1.0), t, degree)  # scipy's BSpline.design_matrix, bit for bit
+    return BSpline.design_matrix(np.clip(u, 0.0, 1.0), t, degree).tocsr()
 
 
 def smooth_series(x: np.ndarray, y: np.ndarray, variance: np.ndarray, n_basis: int | None = None) -> SmoothedSeries:
