@@ -25,6 +25,10 @@ class (4 functions per term) is the same Jacobian at the truth with the true noi
 variance; printed as the median over lines of ``0.83 sqrt(E|dK|^2) / |K|`` (the median
 of a circular Gaussian error's modulus), comparable to the median errors.
 
+Then the spline fit's diagonal coverage split by the band's branch (:mod:`jointid.methods.receptance.spline_bands`):
+seeds where per-term orders were chosen (their bias measured against the uniform 4) and seeds with one uniform
+order (measured against the order above it, where ``rho`` is largest for the rotations).
+
 Also per off-diagonal term of the spline fit: the median error relative to ``sqrt(|K_aa K_bb|)``
 and the coverage of its bands.
 
@@ -132,7 +136,7 @@ def _one_seed(seed):
         ("per-line", (lines.stiffness, lines.std_real, lines.std_imag)),
         ("gcv", (gcv.stiffness, gcv.std_real, gcv.std_imag)))}
     ia, ib = np.triu_indices(6)
-    return seed, t2 - t1, fit.n_basis, fit.term_basis[ia == ib], fit.chi2_per_dof, figs
+    return seed, t2 - t1, fit.n_basis, fit.term_basis[ia == ib], fit.chi2_per_dof, figs, "per-term" in fit.criterion
 
 
 def main(argv=None):
@@ -158,7 +162,7 @@ def main(argv=None):
     names = [f"K_{COMP[a]}_{COMP[b]}" for a, b in zip(ia, ib)]
     diag = np.flatnonzero(ia == ib)
     out = {k: ([], []) for k in ("spline", "per-line", "gcv")}
-    nbs, times, chi2, orders = [], [], [], []
+    nbs, times, chi2, orders, per_term = [], [], [], [], []
     if args.jobs > 1:
         import multiprocessing
 
@@ -166,7 +170,8 @@ def main(argv=None):
         results = pool.imap(_one_seed, range(args.seeds))
     else:
         pool, results = None, map(_one_seed, range(args.seeds))
-    for seed, dt, nb, order, c2, figs in results:
+    for seed, dt, nb, order, c2, figs, branch in results:
+        per_term.append(branch)
         times.append(dt)
         nbs.append(nb)
         orders.append(order)
@@ -192,6 +197,13 @@ def main(argv=None):
             c = np.concatenate([x[:, t].ravel() for x in out[key][1]])
             cells.append(f"{100 * np.median(e):12.3g} % / {c.mean():5.2f}")
         print(f"{names[t]:10s} " + " ".join(f"{s:>22s}" for s in cells) + f" {100 * crb_med[i]:16.3g} %")
+    per_term = np.array(per_term)
+    print("\nspline fit, coverage of the diagonal terms' 90 % bands by the band's branch (spline_bands): per-term orders"
+          " (bias against the uniform 4) / one uniform order (bias against the order above it)")
+    for label, group in (("per-term", per_term), ("uniform", ~per_term)):
+        if group.any():
+            c = [np.mean([out["spline"][1][s][:, t] for s in np.flatnonzero(group)]) for t in diag]
+            print(f"  {label:9s} {int(group.sum()):3d} seeds: " + " ".join(f"{names[t]} {v:.2f}" for t, v in zip(diag, c)))
     print("\noff-diagonal terms, spline fit: median error relative to sqrt(|K_aa K_bb|) / coverage of the 90 % bands"
           " (* a coupling of the true mount; the others are zero)")
     nonzero = {(COMP.index(a), COMP.index(b)) for a, b, _ in K0_COUPLINGS}
