@@ -367,6 +367,21 @@ def test_uff58_time_records_round_trip(tmp_path, hits3):
     np.testing.assert_allclose(back.responses, rec.responses, rtol=1e-6, atol=1e-9 * np.abs(rec.responses).max())
 
 
+def test_uff58_time_records_cut_inside_a_dataset_are_refused(tmp_path, hits3):
+    import re
+
+    (F, R), *_ = hits3
+    p = write_impact_uff(tmp_path / "hits.uff", [_record(F[:2, :512], R[:2, :, :512])])
+    data = p.read_bytes()
+    marks = [m.start() for m in re.finditer(rb"(?m)^    -1\r?$", data)]
+    cut = tmp_path / "cut.uff"
+    cut.write_bytes(data[:marks[-2] + 100])  # the last dataset opened, never closed
+    line = data.count(b"\n", 0, marks[-2]) + 1
+    with pytest.raises(DataError, match=re.escape(f"{cut} ends inside a dataset (opened at line {line} after {len(marks) // 2 - 1} "
+                                                  "complete one(s), never closed by a '    -1' line): the file is truncated")):
+        read_impact_uff(cut)
+
+
 def test_roving_sensor_correction_is_exact_for_a_3dof_system():
     M = np.diag([1.0, 0.8, 1.2])
     k = 1e5

@@ -54,6 +54,35 @@ def _rel(a, b):
     return np.max(np.abs(np.asarray(a) - np.asarray(b))) / np.max(np.abs(b))
 
 
+# ---------------------------------------------------------------- truncated files
+@pytest.mark.parametrize("binary", [False, True])
+def test_a_file_cut_inside_a_dataset_is_refused_naming_the_line(tmp_path, binary):
+    """pyuff lists only closed datasets: a file cut inside the 4th record would read as 3 records (a missing pair,
+    blamed on the study). It is refused as truncated, with the line where the unclosed dataset opens."""
+    p = write_uff_frf(tmp_path / "whole.uff", _frf(), binary=binary)
+    data = p.read_bytes()
+    opening = [int(start) for start, _ in pyuff.UFF(str(p))._block_ind]  # where each dataset's "    -1" line starts
+    assert len(opening) == 7 and all(data[k:k + 7] == b"    -1\n" for k in opening)  # units (164) and six FRF records
+    cut = tmp_path / "cut.uff"
+    cut.write_bytes(data[:opening[4] + 200])  # the 5th dataset (the 4th FRF record) opened, 200 bytes of it
+    line = data.count(b"\n", 0, opening[4]) + 1
+    with pytest.raises(DataError) as err:
+        read_uff_frf(cut)
+    assert str(err.value) == (f"{cut} ends inside a dataset (opened at line {line} after 4 complete one(s), never closed by a "
+                              "'    -1' line): the file is truncated (an interrupted copy or export?); copy or export it again")
+    first = tmp_path / "first.uff"
+    first.write_bytes(data[:opening[0] + 100])  # not one dataset closed
+    with pytest.raises(DataError, match=r"first.uff ends inside a dataset \(opened at line 1 after 0 complete one\(s\)"):
+        read_uff_frf(first)
+
+
+def test_a_whole_file_and_a_lone_delimiter_at_its_end_are_not_truncated(tmp_path):
+    p = write_uff_frf(tmp_path / "whole.uff", _frf())
+    assert read_uff_frf(p).data.shape[1:] == (3, 2)
+    p.write_bytes(p.read_bytes() + b"    -1\n")  # opens nothing
+    assert read_uff_frf(p).data.shape[1:] == (3, 2)
+
+
 # ---------------------------------------------------------------- round trips
 @pytest.mark.parametrize("kind", ["accelerance", "mobility", "receptance"])
 def test_ascii_round_trip(tmp_path, kind):

@@ -27,11 +27,12 @@ message.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Uff58Reader"]
+__all__ = ["Uff58Reader", "unclosed_dataset_line"]
 
 #: Header lines of a dataset 58 block (the leading ``    -1`` included), as pyuff counts them.
 _HEADER_LINES = 13
@@ -82,11 +83,50 @@ class Uff58Reader:
         d["x"], d["data"] = _split(values, d)
         return d
 
+    def unclosed_dataset_line(self) -> int | None:
+        """Line (1-based) where a dataset opens after the last complete one and is never closed, else None
+        (:func:`unclosed_dataset_line`)."""
+        if self._bytes is None:
+            self._bytes = self._path.read_bytes()
+        return unclosed_dataset_line(self._bytes, self._uff._block_ind)
+
     def _block(self, i: int) -> bytes:
         if self._bytes is None:
             self._bytes = self._path.read_bytes()
         start, end = (int(v) for v in self._uff._block_ind[i])
         return self._bytes[start:end + 1]
+
+
+#: A dataset delimiter: a line that reads exactly ``    -1`` (CR LF or LF).
+_DELIMITER = re.compile(rb"(?m)^    -1\r?$")
+
+
+def unclosed_dataset_line(data: bytes, block_ind) -> int | None:
+    """Line (1-based) of a dataset delimiter that opens a dataset after the last complete one, else None.
+
+    pyuff lists only the datasets closed by a second ``    -1`` and ignores the rest, so a file cut
+    short (an interrupted copy or export) reads as a shorter, valid file. ``block_ind`` is pyuff's
+    ``(start, end)`` byte index per listed dataset, ``end`` just before its closing ``    -1``
+    (on a line of its own after ASCII values, right after the bytes of a binary dataset). Past
+    that closing delimiter, a line ``    -1`` opens a dataset that never ends (with none listed,
+    any such line does); a lone one at the end of the file, with nothing after it, is not counted.
+
+    Parameters
+    ----------
+    data : bytes
+        The whole file.
+    block_ind : array_like, shape (datasets, 2)
+        pyuff's ``UFF._block_ind``.
+    """
+    after = 0
+    if len(block_ind):
+        start = int(block_ind[-1][1]) + 1
+        close = data.find(b"    -1", start, start + 8)
+        after = close + 6 if close >= 0 else start
+    m = _DELIMITER.search(data, after)
+    if m is None or not data[m.end():].strip():
+        return None
+    return data.count(b"\n", 0, m.start()) + 1
 
 
 def _split(values: np.ndarray, d: dict) -> tuple[np.ndarray, np.ndarray]:

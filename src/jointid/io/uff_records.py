@@ -30,7 +30,7 @@ from ..errors import DataError, FrequencyError
 from ..frequency import Frequency
 from .uff_units import SI, UnitSystem, abscissa_factor, ordinate_units, units_from_164
 
-__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line", "map_record", "map_signal"]
+__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line", "map_record", "map_signal", "truncated_message"]
 
 FUNC_TIME = 1
 FUNC_FRF = 4
@@ -206,6 +206,12 @@ def _values(d: dict, where: str) -> tuple[np.ndarray, np.ndarray]:
     return x, data
 
 
+def truncated_message(path, line: int, complete: int) -> str:
+    """The one line for a UFF file that ends inside a dataset (:func:`~.uff_ascii58.unclosed_dataset_line`)."""
+    return (f"{path} ends inside a dataset (opened at line {line} after {complete} complete one(s), never closed by a "
+            "'    -1' line): the file is truncated (an interrupted copy or export?); copy or export it again")
+
+
 def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]]:
     """The FRF and the coherence records ``sel`` keeps, in file order; skipped ones are counted in ``sel.skipped``.
 
@@ -222,6 +228,9 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
         types = uff.types
     except Exception as exc:  # pyuff raises bare Exception
         raise DataError(f"cannot read UFF file {path}: {exc}") from exc
+    truncated_at = uff.unclosed_dataset_line()
+    if truncated_at is not None:
+        raise DataError(truncated_message(path, truncated_at, len(types)))
     system: UnitSystem = SI
     frfs: list[Record] = []
     cohs: list[Record] = []

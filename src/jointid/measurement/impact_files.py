@@ -329,16 +329,21 @@ def read_impact_uff(
     """
     import pyuff
 
-    from ..io.uff_records import AXES, Selection, map_signal
+    from ..io.uff_ascii58 import unclosed_dataset_line
+    from ..io.uff_records import AXES, Selection, map_signal, truncated_message
     from ..io.uff_units import SI, conversion_line, signal_units, time_factor, units_from_164
 
     path = Path(path)
     if axis is not None and axis not in AXES:
         raise DataError(f"unknown measurement axis {axis!r}; expected one of {', '.join(AXES)}")
     try:
-        sets = pyuff.UFF(str(path)).read_sets()
+        uff = pyuff.UFF(str(path))
+        sets = uff.read_sets()
     except Exception as e:  # pyuff raises bare Exceptions on malformed files
         raise DataError(f"{path}: cannot read as UFF ({e})") from None
+    line = unclosed_dataset_line(path.read_bytes(), uff._block_ind)
+    if line is not None:
+        raise DataError(truncated_message(path, line, len(uff._block_ind)))
     if isinstance(sets, dict):
         sets = [sets]
     sel = Selection(n_nodes=n_nodes, points=None if points is None else {int(k): int(v) for k, v in points.items()}, axis=axis)
