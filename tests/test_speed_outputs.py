@@ -60,7 +60,7 @@ def test_plain_log_tick_labels():
 
 
 def test_band_quadratic_form_within_its_rounding_bound():
-    from jointid.methods.receptance.structured_fit import _quadratic_form
+    from jointid.methods.receptance.structured_bands import quadratic_form as _quadratic_form
 
     rng = np.random.default_rng(1)
     J = rng.standard_normal((500, 12))

@@ -289,7 +289,7 @@ def test_small_stacked_products_within_their_rounding_bound():
 @pytest.mark.parametrize("order", [(0, 1, False), (2, 1, True), (1, 4, True)])
 def test_factored_bands_are_the_dense_jacobian_bands(order):
     """The bands from the distinct frequency functions equal ``j^T C j`` of the dense Jacobian within its rounding bound."""
-    from jointid.methods.receptance.structured_fit import _bands
+    from jointid.methods.receptance.structured_bands import structured_bands as _bands
 
     rng = np.random.default_rng(7)
     model = StructuredModel(2, order[0], order[1], order[2], (3.0, 0.5), 1000.0, (100.0, 1000.0))

@@ -44,6 +44,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from .structured_bands import parameter_covariance, structured_bands, terms_moving_along
 from .structured_model import (
     StructuredModel, default_scale, drop_last_mode, extend, pack, structured_stiffness, structured_terms, sym_basis, unpack,
 )
@@ -108,7 +109,7 @@ class StructuredFit:
     def at(self, hz) -> "StructuredFit":
         """The same fit evaluated on other frequencies (Hz, shape (F',)): stiffness and bands there."""
         hz = np.asarray(hz, float)
-        K, sr, si = _bands(self.theta, self.theta_covariance, hz, self.model)
+        K, sr, si = structured_bands(self.theta, self.theta_covariance, hz, self.model)
         return replace(self, stiffness=K, std_real=sr, std_imag=si)
 
     def poles_hz(self) -> np.ndarray:
@@ -259,82 +260,19 @@ def _solve(prob: _Problem, theta0: np.ndarray, max_nfev: int = 200):
 
 def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
     model, theta, J = prob.model, sol.x, sol.jac
-    JTJ = J.T @ J
-    try:
-        cov = np.linalg.inv(JTJ)
-    except np.linalg.LinAlgError:
-        cov = np.linalg.pinv(JTJ)
+    cov, unseen = parameter_covariance(J)
     real_chi2 = float(np.sum(sol.fun ** 2))  # unit-variance real residuals (sqrt(2) [Re, Im] of the complex ones)
     nobs = 2 * prob.F * prob.p
     dof = nobs - prob.P
     cov = cov * max(1.0, real_chi2 / max(dof, 1))  # a misfit above the noise widens the bands
-    K, std_re, std_im = _bands(theta, cov, prob.hz, model)
+    K, std_re, std_im = structured_bands(theta, cov, prob.hz, model)
+    if unseen.shape[1]:  # a term that moves along a direction the FRFs do not see has no band
+        blind = terms_moving_along(theta, prob.hz, model, unseen)
+        std_re, std_im = np.where(blind, np.inf, std_re), np.where(blind, np.inf, std_im)
     return StructuredFit(
         model, theta, cov, K, std_re, std_im, real_chi2, dof, real_chi2 + 2.0 * prob.P + 2.0 * prob.P * (prob.P + 1) / max(dof - 1, 1),
         real_chi2 + prob.P * np.log(nobs), time.perf_counter() - t0,
     )
-
-
-def _bands(theta, cov, hz, model: StructuredModel):
-    """Stiffness (F, n, n) and the 1-sigma of its real and imaginary parts from the parameter covariance (linearized).
-
-    From the factored derivatives of :func:`structured_terms`: the gradient of term ``t`` (real or
-    imaginary part) at line ``f`` is ``E_t z(f)``, with ``z(f)`` the few distinct frequency functions
-    (the distinct rows of ``jc``, and ``b_l(f) dg_t(f)`` of the modulus) and ``E_t`` a fixed
-    (P, d) map; so its variance is ``z^T (E_t^T C E_t) z``: a (d, d) form per line instead of
-    a (P, P) one, and no dense ``(F, n, n, P)`` Jacobian. Only the ``p`` independent terms.
-    """
-    n = model.n
-    S = np.asarray(model.scale, float)
-    SS = S[:, None] * S[None, :]
-    coefs, mats, (jc, jm, dg, Gd) = structured_terms(theta, hz, model, jacobian=True)
-    F, P, nl, K = hz.size, cov.shape[0], jc.shape[0], Gd.shape[1]
-    D = (coefs.T @ (mats * SS).reshape(len(mats), n * n)).reshape(F, n, n)
-    iu = np.triu_indices(n)
-    p = iu[0].size
-    funcs, which = _distinct_rows(jc)  # the distinct frequency functions of the parameters
-    d = funcs.shape[0]
-    mj = (jm[:, iu[0], iu[1]] * SS[iu]).T  # (p, nl)
-    b = (dg[:, iu[0], iu[1]] * SS[iu]).T[:, :, None] * Gd[None]  # (p, F, K): dDu/dRe gamma_l; i b for Im gamma_l
-    var = np.empty((2, p, F))
-    for part in (0, 1):
-        z = np.empty((F, d + 2 * K))
-        z[:, :d] = (funcs.real if part == 0 else funcs.imag).T
-        for t in range(p):
-            z[:, d:d + K], z[:, d + K:] = b[t].real, b[t].imag
-            E, ks = np.zeros((P, d + 2 * K)), nl + 2 * np.arange(K)
-            E[np.arange(nl), which] = mj[t]
-            if part == 0:  # Re(b g_l): +Re b on Re gamma_l, -Im b on Im gamma_l
-                E[ks, d + np.arange(K)], E[ks + 1, d + K + np.arange(K)] = 1.0, -1.0
-            else:  # Im(b g_l): +Im b on Re gamma_l, +Re b on Im gamma_l
-                E[ks, d + K + np.arange(K)], E[ks + 1, d + np.arange(K)] = 1.0, 1.0
-            var[part, t] = _quadratic_form(z, E.T @ cov @ E)
-    std = np.sqrt(np.maximum(var, 0.0))
-    sr, si = np.empty((F, n, n)), np.empty((F, n, n))
-    sr[:, iu[0], iu[1]] = sr[:, iu[1], iu[0]] = std[0].T
-    si[:, iu[0], iu[1]] = si[:, iu[1], iu[0]] = std[1].T
-    return D, sr, si
-
-
-def _distinct_rows(a: np.ndarray) -> tuple:
-    """``(rows, which)``: the distinct rows of ``a`` (bitwise equal ones merged; a loop over rows, not lines) and
-    the index of each row of ``a`` among them, so ``rows[which] == a``."""
-    reps, which, seen = [], np.empty(a.shape[0], int), {}
-    for k, row in enumerate(a):
-        for j in seen.get(key := row[:4].tobytes(), ()):
-            if np.array_equal(a[reps[j]], row):
-                which[k] = j
-                break
-        else:
-            seen.setdefault(key, []).append(len(reps))
-            which[k] = len(reps)
-            reps.append(k)
-    return a[reps], which
-
-
-def _quadratic_form(J: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """``j_m^T cov j_m`` of every row ``j_m`` of ``J`` (M, P): one (M, P) x (P, P) product and a row sum."""
-    return np.einsum("mp,mp->m", J @ cov, J)
 
 
 def _smoothed_curves(hz, lines):
