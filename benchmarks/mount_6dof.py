@@ -199,7 +199,8 @@ def main(argv=None):
         print(f"{names[t]:10s} " + " ".join(f"{s:>22s}" for s in cells) + f" {100 * crb_med[i]:16.3g} %")
     per_term = np.array(per_term)
     print("\nspline fit, coverage of the diagonal terms' 90 % bands by the band's branch (spline_bands): per-term orders"
-          " (bias against the uniform 4) / one uniform order (bias against the order above it)")
+          f" (bias against the uniform {args.max_basis}) / one uniform order, any (bias against the order above it; "
+          "n_basis per seed above)")
     for label, group in (("per-term", per_term), ("uniform", ~per_term)):
         if group.any():
             c = [np.mean([out["spline"][1][s][:, t] for s in np.flatnonzero(group)]) for t in diag]
