@@ -310,3 +310,23 @@ def test_a_file_without_any_uff_dataset_says_what_delimits_them(tmp_path):
         f"{bad} holds no FRF record to read (UFF dataset 58, function type 4, along Z); no UFF dataset was "
         "found in it at all: datasets are delimited by lines that read exactly '    -1' (six characters: check for "
         "trailing spaces, tabs or another file format)")
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_every_cut_past_a_datasets_first_line_is_found(tmp_path, binary):
+    """Cut k bytes into the 4th FRF record (its opening '    -1' line, then its header): refused for k = 5 (a
+    partial delimiter) and every k >= 12; k = 0-4 and 6-11 leave blanks or a lone '-1', which a whole file may end
+    with too (read as the 3 records before, whose pairs are then missing)."""
+    p = write_uff_frf(tmp_path / "whole.uff", _frf(), binary=binary)
+    data = p.read_bytes()
+    start = int(pyuff.UFF(str(p))._block_ind[4][0])
+    line = data.count(b"\n", 0, start) + 1
+    cut = tmp_path / "cut.uff"
+    for k in [5, *range(12, 400, 7)]:
+        cut.write_bytes(data[:start + k])
+        with pytest.raises(DataError, match=rf"ends inside a dataset \(opened at line {line} after 4 complete one\(s\)"):
+            read_uff_frf(cut)
+    for k in [*range(0, 5), *range(6, 12)]:
+        cut.write_bytes(data[:start + k])
+        with pytest.raises(DataError, match="pair .* is missing"):
+            read_uff_frf(cut)

@@ -72,3 +72,51 @@ def test_bands_do_not_move_when_the_frfs_change_by_one_rounding(beam_case):
     assert a.estimator == b.estimator == "structured"
     assert np.abs(b.std_real / a.std_real - 1.0).max() <= 1e-3
     assert np.abs(b.std_imag / a.std_imag - 1.0).max() <= 1e-3
+
+
+def test_edge_shapes_and_non_finite_jacobians():
+    """Fewer rows than parameters: the missing directions are unseen; a non-finite J: NaN covariance (no band), as
+    the fit's values; no parameters: empty."""
+    rng = np.random.default_rng(5)
+    cov, unseen = parameter_covariance(rng.normal(size=(3, 4)))
+    assert cov.shape == (4, 4) and unseen.shape == (4, 1)
+    J = rng.normal(size=(50, 4))
+    J[7, 2] = np.nan
+    cov, unseen = parameter_covariance(J)
+    assert np.all(np.isnan(cov)) and unseen.shape == (4, 0)
+    cov, unseen = parameter_covariance(np.zeros((10, 0)))
+    assert cov.shape == (0, 0) and unseen.shape == (0, 0)
+
+
+def _fit(aic, std, K=1.0 + 0.1j):
+    from types import SimpleNamespace
+
+    F = 5
+    s = np.full((F, 2, 2), std, float)
+    return SimpleNamespace(aic=aic, stiffness=np.full((F, 2, 2), K), std_real=s, std_imag=s)
+
+
+def test_an_undetermined_fit_is_left_out_of_the_average_even_with_the_lowest_aic():
+    """Its infinite band made the degenerate filter's reference infinite: every fit passed, the average's band was
+    infinite and the estimate rejected. It is left out first; with every fit undetermined the average keeps them."""
+    from jointid.methods.receptance.structured_select import model_average
+
+    fits = {"blind": _fit(0.0, np.inf), "good": _fit(1.0, 0.01), "other": _fit(1.5, 0.012, 1.01 + 0.1j)}
+    K, sr, si, w = model_average(fits)
+    assert set(w) == {"good", "other"} and np.all(np.isfinite(sr)) and np.all(np.isfinite(si))
+    assert abs(w["good"] / w["other"] - np.exp(0.25)) <= 1e-12
+    _, sr, _, w = model_average({"blind": _fit(0.0, np.inf), "blind2": _fit(1.0, np.inf)})
+    assert set(w) == {"blind", "blind2"} and np.all(np.isinf(sr))
+
+
+def test_evaluating_a_fit_elsewhere_keeps_its_undetermined_terms_without_a_band(beam_case):
+    from jointid.methods.receptance.structured_select import StructuredEstimate  # noqa: F401  (the fits' owner)
+
+    st, frf, data = beam_case
+    res = identify(st, FRF(frf.frequency, data, frf.responses, frf.references, frf.kind))
+    fit = res.structured.best
+    mask = np.array([[False, True], [True, False]])
+    hz = np.linspace(200.0, 800.0, 7)
+    moved = dataclasses.replace(fit, undetermined=mask).at(hz)
+    assert np.all(np.isinf(moved.std_real[:, mask])) and np.all(np.isinf(moved.std_imag[:, mask]))
+    assert np.all(np.isfinite(moved.std_real[:, ~mask])) and np.allclose(moved.std_real[:, ~mask], fit.at(hz).std_real[:, ~mask], rtol=0, atol=0)

@@ -97,19 +97,21 @@ class Uff58Reader:
         return self._bytes[start:end + 1]
 
 
-#: A dataset delimiter: a line that reads exactly ``    -1`` (CR LF or LF).
+#: A dataset delimiter: a line that reads exactly ``    -1`` (CR LF or LF; padded, pyuff does not see it either).
 _DELIMITER = re.compile(rb"(?m)^    -1\r?$")
 
 
 def unclosed_dataset_line(data: bytes, block_ind) -> int | None:
-    """Line (1-based) of a dataset delimiter that opens a dataset after the last complete one, else None.
+    """Line (1-based) where something starts after the last complete dataset (a dataset never closed), else None.
 
     pyuff lists only the datasets closed by a second ``    -1`` and ignores the rest, so a file cut
     short (an interrupted copy or export) reads as a shorter, valid file. ``block_ind`` is pyuff's
     ``(start, end)`` byte index per listed dataset, ``end`` just before its closing ``    -1``
-    (on a line of its own after ASCII values, right after the bytes of a binary dataset). Past
-    that closing delimiter, a line ``    -1`` opens a dataset that never ends (with none listed,
-    any such line does); a lone one at the end of the file, with nothing after it, is not counted.
+    (on a line of its own after ASCII values, right after the bytes of a binary dataset). After
+    that closing delimiter only whitespace may follow, or one lone ``-1`` (it opens nothing); with
+    no dataset listed, a delimiter line with anything after it is a dataset never closed (a file
+    with no delimiter at all is not a UFF file: the caller says so). A cut within the first 12
+    bytes of a dataset leaves only those (blanks, ``    -1``) and reads as the shorter file.
 
     Parameters
     ----------
@@ -118,12 +120,15 @@ def unclosed_dataset_line(data: bytes, block_ind) -> int | None:
     block_ind : array_like, shape (datasets, 2)
         pyuff's ``UFF._block_ind``.
     """
-    after = 0
     if len(block_ind):
         start = int(block_ind[-1][1]) + 1
         close = data.find(b"    -1", start, start + 8)
         after = close + 6 if close >= 0 else start
-    m = _DELIMITER.search(data, after)
+        rest = data[after:]
+        if rest.strip() in (b"", b"-1"):
+            return None
+        return data.count(b"\n", 0, after + len(rest) - len(rest.lstrip())) + 1
+    m = _DELIMITER.search(data)
     if m is None or not data[m.end():].strip():
         return None
     return data.count(b"\n", 0, m.start()) + 1

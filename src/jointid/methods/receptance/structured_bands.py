@@ -34,10 +34,16 @@ def parameter_covariance(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         The left-out directions (orthonormal columns; k = 0 when ``J`` has full numerical rank).
     """
     P = J.shape[1]
-    R = np.linalg.qr(J, mode="r")
-    _, s, Vt = np.linalg.svd(R)
-    keep = s > (s[0] if s.size else 0.0) * max(J.shape) * np.finfo(float).eps
-    return (Vt[keep].T / s[keep] ** 2) @ Vt[keep], Vt[~keep].T.reshape(P, -1)
+    if P == 0:
+        return np.zeros((0, 0)), np.zeros((0, 0))
+    if not np.all(np.isfinite(J)):  # a fit that left the finite numbers: no band (NaN), as its values
+        return np.full((P, P), np.nan), np.zeros((P, 0))
+    R = np.linalg.qr(J, mode="r")  # (min(N, P), P)
+    _, sv, Vt = np.linalg.svd(R)  # Vt (P, P); fewer rows than P: the missing singular values are 0
+    s = np.zeros(P)
+    s[:sv.size] = sv
+    keep = s > s[0] * max(J.shape) * np.finfo(float).eps
+    return (Vt[keep].T / s[keep] ** 2) @ Vt[keep], Vt[~keep].T
 
 
 def terms_moving_along(theta: np.ndarray, hz: np.ndarray, model: StructuredModel, directions: np.ndarray) -> np.ndarray:

@@ -87,6 +87,9 @@ class StructuredFit:
         Corrected Akaike ``chi2 + 2 P + 2 P (P + 1) / (N - P - 1)`` (AICc, ``N = 2 F p`` real observations)
         and Schwarz ``chi2 + P log N``.
     seconds : float
+    undetermined : ndarray of bool, shape (n, n), or None
+        Terms that change along a parameter direction the FRFs do not determine (their bands are infinite,
+        here and in :meth:`at`); None: every direction determined.
     """
 
     model: StructuredModel
@@ -100,6 +103,7 @@ class StructuredFit:
     aic: float
     bic: float
     seconds: float
+    undetermined: np.ndarray | None = None
 
     @property
     def chi2_per_dof(self) -> float:
@@ -110,6 +114,8 @@ class StructuredFit:
         """The same fit evaluated on other frequencies (Hz, shape (F',)): stiffness and bands there."""
         hz = np.asarray(hz, float)
         K, sr, si = structured_bands(self.theta, self.theta_covariance, hz, self.model)
+        if self.undetermined is not None:  # the terms that move along a direction the FRFs do not see: no band anywhere
+            sr, si = np.where(self.undetermined, np.inf, sr), np.where(self.undetermined, np.inf, si)
         return replace(self, stiffness=K, std_real=sr, std_imag=si)
 
     def poles_hz(self) -> np.ndarray:
@@ -266,12 +272,13 @@ def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
     dof = nobs - prob.P
     cov = cov * max(1.0, real_chi2 / max(dof, 1))  # a misfit above the noise widens the bands
     K, std_re, std_im = structured_bands(theta, cov, prob.hz, model)
+    blind = None
     if unseen.shape[1]:  # a term that moves along a direction the FRFs do not see has no band
         blind = terms_moving_along(theta, prob.hz, model, unseen)
         std_re, std_im = np.where(blind, np.inf, std_re), np.where(blind, np.inf, std_im)
     return StructuredFit(
         model, theta, cov, K, std_re, std_im, real_chi2, dof, real_chi2 + 2.0 * prob.P + 2.0 * prob.P * (prob.P + 1) / max(dof - 1, 1),
-        real_chi2 + prob.P * np.log(nobs), time.perf_counter() - t0,
+        real_chi2 + prob.P * np.log(nobs), time.perf_counter() - t0, blind,
     )
 
 

@@ -212,20 +212,26 @@ def model_average(fits: dict) -> tuple:
     some term (median over lines) is left out: its parameters are not determined by the data (a
     flat direction of its likelihood, e.g. a modulus spline confounded with a mode), which AIC does
     not penalize, and its bands would swamp the average (e.g. K_ww bands wider than the term
-    itself around an estimate that is right).
+    itself around an estimate that is right). A fit with an infinite or undefined band (a term that
+    moves along a direction the FRFs do not determine, :func:`~.structured_bands.terms_moving_along`)
+    is left out first, the lowest-AIC one too, unless every fit has one.
     """
     ic = {o: f.aic for o, f in fits.items() if f is not None and np.isfinite(f.aic)}
+    banded = {o: v for o, v in ic.items() if np.all(np.isfinite(fits[o].std_real)) and np.all(np.isfinite(fits[o].std_imag))}
+    ic = banded or ic
     ref = _band_width(fits[min(ic, key=ic.get)])
-    ic = {o: v for o, v in ic.items() if np.all(_band_width(fits[o]) <= DEGENERATE_BAND_RATIO * ref)}
+    with np.errstate(over="ignore"):  # every fit undetermined: the reference is the largest float
+        ic = {o: v for o, v in ic.items() if np.all(_band_width(fits[o]) <= DEGENERATE_BAND_RATIO * ref)}
     lo = min(ic.values())
     w = {o: np.exp(-(v - lo) / 2.0) for o, v in ic.items()}
     tot = sum(w.values())
     w = {o: v / tot for o, v in w.items() if v / tot > _MIN_WEIGHT}
     tot = sum(w.values())
     w = {o: v / tot for o, v in w.items()}
-    K = sum(v * fits[o].stiffness for o, v in w.items())
-    vr = sum(v * (fits[o].std_real ** 2 + (fits[o].stiffness.real - K.real) ** 2) for o, v in w.items())
-    vi = sum(v * (fits[o].std_imag ** 2 + (fits[o].stiffness.imag - K.imag) ** 2) for o, v in w.items())
+    with np.errstate(over="ignore", invalid="ignore"):  # every fit undetermined: infinite bands, as they are
+        K = sum(v * fits[o].stiffness for o, v in w.items())
+        vr = sum(v * (fits[o].std_real ** 2 + (fits[o].stiffness.real - K.real) ** 2) for o, v in w.items())
+        vi = sum(v * (fits[o].std_imag ** 2 + (fits[o].stiffness.imag - K.imag) ** 2) for o, v in w.items())
     return K, np.sqrt(vr), np.sqrt(vi), w
 
 
