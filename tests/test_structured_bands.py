@@ -110,8 +110,6 @@ def test_an_undetermined_fit_is_left_out_of_the_average_even_with_the_lowest_aic
 
 
 def test_evaluating_a_fit_elsewhere_keeps_its_undetermined_terms_without_a_band(beam_case):
-    from jointid.methods.receptance.structured_select import StructuredEstimate  # noqa: F401  (the fits' owner)
-
     st, frf, data = beam_case
     res = identify(st, FRF(frf.frequency, data, frf.responses, frf.references, frf.kind))
     fit = res.structured.best

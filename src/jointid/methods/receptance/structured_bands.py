@@ -60,8 +60,11 @@ def terms_moving_along(theta: np.ndarray, hz: np.ndarray, model: StructuredModel
     return change > 1e-6 * np.where(size > 0, size, 1.0)
 
 
-def structured_bands(theta, cov, hz, model: StructuredModel):
+def structured_bands(theta, cov, hz, model: StructuredModel, undetermined: np.ndarray | None = None):
     """Stiffness (F, n, n) and the 1-sigma of its real and imaginary parts from the parameter covariance (linearized).
+
+    ``undetermined`` (bool, (n, n)), optional: terms that move along a direction the FRFs do not
+    determine (:func:`terms_moving_along`); their bands are infinite.
 
     From the factored derivatives of :func:`structured_terms`: the gradient of term ``t`` (real or
     imaginary part) at line ``f`` is ``E_t z(f)``, with ``z(f)`` the few distinct frequency functions
@@ -98,6 +101,8 @@ def structured_bands(theta, cov, hz, model: StructuredModel):
     sr, si = np.empty((F, n, n)), np.empty((F, n, n))
     sr[:, iu[0], iu[1]] = sr[:, iu[1], iu[0]] = std[0].T
     si[:, iu[0], iu[1]] = si[:, iu[1], iu[0]] = std[1].T
+    if undetermined is not None:
+        sr, si = np.where(undetermined, np.inf, sr), np.where(undetermined, np.inf, si)
     return D, sr, si
 
 

@@ -113,9 +113,7 @@ class StructuredFit:
     def at(self, hz) -> "StructuredFit":
         """The same fit evaluated on other frequencies (Hz, shape (F',)): stiffness and bands there."""
         hz = np.asarray(hz, float)
-        K, sr, si = structured_bands(self.theta, self.theta_covariance, hz, self.model)
-        if self.undetermined is not None:  # the terms that move along a direction the FRFs do not see: no band anywhere
-            sr, si = np.where(self.undetermined, np.inf, sr), np.where(self.undetermined, np.inf, si)
+        K, sr, si = structured_bands(self.theta, self.theta_covariance, hz, self.model, self.undetermined)
         return replace(self, stiffness=K, std_real=sr, std_imag=si)
 
     def poles_hz(self) -> np.ndarray:
@@ -271,11 +269,8 @@ def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
     nobs = 2 * prob.F * prob.p
     dof = nobs - prob.P
     cov = cov * max(1.0, real_chi2 / max(dof, 1))  # a misfit above the noise widens the bands
-    K, std_re, std_im = structured_bands(theta, cov, prob.hz, model)
-    blind = None
-    if unseen.shape[1]:  # a term that moves along a direction the FRFs do not see has no band
-        blind = terms_moving_along(theta, prob.hz, model, unseen)
-        std_re, std_im = np.where(blind, np.inf, std_re), np.where(blind, np.inf, std_im)
+    blind = terms_moving_along(theta, prob.hz, model, unseen) if unseen.shape[1] else None
+    K, std_re, std_im = structured_bands(theta, cov, prob.hz, model, blind)
     return StructuredFit(
         model, theta, cov, K, std_re, std_im, real_chi2, dof, real_chi2 + 2.0 * prob.P + 2.0 * prob.P * (prob.P + 1) / max(dof - 1, 1),
         real_chi2 + prob.P * np.log(nobs), time.perf_counter() - t0, blind,
