@@ -73,7 +73,8 @@ def test_band_quadratic_form_within_its_rounding_bound():
 
 
 def test_ticks_in_view_draw_the_same_png_with_fewer_tick_artists(monkeypatch):
-    """Log axes given only their ticks inside the view (fast_axes.ticks_in_view) draw the same bytes with fewer ticks made."""
+    """Log axes given only their ticks inside the view, their unlabelled minor ticks as one artist
+    (fast_axes.ticks_in_view), draw the same bytes with fewer ticks made."""
     from jointid.dofs import Dof
     from jointid.frequency import Frequency
     from jointid.plots import fast_axes
@@ -95,10 +96,45 @@ def test_ticks_in_view_draw_the_same_png_with_fewer_tick_artists(monkeypatch):
     def draw():
         fig = plot_joint_stiffness(data, truth=K * 1.01)
         png = figure_png(fig)
-        return png, sum(len(a.majorTicks) + len(a.minorTicks) for ax in fig.axes for a in (ax.xaxis, ax.yaxis))
+        one = sum(type(a).__name__ == "MinorTicks" for ax in fig.axes for a in ax.artists)
+        return png, sum(len(a.majorTicks) + len(a.minorTicks) for ax in fig.axes for a in (ax.xaxis, ax.yaxis)), one
 
-    fast, n_fast = draw()
+    fast, n_fast, one_artist = draw()
     monkeypatch.setattr(fast_axes, "ticks_in_view", lambda axis: None)
-    plain, n_plain = draw()
+    plain, n_plain, none = draw()
     assert fast == plain
     assert n_fast < n_plain
+    assert one_artist >= 5 and none == 0  # every log frequency axis' unlabelled minor ticks drawn as one artist
+
+
+def test_minor_ticks_as_one_artist_sit_where_matplotlib_puts_its_minor_ticks():
+    """The artist's positions are matplotlib's minor tick locations in the view, less the major ones; an axis with
+    labelled minor ticks (a short log axis) keeps its Tick objects."""
+    from matplotlib.ticker import NullFormatter
+
+    from jointid.plots.fast_axes import minor_ticks_as_one_artist
+    from jointid.plots.style import new_figure
+
+    for lo, hi in ((5.0, 1000.0), (0.02, 3e4), (3.0, 40.0)):
+        fig, (a, b) = new_figure(1, 2, sharex=False, layout=None)
+        for ax in (a, b):
+            ax.plot([lo, hi], [1.0, 2.0])
+            ax.set_xscale("log")
+            ax.set_xlim(lo, hi)
+            ax.xaxis.set_minor_formatter(NullFormatter())
+            ax.grid(True, which="both", alpha=0.3)
+        fig.canvas.draw()
+        expected = [t for t in b.xaxis.get_minorticklocs() if lo * (1 - 1e-9) <= t <= hi * (1 + 1e-9)]
+        assert minor_ticks_as_one_artist(a.xaxis)
+        assert not minor_ticks_as_one_artist(a.xaxis)  # once only
+        (artist,) = a.artists
+        assert np.allclose(artist.positions(), expected, rtol=1e-12, atol=0) and len(expected) > 5
+        assert not a.xaxis.get_minorticklocs().size  # matplotlib makes no minor Tick for it any more
+
+    fig, ax = new_figure(1, 1, layout=None)
+    ax.set_yscale("log")
+    ax.set_ylim(2.0, 30.0)
+    from jointid.plots.fast_axes import plain_log_ticks
+
+    plain_log_ticks(ax.yaxis)  # a short axis: minor ticks labelled 2 and 5
+    assert not ax.artists and not minor_ticks_as_one_artist(ax.yaxis)

@@ -8,7 +8,10 @@
 * :func:`fixed_margins` -- subplot margins given in inches, instead of a layout engine that
   measures every tick label before the figure is drawn;
 * :func:`ticks_in_view` -- a log axis makes tick artists only for the ticks inside its view
-  (matplotlib makes one for every tick of every decade the view touches, then draws the ones inside).
+  (matplotlib makes one for every tick of every decade the view touches, then draws the ones inside),
+  and its unlabelled minor ticks are drawn as one artist (:func:`minor_ticks_as_one_artist`): matplotlib
+  makes a ``Tick`` (two marks, a grid line and two labels) for each, ~1 ms apiece, most of the time of
+  drawing a figure of a few log axes.
 
 All of them draw the same information: only where a legend sits and how a tick number is
 typeset may differ from matplotlib's automatic choices.
@@ -18,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["place_legend", "plain_log_ticks", "plain_number", "fixed_margins", "ticks_in_view"]
+__all__ = ["place_legend", "plain_log_ticks", "plain_number", "fixed_margins", "ticks_in_view", "minor_ticks_as_one_artist"]
 
 #: The points per artist that :func:`place_legend` tests (evenly spaced along the artist's data).
 LEGEND_SAMPLE_POINTS = 400
@@ -162,6 +165,82 @@ def ticks_in_view(axis) -> None:
         loc = get()
         if not hasattr(loc, "base") or type(loc).__name__ != "InView":
             put(_in_view_locator(loc))
+    minor_ticks_as_one_artist(axis)
+
+
+def minor_ticks_as_one_artist(axis) -> bool:
+    """Draw ``axis``' minor ticks (marks and grid lines, no labels) as one artist; True if done.
+
+    The artist draws, at the minor locator's positions inside the view at draw time (less those of
+    major ticks, as matplotlib leaves them out), what matplotlib's minor ``Tick`` objects draw: their
+    marks and, when the grid is on for minor ticks, their grid lines, in the style of one minor tick
+    of the axis (``axis.get_minor_ticks(1)``: ``tick_params`` and ``grid`` settings made before or after
+    this call are followed). The axis' own minor locator becomes a ``NullLocator``.
+
+    Only for an axis whose minor formatter is a ``NullFormatter`` (labelled minor ticks keep their
+    ``Tick`` objects: the labels need them); returns False then, and for an axis already converted.
+    """
+    from matplotlib.ticker import NullFormatter, NullLocator
+
+    if not isinstance(axis.get_minor_formatter(), NullFormatter) or isinstance(axis.get_minor_locator(), NullLocator):
+        return False
+    locator = axis.get_minor_locator()
+    axis.set_minor_locator(NullLocator())
+    axis.axes.add_artist(_minor_ticks_artist(axis, locator))
+    return True
+
+
+def _minor_ticks_artist(axis, locator):
+    """The artist of :func:`minor_ticks_as_one_artist`."""
+    from matplotlib.artist import Artist
+    from matplotlib.lines import Line2D
+
+    class MinorTicks(Artist):
+        def __init__(self):
+            super().__init__()
+            self.set_zorder(axis.get_zorder())
+
+        def positions(self) -> np.ndarray:
+            """The minor ticks' positions inside the view, less the major ticks' (data units)."""
+            lo, hi = sorted(axis.get_view_interval())
+            locs = np.asarray(locator.tick_values(lo, hi), dtype=float)
+            with np.errstate(invalid="ignore"):
+                locs = locs[(locs >= lo * (1.0 - IN_VIEW_MARGIN)) & (locs <= hi * (1.0 + IN_VIEW_MARGIN))]
+            major = np.asarray(axis.get_majorticklocs(), dtype=float)
+            if major.size and locs.size:
+                locs = locs[~np.any(np.isclose(locs[:, None], major[None, :], rtol=1e-10, atol=0.0), axis=1)]
+            return locs
+
+        def draw(self, renderer):
+            if not self.get_visible() or not axis.get_visible():
+                return
+            locs = self.positions()
+            if not locs.size:
+                return
+            ax = axis.axes
+            x = axis.axis_name == "x"
+            transform = ax.get_xaxis_transform if x else ax.get_yaxis_transform
+            tick = axis.get_minor_ticks(1)[0]  # the style of one minor tick as matplotlib would make it
+            for line, which, at in ((tick.tick1line, "tick1", 0.0), (tick.tick2line, "tick2", 1.0)):
+                if line.get_visible():
+                    other = np.full(locs.size, at)
+                    marks = Line2D(*((locs, other) if x else (other, locs)), linestyle="none", marker=line.get_marker(),
+                                   markersize=line.get_markersize(), markeredgewidth=line.get_markeredgewidth(),
+                                   markeredgecolor=line.get_markeredgecolor(), transform=transform(which), clip_on=False)
+                    marks.set_figure(ax.figure)
+                    marks.draw(renderer)
+            g = tick.gridline
+            if g.get_visible():
+                along = np.tile([0.0, 1.0, np.nan], locs.size)
+                pos = np.repeat(locs, 3)
+                grid = Line2D(*((pos, along) if x else (along, pos)), color=g.get_color(), linewidth=g.get_linewidth(),
+                              linestyle=g.get_linestyle(), alpha=g.get_alpha(), transform=transform("grid"))
+                grid.set_figure(ax.figure)
+                grid.set_clip_path(ax.patch)
+                grid.draw(renderer)
+            self.stale = False
+
+    return MinorTicks()
 
 
 def plain_log_ticks(axis) -> None:

@@ -38,14 +38,10 @@ def set_frequency_axis(ax, f_hz: np.ndarray, label: bool = True, pad: float = 0.
     log axis), so that markers at the ends are drawn whole. Returns True when
     the axis is logarithmic.
     """
-    from matplotlib.ticker import FuncFormatter
-
     f = np.asarray(f_hz, dtype=float)
     log = use_log_frequency(f)
     if log:
         ax.set_xscale("log")
-        plain = FuncFormatter(lambda v, _: f"{v:g}")
-        ax.xaxis.set_major_formatter(plain)
     if f.size > 1:
         lo, hi = float(np.nanmin(f)), float(np.nanmax(f))
         if log:
@@ -53,10 +49,10 @@ def set_frequency_axis(ax, f_hz: np.ndarray, label: bool = True, pad: float = 0.
             ax.set_xlim(lo / r, hi * r)
         else:
             ax.set_xlim(lo - pad * (hi - lo), hi + pad * (hi - lo))
-    if log:
-        from .fast_axes import ticks_in_view
+    if log:  # plain-number labels (2 and 5 of a decade too on a short axis), tick artists only where drawn
+        from .fast_axes import plain_log_ticks
 
-        ticks_in_view(ax.xaxis)
+        plain_log_ticks(ax.xaxis)
     if label:
         ax.set_xlabel("frequency [Hz]")
     return log

@@ -64,7 +64,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.special import fdtrc
 
-from ...parallel import single_threaded_blas
+from ...parallel import map_lines, single_threaded_blas
 from .coupling_lines import symmetric_parametrization, whitened_line_design
 from .smoothing import bspline_basis
 
@@ -262,18 +262,8 @@ def _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis) -> ColumnCa
     if nb < 4 or F < 2 * nb or dof <= 0:
         return None
     sw, cs, Q, R = whitened_line_design(Ymn, Yne, variance, symmetric)
-    Q4 = Q.reshape(F, m, e, p)
-    hw = H * sw.reshape(F, m, e)  # the nonzeros of G_w: column j of H enters the rows (r, j) with delta_j
-    dw = change.reshape(F, m * e) * sw
-    QhG = np.conj(np.einsum("frjp,frj->fpj", Q4, np.conj(hw)))  # Q^H G_w, (F, p, e)
-    Z = -(Q @ QhG).reshape(F, m, e, e)  # (I - Q Q^H) G_w, (F, m e, e)
+    QhG, ZZ, v, rr0, d = map_lines(_calibration_lines, change, H, sw, Q)
     idx = np.arange(e)
-    Z[:, :, idx, idx] += hw
-    Z = Z.reshape(F, m * e, e)
-    r0 = dw - (Q @ np.conj(np.einsum("frp,fr->fp", Q, np.conj(dw)))[:, :, None])[:, :, 0]  # (I - Q Q^H) d_w, (F, m e)
-    Zt = np.swapaxes(Z, 1, 2)
-    ZZ = np.conj(Zt @ np.conj(Z))  # Z^H Z, (F, e, e)
-    v = np.conj((Zt @ np.conj(r0)[:, :, None])[:, :, 0])  # Z^H r0 per line, (F, e)
     Bs = bspline_basis(np.asarray(hz, float), nb)  # (F, nb) CSR, uniform knots over the band
     pairs = _pair_products(Bs)
     # N[(i,b),(j,c)] = sum_f ZZ[f,i,j] B[f,b] B[f,c]
@@ -283,14 +273,12 @@ def _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis) -> ColumnCa
         Ninv = np.linalg.inv(N)
     except np.linalg.LinAlgError:
         return None
-    rss0 = float(np.sum(r0.real ** 2 + r0.imag ** 2))
+    rss0 = float(np.sum(rr0))
     c = Ninv @ rhs
     s2 = max(rss0 - float(np.real(np.vdot(c, N @ c))), np.finfo(float).tiny) / dof
     # errors in variables: H is in the regressor G and in the data d, so E[G^H P d] carries -s^2 sum_r (1 - h_rj)
-    # per line and column (h: leverage of the per-line fit), E[G^H P G] +s^2 the same; removed (bias-compensated LS)
-    Qf = Q.view(float)  # (F, m e, 2 p): real and imaginary parts
-    lev = np.einsum("fij,fij->fi", Qf, Qf).reshape(F, m, e)
-    d = np.sum(1.0 - lev, axis=1)  # (F, e)
+    # per line and column (h: leverage of the per-line fit, summed in d), E[G^H P G] +s^2 the same; removed
+    # (bias-compensated LS)
     Dm = np.zeros((e, nb, e, nb))
     Dm[idx, :, idx, :] = _gram(pairs, d, nb).transpose(1, 0, 2)  # sum_f d[f,j] B[f,b] B[f,c]
     Nc = N - s2 * Dm.reshape(e * nb, e * nb)
@@ -311,6 +299,29 @@ def _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis) -> ColumnCa
     # d x / d c per line: x = (R^-1 Q^H (dw + Gw delta)) / cs; its covariance and factor are formed on first use
     factors = _XFactors(R, QhG, cs, Bs, pairs, _hermitian_factor(s2 * Ninv))
     return ColumnCalibration(delta, None, float(f_stat), p_value, nb, _factors=factors)
+
+
+def _calibration_lines(change, H, sw, Q):
+    """The per-line parts of :func:`_estimate` on some lines: ``(Q^H G_w, Z^H Z, Z^H r0, |r0|^2, sum_r (1 - h))``,
+    shapes (F, p, e), (F, e, e), (F, e), (F,), (F, e), with ``Z = (I - Q Q^H) G_w``, ``r0 = (I - Q Q^H) d_w`` and
+    ``h`` the leverage of each value in the per-line fit."""
+    F, m, e = change.shape
+    p = Q.shape[2]
+    Q4 = Q.reshape(F, m, e, p)
+    hw = H * sw.reshape(F, m, e)  # the nonzeros of G_w: column j of H enters the rows (r, j) with delta_j
+    dw = change.reshape(F, m * e) * sw
+    QhG = np.conj(np.einsum("frjp,frj->fpj", Q4, np.conj(hw)))  # Q^H G_w, (F, p, e)
+    Z = -(Q @ QhG).reshape(F, m, e, e)  # (I - Q Q^H) G_w, (F, m e, e)
+    idx = np.arange(e)
+    Z[:, :, idx, idx] += hw
+    Z = Z.reshape(F, m * e, e)
+    r0 = dw - (Q @ np.conj(np.einsum("frp,fr->fp", Q, np.conj(dw)))[:, :, None])[:, :, 0]  # (I - Q Q^H) d_w, (F, m e)
+    Zt = np.swapaxes(Z, 1, 2)
+    ZZ = np.conj(Zt @ np.conj(Z))  # Z^H Z, (F, e, e)
+    v = np.conj((Zt @ np.conj(r0)[:, :, None])[:, :, 0])  # Z^H r0 per line, (F, e)
+    Qf = Q.view(float)  # (F, m e, 2 p): real and imaginary parts
+    lev = np.einsum("fij,fij->fi", Qf, Qf).reshape(F, m, e)
+    return QhG, ZZ, v, np.sum(r0.real ** 2 + r0.imag ** 2, axis=1), np.sum(1.0 - lev, axis=1)
 
 
 def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, variance: np.ndarray, symmetric: bool = True,

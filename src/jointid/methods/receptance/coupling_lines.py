@@ -98,6 +98,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from ...parallel import map_lines
+
 __all__ = [
     "LineEstimates", "coupling_per_line", "symmetric_parametrization", "relinearize", "uses_kronecker", "DENSE_PATH_BYTES",
     "separable_weights", "kronecker_basis", "kronecker_variance", "whitened_line_design", "inverse_perturbation",
@@ -310,7 +312,12 @@ def _close(a: np.ndarray, b: np.ndarray, rtol: float) -> bool:
 
 
 def _line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray, symmetric: bool):
-    """:func:`whitened_line_design`'s computation."""
+    """:func:`whitened_line_design`'s computation (independent lines: on the cores, :func:`~jointid.parallel.map_lines`)."""
+    return map_lines(lambda a, b, v: _design_of_lines(a, b, v, symmetric), Ymn, Yne, variance)
+
+
+def _design_of_lines(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray, symmetric: bool):
+    """:func:`_line_design` on some lines."""
     F, m, n = Ymn.shape
     e = Yne.shape[2]
     i, k = _parameter_pairs(n, symmetric)

@@ -71,7 +71,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.special import fdtrc
 
-from ...parallel import single_threaded_blas
+from ...parallel import map_lines, single_threaded_blas
 from .coupling_lines import LineEstimates, symmetric_parametrization, whitened_line_design
 
 __all__ = ["ForceNoise", "detect_force_noise", "column_split", "FORCE_NOISE_P_VALUE", "FORCE_NOISE_MIN_F", "FORCE_NOISE_MIN_LEVEL", "FORCE_NOISE_LINES"]
@@ -240,9 +240,13 @@ def column_split(Ymn, Yne, change, H, variance, symmetric, keep: bool = True):
     column changes), shapes (F, m e, e) and (F, e, e). ``keep``: passed to ``whitened_line_design`` (False: a
     design of a subset of the lines, not kept for the calls that follow).
     """
-    F, m, n = Ymn.shape
-    e = Yne.shape[2]
     sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric, keep=keep)
+    return (sw, Q) + map_lines(_split_lines, change, H, sw, Q)
+
+
+def _split_lines(change, H, sw, Q):
+    """``(r, Uz, Rz)`` of :func:`column_split` on some lines."""
+    F, m, e = change.shape
     Qh = np.conj(np.swapaxes(Q, 1, 2))
     dw = (change.reshape(F, m * e) * sw)[:, :, None]
     r = (dw - Q @ (Qh @ dw))[:, :, 0]
@@ -251,7 +255,7 @@ def column_split(Ymn, Yne, change, H, variance, symmetric, keep: bool = True):
     G[:, :, idx, idx] = H
     G = G.reshape(F, m * e, e) * sw[:, :, None]
     Uz, Rz = np.linalg.qr(G - Q @ (Qh @ G))
-    return sw, Q, r, Uz, Rz
+    return r, Uz, Rz
 
 
 def _column_residuals(Ymn, Yne, change, H, variance, symmetric):

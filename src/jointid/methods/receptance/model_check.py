@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...parallel import single_threaded_blas
+from ...parallel import map_lines, single_threaded_blas
 from .coupling_lines import symmetric_parametrization, whitened_line_design
 
 __all__ = ["ResidualStatistics", "residual_statistics", "ModelCheck", "check_model", "octave_bands", "MODEL_RESIDUAL_RATIO", "BAND_MIN_LINES", "MIN_NOISE_LEVEL",
@@ -116,14 +116,20 @@ def residual_statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, va
         return None
     with single_threaded_blas():
         sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric)
-    dw = change.reshape(F, m * e) * sw
-    r = dw - (Q @ (np.conj(np.swapaxes(Q, 1, 2)) @ dw[:, :, None]))[:, :, 0]
+    r = map_lines(_residual_lines, change, sw, Q)
     chi2 = np.sum(r.real ** 2 + r.imag ** 2, axis=1) / dof
     d2 = r[2:] - 2.0 * r[1:-1] + r[:-2]
     noise = np.full(F, np.nan)
     noise[1:-1] = np.median(d2.real ** 2 + d2.imag ** 2, axis=1) / (6.0 * np.log(2.0) * dof / (m * e))
     rho, z = _lag_correlation(r, dof)
     return ResidualStatistics(chi2, noise, rho, z)
+
+
+def _residual_lines(change, sw, Q):
+    """The weighted per-line fit's residual ``(I - Q Q^H) d_w`` on some lines, shape (F, m e)."""
+    F, m, e = change.shape
+    dw = change.reshape(F, m * e) * sw
+    return dw - (Q @ (np.conj(np.swapaxes(Q, 1, 2)) @ dw[:, :, None]))[:, :, 0]
 
 
 def _lag_correlation(r: np.ndarray, dof: int) -> tuple[float, float]:
