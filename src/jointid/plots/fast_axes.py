@@ -19,6 +19,8 @@ typeset may differ from matplotlib's automatic choices.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 __all__ = ["place_legend", "plain_log_ticks", "plain_number", "fixed_margins", "ticks_in_view", "minor_ticks_as_one_artist"]
@@ -190,28 +192,33 @@ def minor_ticks_as_one_artist(axis) -> bool:
     return True
 
 
-def _minor_ticks_artist(axis, locator):
-    """The artist of :func:`minor_ticks_as_one_artist`."""
+@functools.cache
+def _minor_ticks_class():
+    """The artist class of :func:`minor_ticks_as_one_artist` (made on first use: matplotlib is imported then)."""
     from matplotlib.artist import Artist
     from matplotlib.lines import Line2D
 
     class MinorTicks(Artist):
-        def __init__(self):
+        """An axis' minor tick marks and grid lines, drawn at its (former) minor locator's positions in the view."""
+
+        def __init__(self, axis, locator):
             super().__init__()
+            self.axis, self.locator = axis, locator
             self.set_zorder(axis.get_zorder())
 
         def positions(self) -> np.ndarray:
             """The minor ticks' positions inside the view, less the major ticks' (data units)."""
-            lo, hi = sorted(axis.get_view_interval())
-            locs = np.asarray(locator.tick_values(lo, hi), dtype=float)
+            lo, hi = sorted(self.axis.get_view_interval())
+            locs = np.asarray(self.locator.tick_values(lo, hi), dtype=float)
             with np.errstate(invalid="ignore"):
                 locs = locs[(locs >= lo * (1.0 - IN_VIEW_MARGIN)) & (locs <= hi * (1.0 + IN_VIEW_MARGIN))]
-            major = np.asarray(axis.get_majorticklocs(), dtype=float)
+            major = np.asarray(self.axis.get_majorticklocs(), dtype=float)
             if major.size and locs.size:
                 locs = locs[~np.any(np.isclose(locs[:, None], major[None, :], rtol=1e-10, atol=0.0), axis=1)]
             return locs
 
         def draw(self, renderer):
+            axis = self.axis
             if not self.get_visible() or not axis.get_visible():
                 return
             locs = self.positions()
@@ -240,7 +247,12 @@ def _minor_ticks_artist(axis, locator):
                 grid.draw(renderer)
             self.stale = False
 
-    return MinorTicks()
+    return MinorTicks
+
+
+def _minor_ticks_artist(axis, locator):
+    """The artist of :func:`minor_ticks_as_one_artist`."""
+    return _minor_ticks_class()(axis, locator)
 
 
 def plain_log_ticks(axis) -> None:
