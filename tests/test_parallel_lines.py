@@ -141,3 +141,14 @@ def test_the_receptance_kernels_are_functions_of_independent_lines(blocks, monke
     for c, w in zip(chunked, whole):
         assert c.shape == w.shape
         assert _within_line_rounding(c, w, terms)
+
+
+def _threads_here() -> int:
+    return parallel.worker_count(100)
+
+
+@pytest.mark.skipif(parallel.process_count(2) < 2, reason="needs fork and two cores")
+def test_worker_processes_use_one_thread_each():
+    """Inside the processes of ``map_processes`` (their siblings have the other cores) line chunks stay in one thread."""
+    assert _threads_here() == min(os.cpu_count() or 1, 4)
+    assert parallel.map_processes([(_threads_here, ())] * 2, workers=2) == [1, 1]

@@ -37,7 +37,10 @@ _limiter = None
 
 
 def worker_count(tasks: int) -> int:
-    """Threads for ``tasks`` independent chunks: the available cores, at most 4."""
+    """Threads for ``tasks`` independent chunks: the available cores, at most 4; 1 inside a worker process of
+    :func:`map_processes` (a daemonic process: its siblings have the other cores)."""
+    if multiprocessing.current_process().daemon:
+        return 1
     return max(1, min(tasks, os.cpu_count() or 1, 4))
 
 
