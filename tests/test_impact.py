@@ -377,8 +377,8 @@ def test_uff58_time_records_cut_inside_a_dataset_are_refused(tmp_path, hits3):
     cut = tmp_path / "cut.uff"
     cut.write_bytes(data[:marks[-2] + 100])  # the last dataset opened, never closed
     line = data.count(b"\n", 0, marks[-2]) + 1
-    with pytest.raises(DataError, match=re.escape(f"{cut} ends inside a dataset (opened at line {line} after {len(marks) // 2 - 1} "
-                                                  "complete one(s), never closed by a '    -1' line): the file is truncated")):
+    with pytest.raises(DataError, match=re.escape(f"{cut} ends inside a dataset (from line {line} on, after {len(marks) // 2 - 1} "
+                                                  "dataset(s), the text is not closed by a '    -1' line): the file is truncated")):
         read_impact_uff(cut)
 
 

@@ -68,11 +68,11 @@ def test_a_file_cut_inside_a_dataset_is_refused_naming_the_line(tmp_path, binary
     line = data.count(b"\n", 0, opening[4]) + 1
     with pytest.raises(DataError) as err:
         read_uff_frf(cut)
-    assert str(err.value) == (f"{cut} ends inside a dataset (opened at line {line} after 4 complete one(s), never closed by a "
-                              "'    -1' line): the file is truncated (an interrupted copy or export?); copy or export it again")
+    assert str(err.value) == (f"{cut} ends inside a dataset (from line {line} on, after 4 dataset(s), the text is not closed by a "
+                              "'    -1' line): the file is truncated or damaged (an interrupted copy or export?); copy or export it again")
     first = tmp_path / "first.uff"
     first.write_bytes(data[:opening[0] + 100])  # not one dataset closed
-    with pytest.raises(DataError, match=r"first.uff ends inside a dataset \(opened at line 1 after 0 complete one\(s\)"):
+    with pytest.raises(DataError, match=r"first.uff ends inside a dataset \(from line 1 on, after 0 dataset\(s\),"):
         read_uff_frf(first)
 
 
@@ -81,6 +81,28 @@ def test_a_whole_file_and_a_lone_delimiter_at_its_end_are_not_truncated(tmp_path
     assert read_uff_frf(p).data.shape[1:] == (3, 2)
     p.write_bytes(p.read_bytes() + b"    -1\n")  # opens nothing
     assert read_uff_frf(p).data.shape[1:] == (3, 2)
+
+
+@pytest.mark.parametrize("binary", [False, True])
+@pytest.mark.parametrize("trailer", [b"\x1a", b"\r\n\x1a", b"\x00" * 64, b"    -1\n\x1a"], ids=["ctrl-z", "crlf-ctrl-z", "nul-padding", "delimiter-ctrl-z"])
+def test_a_dos_end_of_file_mark_or_nul_padding_is_not_a_truncation(tmp_path, binary, trailer):
+    p = write_uff_frf(tmp_path / "whole.uff", _frf(), binary=binary)
+    whole = read_uff_frf(p).data
+    p.write_bytes(p.read_bytes() + trailer)
+    assert np.array_equal(read_uff_frf(p).data, whole)
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_a_dataset_cut_in_the_middle_of_a_file_is_refused(tmp_path, binary):
+    """An interrupted part of a joined export: the 5th of 7 datasets cut after 200 bytes, the rest of the file after it."""
+    p = write_uff_frf(tmp_path / "whole.uff", _frf(), binary=binary)
+    data = p.read_bytes()
+    opening = [int(start) for start, _ in pyuff.UFF(str(p))._block_ind]
+    cut = tmp_path / "mid.uff"
+    cut.write_bytes(data[:opening[4] + 200] + data[opening[5]:])
+    with pytest.raises(DataError, match=r"mid.uff ends inside a dataset \(from line \d+ on, after \d dataset\(s\), the text is not "
+                                        r"closed by a '    -1' line\): the file is truncated or damaged"):
+        read_uff_frf(cut)
 
 
 # ---------------------------------------------------------------- round trips
@@ -324,7 +346,7 @@ def test_every_cut_past_a_datasets_first_line_is_found(tmp_path, binary):
     cut = tmp_path / "cut.uff"
     for k in [5, *range(12, 400, 7)]:
         cut.write_bytes(data[:start + k])
-        with pytest.raises(DataError, match=rf"ends inside a dataset \(opened at line {line} after 4 complete one\(s\)"):
+        with pytest.raises(DataError, match=rf"ends inside a dataset \(from line {line} on, after 4 dataset\(s\),"):
             read_uff_frf(cut)
     for k in [*range(0, 5), *range(6, 12)]:
         cut.write_bytes(data[:start + k])

@@ -78,8 +78,11 @@ def test_edge_shapes_and_non_finite_jacobians():
     """Fewer rows than parameters: the missing directions are unseen; a non-finite J: NaN covariance (no band), as
     the fit's values; no parameters: empty."""
     rng = np.random.default_rng(5)
-    cov, unseen = parameter_covariance(rng.normal(size=(3, 4)))
+    J = rng.normal(size=(3, 4))
+    cov, unseen = parameter_covariance(J)
     assert cov.shape == (4, 4) and unseen.shape == (4, 1)
+    assert np.abs(J @ unseen).max() <= 100 * EPS * np.abs(J).max()  # the missing direction: J's null space
+    assert np.allclose(cov @ (J.T @ J) @ cov, cov, rtol=0, atol=1e4 * EPS * np.abs(cov).max())  # pseudo-inverse
     J = rng.normal(size=(50, 4))
     J[7, 2] = np.nan
     cov, unseen = parameter_covariance(J)

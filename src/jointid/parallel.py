@@ -41,7 +41,15 @@ def worker_count(tasks: int) -> int:
     :func:`map_processes` (a daemonic process: its siblings have the other cores)."""
     if multiprocessing.current_process().daemon:
         return 1
-    return max(1, min(tasks, os.cpu_count() or 1, 4))
+    return max(1, min(tasks, _cores(), 4))
+
+
+def _cores() -> int:
+    """The cores this process may run on (its CPU affinity where the OS has one, e.g. under ``taskset``)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
 
 
 @contextmanager
@@ -114,12 +122,20 @@ def map_lines(fn: Callable[..., Any], *arrays: np.ndarray, min_lines: int = MIN_
     What ``fn`` returns, its arrays joined along the first axis (``fn(*arrays)`` up to the rounding of the
     batched kernels, which may group a chunk's lines differently than the whole's).
 
+    Raises
+    ------
+    ValueError
+        An input without the F lines of the first on its first axis (in one call it might broadcast, in
+        chunks it would not: the result must not depend on the number of cores).
+
     Notes
     -----
     numpy's batched LAPACK and matmul loops release the GIL, so the chunks run at once on the cores; BLAS is held
     to one thread meanwhile (:func:`single_threaded_blas`).
     """
     F = arrays[0].shape[0]
+    if any(np.ndim(x) == 0 or np.shape(x)[0] != F for x in arrays):
+        raise ValueError(f"map_lines: every input needs the {F} lines on its first axis, got shapes {[np.shape(x) for x in arrays]}")
     workers = worker_count(F // max(int(min_lines), 1))
     if workers <= 1 or getattr(_inside, "active", False):
         return fn(*arrays)
@@ -147,10 +163,7 @@ def process_count(tasks: int, requested: int | None = None) -> int:
     daemonic worker.
     """
     if requested is None:
-        try:
-            requested = len(os.sched_getaffinity(0))
-        except AttributeError:  # not Linux
-            requested = os.cpu_count() or 1
+        requested = _cores()
     if "fork" not in multiprocessing.get_all_start_methods() or multiprocessing.current_process().daemon:
         return 1
     return max(1, min(int(requested), int(tasks)))

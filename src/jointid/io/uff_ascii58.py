@@ -101,6 +101,10 @@ class Uff58Reader:
 _DELIMITER = re.compile(rb"(?m)^    -1\r?$")
 
 
+#: What may follow a file's last dataset besides one lone ``-1``: white space, NUL padding, a DOS end-of-file mark (^Z).
+_TRAILER = b" \t\r\n\v\f\x00\x1a"
+
+
 def unclosed_dataset_line(data: bytes, block_ind) -> int | None:
     """Line (1-based) where something starts after the last complete dataset (a dataset never closed), else None.
 
@@ -108,7 +112,7 @@ def unclosed_dataset_line(data: bytes, block_ind) -> int | None:
     short (an interrupted copy or export) reads as a shorter, valid file. ``block_ind`` is pyuff's
     ``(start, end)`` byte index per listed dataset, ``end`` just before its closing ``    -1``
     (on a line of its own after ASCII values, right after the bytes of a binary dataset). After
-    that closing delimiter only whitespace may follow, or one lone ``-1`` (it opens nothing); with
+    that closing delimiter only white space, NUL bytes or a ^Z may follow, or one lone ``-1`` (it opens nothing); with
     no dataset listed, a delimiter line with anything after it is a dataset never closed (a file
     with no delimiter at all is not a UFF file: the caller says so). A cut within the first 12
     bytes of a dataset leaves only those (blanks, ``    -1``) and reads as the shorter file.
@@ -125,11 +129,11 @@ def unclosed_dataset_line(data: bytes, block_ind) -> int | None:
         close = data.find(b"    -1", start, start + 8)
         after = close + 6 if close >= 0 else start
         rest = data[after:]
-        if rest.strip() in (b"", b"-1"):
+        if rest.strip(_TRAILER) in (b"", b"-1"):
             return None
-        return data.count(b"\n", 0, after + len(rest) - len(rest.lstrip())) + 1
+        return data.count(b"\n", 0, after + len(rest) - len(rest.lstrip(_TRAILER))) + 1
     m = _DELIMITER.search(data)
-    if m is None or not data[m.end():].strip():
+    if m is None or not data[m.end():].strip(_TRAILER):
         return None
     return data.count(b"\n", 0, m.start()) + 1
 

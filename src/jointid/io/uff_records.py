@@ -208,8 +208,8 @@ def _values(d: dict, where: str) -> tuple[np.ndarray, np.ndarray]:
 
 def truncated_message(path, line: int, complete: int) -> str:
     """The one line for a UFF file that ends inside a dataset (:func:`~.uff_ascii58.unclosed_dataset_line`)."""
-    return (f"{path} ends inside a dataset (opened at line {line} after {complete} complete one(s), never closed by a "
-            "'    -1' line): the file is truncated (an interrupted copy or export?); copy or export it again")
+    return (f"{path} ends inside a dataset (from line {line} on, after {complete} dataset(s), the text is not closed by a "
+            "'    -1' line): the file is truncated or damaged (an interrupted copy or export?); copy or export it again")
 
 
 def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]]:

@@ -171,24 +171,31 @@ def ticks_in_view(axis) -> None:
 
 
 def minor_ticks_as_one_artist(axis) -> bool:
-    """Draw ``axis``' minor ticks (marks and grid lines, no labels) as one artist; True if done.
+    """Draw a log ``axis``' minor ticks (marks and grid lines, no labels) as one artist per axes; True if done.
 
     The artist draws, at the minor locator's positions inside the view at draw time (less those of
-    major ticks, as matplotlib leaves them out), what matplotlib's minor ``Tick`` objects draw: their
-    marks and, when the grid is on for minor ticks, their grid lines, in the style of one minor tick
-    of the axis (``axis.get_minor_ticks(1)``: ``tick_params`` and ``grid`` settings made before or after
-    this call are followed). The axis' own minor locator becomes a ``NullLocator``.
+    major ticks, as matplotlib leaves them out), what matplotlib's minor ``Tick`` objects draw: the
+    grid line (when the grid is on for minor ticks), then the marks, each styled as one minor tick of
+    the axis (``axis.get_minor_ticks(1)``, copied with ``Line2D.update_from``: ``tick_params``, ``grid``
+    and ``set_axisbelow`` settings made before or after this call are followed), nothing where the
+    axes' axis is off. The axis' minor locator becomes a ``NullLocator``, for every axes sharing it
+    (each gets its artist). Once the axis changes scale or minor locator again, the artist draws
+    nothing (matplotlib's own minor ticks, if any, are drawn).
 
-    Only for an axis whose minor formatter is a ``NullFormatter`` (labelled minor ticks keep their
-    ``Tick`` objects: the labels need them); returns False then, and for an axis already converted.
+    Only for a log axis whose minor formatter is a ``NullFormatter`` (labelled minor ticks keep their
+    ``Tick`` objects: the labels need them); returns False otherwise, and for an axis already converted.
     """
     from matplotlib.ticker import NullFormatter, NullLocator
 
-    if not isinstance(axis.get_minor_formatter(), NullFormatter) or isinstance(axis.get_minor_locator(), NullLocator):
+    if (axis.get_scale() != "log" or not isinstance(axis.get_minor_formatter(), NullFormatter)
+            or isinstance(axis.get_minor_locator(), NullLocator)):
         return False
-    locator = axis.get_minor_locator()
-    axis.set_minor_locator(NullLocator())
-    axis.axes.add_artist(_minor_ticks_artist(axis, locator))
+    locator, null = axis.get_minor_locator(), NullLocator()
+    axis.set_minor_locator(null)
+    name = axis.axis_name
+    shared = getattr(axis.axes, f"get_shared_{name}_axes")().get_siblings(axis.axes)
+    for ax in shared or [axis.axes]:
+        ax.add_artist(_minor_ticks_class()(getattr(ax, f"{name}axis"), locator, null))
     return True
 
 
@@ -199,12 +206,19 @@ def _minor_ticks_class():
     from matplotlib.lines import Line2D
 
     class MinorTicks(Artist):
-        """An axis' minor tick marks and grid lines, drawn at its (former) minor locator's positions in the view."""
+        """An axis' minor tick marks and grid lines, drawn at its former minor locator's positions in the view."""
 
-        def __init__(self, axis, locator):
+        def __init__(self, axis, locator, null):
             super().__init__()
-            self.axis, self.locator = axis, locator
-            self.set_zorder(axis.get_zorder())
+            self.axis, self.locator, self.null = axis, locator, null
+
+        @property
+        def zorder(self):  # the axis' own, when the axes sorts its children (set_axisbelow changes it)
+            return self.axis.get_zorder()
+
+        @zorder.setter
+        def zorder(self, value):
+            pass
 
         def positions(self) -> np.ndarray:
             """The minor ticks' positions inside the view, less the major ticks' (data units)."""
@@ -217,42 +231,38 @@ def _minor_ticks_class():
                 locs = locs[~np.any(np.isclose(locs[:, None], major[None, :], rtol=1e-10, atol=0.0), axis=1)]
             return locs
 
-        def draw(self, renderer):
+        def active(self) -> bool:
+            """Drawn: visible, the axes' axis on, and the axis still log with the minor locator set at conversion."""
             axis = self.axis
-            if not self.get_visible() or not axis.get_visible():
+            return bool(self.get_visible() and axis.axes.axison and axis.get_visible() and axis.get_scale() == "log"
+                        and axis.get_minor_locator() is self.null)
+
+        def draw(self, renderer):
+            if not self.active():
                 return
             locs = self.positions()
             if not locs.size:
                 return
-            ax = axis.axes
-            x = axis.axis_name == "x"
-            transform = ax.get_xaxis_transform if x else ax.get_yaxis_transform
-            tick = axis.get_minor_ticks(1)[0]  # the style of one minor tick as matplotlib would make it
-            for line, which, at in ((tick.tick1line, "tick1", 0.0), (tick.tick2line, "tick2", 1.0)):
+            x = self.axis.axis_name == "x"
+            tick = self.axis.get_minor_ticks(1)[0]  # the style of one minor tick as matplotlib makes it
+            g = tick.gridline
+            if g.get_visible():  # first: matplotlib draws a tick's grid line before its marks
+                along, pos = np.tile([0.0, 1.0, np.nan], locs.size), np.repeat(locs, 3)
+                self._draw_like(g, (pos, along) if x else (along, pos), renderer)
+            for line, at in ((tick.tick1line, 0.0), (tick.tick2line, 1.0)):
                 if line.get_visible():
                     other = np.full(locs.size, at)
-                    marks = Line2D(*((locs, other) if x else (other, locs)), linestyle="none", marker=line.get_marker(),
-                                   markersize=line.get_markersize(), markeredgewidth=line.get_markeredgewidth(),
-                                   markeredgecolor=line.get_markeredgecolor(), transform=transform(which), clip_on=False)
-                    marks.set_figure(ax.figure)
-                    marks.draw(renderer)
-            g = tick.gridline
-            if g.get_visible():
-                along = np.tile([0.0, 1.0, np.nan], locs.size)
-                pos = np.repeat(locs, 3)
-                grid = Line2D(*((pos, along) if x else (along, pos)), color=g.get_color(), linewidth=g.get_linewidth(),
-                              linestyle=g.get_linestyle(), alpha=g.get_alpha(), transform=transform("grid"))
-                grid.set_figure(ax.figure)
-                grid.set_clip_path(ax.patch)
-                grid.draw(renderer)
+                    self._draw_like(line, (locs, other) if x else (other, locs), renderer)
             self.stale = False
 
+        def _draw_like(self, line, xy, renderer):
+            """Draw ``xy`` as ``line`` (style, transform, clipping copied) would draw its own data."""
+            copy = Line2D(*xy)
+            copy.update_from(line)
+            copy.set_figure(self.axis.axes.figure)
+            copy.draw(renderer)
+
     return MinorTicks
-
-
-def _minor_ticks_artist(axis, locator):
-    """The artist of :func:`minor_ticks_as_one_artist`."""
-    return _minor_ticks_class()(axis, locator)
 
 
 def plain_log_ticks(axis) -> None:

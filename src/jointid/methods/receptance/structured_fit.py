@@ -44,7 +44,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from .structured_bands import parameter_covariance, structured_bands, terms_moving_along
+from .structured_bands import covariance_factor, structured_bands, terms_moving_along
 from .structured_model import (
     StructuredModel, default_scale, drop_last_mode, extend, pack, structured_stiffness, structured_terms, sym_basis, unpack,
 )
@@ -73,8 +73,9 @@ class StructuredFit:
     ----------
     model : StructuredModel
     theta : ndarray, shape (P,)
-    theta_covariance : ndarray, shape (P, P)
-        Of the scaled parameters, nuisance profiled out, scaled by ``max(1, chi^2/dof)``.
+    theta_covariance_factor : ndarray, shape (P, r)
+        ``W`` with ``W W^T`` the covariance of the scaled parameters (nuisance profiled out, scaled by
+        ``max(1, chi^2/dof)``; :func:`~.structured_bands.covariance_factor`); :attr:`theta_covariance` is ``W W^T``.
     stiffness : ndarray, shape (F, n, n), complex
         The fitted Du (physical units: N/m, N/rad, N*m/rad).
     std_real, std_imag : ndarray, shape (F, n, n)
@@ -94,7 +95,7 @@ class StructuredFit:
 
     model: StructuredModel
     theta: np.ndarray
-    theta_covariance: np.ndarray
+    theta_covariance_factor: np.ndarray
     stiffness: np.ndarray
     std_real: np.ndarray
     std_imag: np.ndarray
@@ -106,6 +107,11 @@ class StructuredFit:
     undetermined: np.ndarray | None = None
 
     @property
+    def theta_covariance(self) -> np.ndarray:
+        """Covariance of the scaled parameters, shape (P, P): ``W W^T`` of :attr:`theta_covariance_factor`."""
+        return self.theta_covariance_factor @ self.theta_covariance_factor.T
+
+    @property
     def chi2_per_dof(self) -> float:
         """chi^2 per degree of freedom (~1 when model and covariance hold)."""
         return self.chi2 / max(self.dof, 1)
@@ -113,7 +119,7 @@ class StructuredFit:
     def at(self, hz) -> "StructuredFit":
         """The same fit evaluated on other frequencies (Hz, shape (F',)): stiffness and bands there."""
         hz = np.asarray(hz, float)
-        K, sr, si = structured_bands(self.theta, self.theta_covariance, hz, self.model, self.undetermined)
+        K, sr, si = structured_bands(self.theta, self.theta_covariance_factor, hz, self.model, self.undetermined)
         return replace(self, stiffness=K, std_real=sr, std_imag=si)
 
     def poles_hz(self) -> np.ndarray:
@@ -264,15 +270,15 @@ def _solve(prob: _Problem, theta0: np.ndarray, max_nfev: int = 200):
 
 def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
     model, theta, J = prob.model, sol.x, sol.jac
-    cov, unseen = parameter_covariance(J)
+    W, unseen = covariance_factor(J)
     real_chi2 = float(np.sum(sol.fun ** 2))  # unit-variance real residuals (sqrt(2) [Re, Im] of the complex ones)
     nobs = 2 * prob.F * prob.p
     dof = nobs - prob.P
-    cov = cov * max(1.0, real_chi2 / max(dof, 1))  # a misfit above the noise widens the bands
+    W = W * np.sqrt(max(1.0, real_chi2 / max(dof, 1)))  # a misfit above the noise widens the bands
     blind = terms_moving_along(theta, prob.hz, model, unseen) if unseen.shape[1] else None
-    K, std_re, std_im = structured_bands(theta, cov, prob.hz, model, blind)
+    K, std_re, std_im = structured_bands(theta, W, prob.hz, model, blind)
     return StructuredFit(
-        model, theta, cov, K, std_re, std_im, real_chi2, dof, real_chi2 + 2.0 * prob.P + 2.0 * prob.P * (prob.P + 1) / max(dof - 1, 1),
+        model, theta, W, K, std_re, std_im, real_chi2, dof, real_chi2 + 2.0 * prob.P + 2.0 * prob.P * (prob.P + 1) / max(dof - 1, 1),
         real_chi2 + prob.P * np.log(nobs), time.perf_counter() - t0, blind,
     )
 
