@@ -57,7 +57,7 @@ def test_out_naming_a_file_is_refused(tmp_path, monkeypatch, capsys, command):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
 
 
-def test_user_file_survives_two_runs_and_no_plots_removes_the_png(tmp_path):
+def test_user_file_survives_two_runs_and_no_plots_removes_the_png(tmp_path, capsys):
     study = tmp_path / "study.toml"
     study.write_text(STUDY)
     sim, out = tmp_path / "sim", tmp_path / "out"
@@ -72,6 +72,15 @@ def test_user_file_survives_two_runs_and_no_plots_removes_the_png(tmp_path):
     # identify into the simulation's directory keeps the FRF file it reads (another command's output)
     assert main(["identify", str(study), "--frf", str(sim / "frf.uff"), "--out", str(sim), "--no-plots"]) == 0
     assert sorted(p.name for p in sim.iterdir()) == [MANIFEST_NAME, "frf.uff", "joint_stiffness.csv", "report.html", "summary.json", "true_joint.csv"]
+    # a file of another command's set with the same name (report.html) is replaced, and the run says so
+    capsys.readouterr()
+    example = tmp_path / "stepsine.csv"
+    assert main(["direct", "--example", str(example)]) == 0
+    assert main(["direct", str(example), "--out", str(out), "--no-plots"]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if ": note: " in line]
+    assert notes == [f"jointid direct: note: replaced report.html in {out}, written there before by `jointid identify` "
+                     "(use another --out to keep both)"]
+    assert (out / "notes.md").read_text() == "my notes" and (out / "joint_stiffness.csv").is_file()
 
 
 def test_identify_failure_leaves_dir_exactly_as_before(tmp_path, capsys):
@@ -107,3 +116,26 @@ def test_second_run_while_one_writes_is_refused(tmp_path, capsys):
         f"jointid modes: error: --out {out} is being written by another jointid run; wait for it to finish or choose another --out\n"
     )
     assert main(["modes", "--out", str(out), "--no-plots"]) == 0
+
+
+def test_a_stop_after_the_output_was_committed_says_it_is_complete(tmp_path, monkeypatch, capsys):
+    """SIGINT while the files are renamed into place is held until the set is complete: the line says so (it said
+    "no partial output was written", and the user took the previous outputs for intact)."""
+    import os
+    import signal
+
+    from jointid.io import output_dir
+
+    out = tmp_path / "out"
+    assert main(["modes", "--out", str(out)]) == 0
+    real_replace = os.replace
+
+    def replace(src, dst):
+        if os.path.basename(dst) == "modes.csv":
+            signal.raise_signal(signal.SIGINT)
+        real_replace(src, dst)
+
+    monkeypatch.setattr(output_dir.os, "replace", replace)
+    capsys.readouterr()
+    assert main(["modes", "--out", str(out)]) == 130
+    assert capsys.readouterr().err.splitlines()[-1] == f"jointid modes: interrupted; its output in {out} was complete before it stopped"

@@ -50,7 +50,7 @@ def test_parent_is_a_file(tmp_path):
     (tmp_path / "f").write_text("x")
     with pytest.raises(OutputError) as e:
         OutputSet(tmp_path / "f" / "sub", "cmd").open()
-    assert str(e.value) == f"--out {tmp_path / 'f' / 'sub'}: cannot create the directory: Not a directory"
+    assert str(e.value) == f"--out {tmp_path / 'f' / 'sub'}: cannot create the directory: Not a directory; give another --out"
 
 
 def test_other_files_survive_and_stale_files_go(tmp_path):
@@ -173,9 +173,14 @@ def test_debris_of_a_killed_run_is_cleaned(tmp_path):
     d.mkdir()
     (d / LOCK_NAME).write_text("")  # a lock file nobody holds
     (d / ".jointid-staging-dead").mkdir()
+    (d / ".jointid-staging-dead" / ".jointid-staging").write_text("")  # the mark every staging area gets
     (d / ".jointid-staging-dead" / "x.csv").write_text("half")
+    (d / ".jointid-staging-notes").mkdir()  # a user's directory of that name (no mark): kept
+    (d / ".jointid-staging-notes" / "mine.txt").write_text("mine")
+    (d / ("." + MANIFEST_NAME + ".1f2e3d4c5b6a.json")).write_text("{")  # the manifest's temporary file, SIGKILLed
     write_set(d, **{"a.csv": "1"})
-    assert sorted(p.name for p in d.iterdir()) == [MANIFEST_NAME, "a.csv"]
+    assert sorted(p.name for p in d.iterdir()) == [MANIFEST_NAME, ".jointid-staging-notes", "a.csv"]
+    assert (d / ".jointid-staging-notes" / "mine.txt").read_text() == "mine"
 
 
 def test_bad_names_are_programming_errors(tmp_path):
@@ -232,3 +237,144 @@ def test_check_refuses_a_users_file_without_staging_it(tmp_path):
             o.check("data/a.csv")  # a name not there: fine
             o.check("report.html")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.html"] and (tmp_path / "report.html").read_text() == "mine"
+
+
+def _forge(d, names, dirs=()):
+    """Add ``names`` (name -> the file whose real SHA-256 it gets) and ``dirs`` to the manifest's 'cmd' set: an edited
+    manifest."""
+    import hashlib
+
+    m = json.loads((d / MANIFEST_NAME).read_text())
+    for name, path in names.items():
+        m["sets"]["cmd"][name] = [hashlib.sha256(open(path, "rb").read()).hexdigest()]
+    m["directories"] += list(dirs)
+    (d / MANIFEST_NAME).write_text(json.dumps(m))
+
+
+def test_an_edited_manifest_cannot_make_jointid_touch_anything_outside_dir(tmp_path):
+    d = tmp_path / "d"
+    write_set(d, **{"a.txt": "1"})
+    victim, absolute, empty = tmp_path / "victim.txt", tmp_path / "abs.txt", tmp_path / "empty_dir"
+    victim.write_text("mine")
+    absolute.write_text("mine too")
+    empty.mkdir()
+    _forge(d, {"../victim.txt": victim, str(absolute): absolute, ".jointid.lock/../../victim.txt": victim},
+           dirs=["../empty_dir", str(empty)])
+    before = snapshot(tmp_path / "victim.txt"), victim.read_text(), absolute.read_text()
+    write_set(d, **{"b.txt": "2"})  # a.txt and the forged names are this command's stale set now
+    assert (victim.read_text(), absolute.read_text()) == before[1:] and empty.is_dir()
+    assert sorted(p.name for p in d.iterdir()) == [MANIFEST_NAME, "b.txt"]
+
+
+def test_a_symlinked_subdirectory_is_refused_and_what_it_points_to_untouched(tmp_path):
+    d = tmp_path / "d"
+    write_set(d, **{"figures__a.png": "1", "figures__b.png": "2"})
+    archive = tmp_path / "archive"
+    os.rename(d / "figures", archive)
+    os.symlink(archive, d / "figures")
+    before = snapshot(tmp_path)
+    with pytest.raises(OutputError) as e:
+        write_set(d, **{"figures__a.png": "new"})
+    assert str(e.value) == (f"{d / 'figures'} is a symbolic link and jointid would write {d / 'figures' / 'a.png'} through it "
+                            "(jointid writes only into real directories of --out); replace it by a directory or choose another --out")
+    write_set(d, **{"c.txt": "3"})  # its stale figures/a.png, b.png behind the link: not removed
+    after = snapshot(tmp_path)
+    assert {k: v for k, v in after.items() if k.startswith("archive")} == {k: v for k, v in before.items() if k.startswith("archive")}
+
+
+def test_a_directory_not_writable_is_found_before_the_first_rename(tmp_path, monkeypatch):
+    """figures/ not writable (os.access says so, as for a user without root): the set is refused before any rename,
+    naming the directory, and DIR is as before (a.txt, renamed first, was the half-new set the audit found)."""
+    from jointid.io import output_dir
+
+    d = tmp_path / "d"
+    write_set(d, **{"a.txt": "1", "figures__p.png": "1"})
+    before = snapshot(d)
+    real_access = os.access
+    monkeypatch.setattr(output_dir.os, "access", lambda p, mode: False if os.path.basename(p) == "figures" else real_access(p, mode))
+    with pytest.raises(OutputError) as e:
+        write_set(d, **{"a.txt": "2", "figures__p.png": "2", "figures__q.png": "2"})
+    assert str(e.value) == f"cannot write into {d / 'figures'}: permission denied; make it writable or choose another --out"
+    assert snapshot(d) == before
+
+
+def test_a_rename_that_fails_midway_is_undone(tmp_path, monkeypatch):
+    """The third of three renames fails (whatever the cause): the two placed files are put back as they were."""
+    from jointid.io import output_dir
+
+    d = tmp_path / "d"
+    write_set(d, **{"a.txt": "1", "b.txt": "1"})
+    before = snapshot(d)
+    real_replace = os.replace
+
+    def replace(src, dst):
+        if os.path.basename(dst) == "c.txt":
+            raise OSError(28, "No space left on device", str(dst))
+        real_replace(src, dst)
+
+    monkeypatch.setattr(output_dir.os, "replace", replace)
+    with pytest.raises(OutputError, match=r"No space left on device .*c\.txt\); the previous files are back; fix that and run again$"):
+        write_set(d, **{"a.txt": "2", "b.txt": "2", "c.txt": "2"})
+    monkeypatch.setattr(output_dir.os, "replace", real_replace)
+    assert snapshot(d) == before
+
+
+def test_a_signal_during_the_commit_is_raised_after_it_and_the_commit_recorded(tmp_path, monkeypatch):
+    import signal
+
+    from jointid.errors import Terminated
+    from jointid.io import output_dir
+
+    def on_term(signum, frame):
+        raise Terminated(signum)
+
+    previous = signal.signal(signal.SIGTERM, on_term)
+    real_replace = os.replace
+
+    def replace(src, dst):
+        if os.path.basename(dst) == "a.txt":
+            signal.raise_signal(signal.SIGTERM)
+        real_replace(src, dst)
+
+    monkeypatch.setattr(output_dir.os, "replace", replace)
+    n = len(output_dir.commits())
+    try:
+        with pytest.raises(Terminated):
+            write_set(tmp_path / "out", command="sig", **{"a.txt": "a"})
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    (last,) = output_dir.commits()[n:]
+    assert (last.directory, last.command, last.files) == (tmp_path / "out", "sig", ("a.txt",))
+
+
+def test_a_file_taken_over_from_another_command_is_recorded(tmp_path):
+    from jointid.io import output_dir
+
+    d = tmp_path / "d"
+    write_set(d, command="identify", **{"report.html": "i", "joint_stiffness.csv": "k"})
+    write_set(d, command="update", **{"report.html": "u"})
+    assert output_dir.commits()[-1].taken_over == {"report.html": "identify"}
+
+
+def test_reserved_names_do_not_act_on_what_they_point_to(tmp_path):
+    d = tmp_path / "d"
+    d.mkdir()
+    os.symlink(tmp_path / "outside_lock", d / LOCK_NAME)  # a dangling lock symlink
+    with pytest.raises(OutputError, match=r"\.jointid\.lock is a symbolic link \(jointid's lock file name\); remove it"):
+        write_set(d, **{"a.txt": "1"})
+    assert not os.path.lexists(tmp_path / "outside_lock")
+
+
+def test_dangling_out_link_and_unreadable_manifest_messages(tmp_path):
+    link = tmp_path / "out"
+    os.symlink(tmp_path / "gone", link)
+    with pytest.raises(OutputError) as e:
+        write_set(link, **{"a.txt": "1"})
+    assert str(e.value) == f"--out {link} is a symbolic link to {tmp_path / 'gone'}, which does not exist; create that directory or give another --out"
+    d = tmp_path / "d"
+    write_set(d, **{"a.txt": "1"})
+    (d / MANIFEST_NAME).write_text("{ not json")
+    with pytest.raises(OutputError) as e:
+        write_set(d, **{"a.txt": "2"})
+    assert str(e.value) == (f"{d / 'a.txt'} exists, and jointid's record of the files it wrote ({d / MANIFEST_NAME}) cannot be "
+                            "read; move the file away or choose another --out")

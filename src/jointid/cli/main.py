@@ -134,6 +134,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     debug = bool(args.debug or debug_anywhere)
     args.debug = debug
+    from ..io.output_manifest import commits
+
+    start = len(commits())  # this run's commits follow (a stop signal after one: its output is complete)
     caught: list = []
     with contextlib.ExitStack() as stack:
         if not debug:
@@ -145,16 +148,18 @@ def main(argv: list[str] | None = None) -> int:
         try:
             with _signal_handlers():
                 code = int(args.func(args) or 0)
+            for line in _taken_over_lines(args.command, commits()[start:]):
+                print(line, file=sys.stderr)
             line = _warning_line(args.command, caught)  # on success only: an error is its own one line
             if line is not None:
                 print(line, file=sys.stderr)
         except KeyboardInterrupt:
-            return _stopped(args.command, signal.SIGINT)
+            return _stopped(args.command, signal.SIGINT, commits()[start:])
         except Terminated as exc:
-            return _stopped(args.command, exc.signum)
+            return _stopped(args.command, exc.signum, commits()[start:])
         except (JointIdError, OSError) as exc:
             if _received and not debug:  # the signal's exception, transformed on its way up
-                return _stopped(args.command, _received[0])
+                return _stopped(args.command, _received[0], commits()[start:])
             if debug:
                 raise
             msg = str(exc) if isinstance(exc, JointIdError) else f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")
@@ -162,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         except Exception as exc:  # pragma: no cover - last resort, still one line
             if _received and not debug:  # e.g. "ImportError: initialization failed": a signal during an import
-                return _stopped(args.command, _received[0])
+                return _stopped(args.command, _received[0], commits()[start:])
             if debug:
                 raise
             print(
@@ -173,17 +178,36 @@ def main(argv: list[str] | None = None) -> int:
     return code
 
 
-def _stopped(command: str, signum: int) -> int:
-    """The one line of a run stopped by a signal; its exit code (130 SIGINT, 128 + signum otherwise)."""
+def _stopped(command: str, signum: int, done=()) -> int:
+    """The one line of a run stopped by a signal; its exit code (130 SIGINT, 128 + signum otherwise).
+
+    ``done``: the run's commits (:func:`~jointid.io.output_manifest.commits`); a signal that came while the
+    output was being committed is raised once it is complete, and the line says so."""
+    what = (f"its output in {done[-1].directory} was complete before it stopped" if done
+            else "no partial output was written")
     if signum == signal.SIGINT:
-        print(f"jointid {command}: interrupted; no partial output was written", file=sys.stderr)
+        print(f"jointid {command}: interrupted; {what}", file=sys.stderr)
         return 130
     try:
         name = signal.Signals(signum).name
     except ValueError:
         name = f"signal {signum}"
-    print(f"jointid {command}: terminated ({name}); no partial output was written", file=sys.stderr)
+    print(f"jointid {command}: terminated ({name}); {what}", file=sys.stderr)
     return 128 + signum
+
+
+def _taken_over_lines(command: str, done) -> list[str]:
+    """One note per other command whose files in an output directory this run replaced (a file two commands write
+    belongs to the one that wrote it last: :mod:`jointid.io.output_dir`)."""
+    lines = []
+    for c in done:
+        by: dict = {}
+        for name, other in c.taken_over.items():
+            by.setdefault(other, []).append(name)
+        for other, names in sorted(by.items()):
+            lines.append(f"jointid {command}: note: replaced {', '.join(sorted(names))} in {c.directory}, written there before "
+                         f"by `jointid {other}` (use another --out to keep both)")
+    return lines
 
 
 def entry_point() -> None:

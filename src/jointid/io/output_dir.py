@@ -27,7 +27,8 @@ What a user can rely on
   refused with one line naming ``DIR`` (``fcntl.flock`` on ``DIR/.jointid.lock``;
   the lock file is removed when the run ends).
 * Files are produced in a staging directory ``DIR/.jointid-staging-*`` (same
-  file system) and renamed into place one by one with :func:`os.replace` only
+  file system; marked by a file of its own, so that only jointid's staging is
+  ever removed) and renamed into place one by one with :func:`os.replace` only
   after *all* of them were produced; an exception before that (a failing
   computation, Ctrl-C, a full disk while staging) leaves ``DIR`` exactly as it
   was (a ``DIR`` this run created is removed again), with no temporary debris.
@@ -36,7 +37,14 @@ What a user can rely on
   staging area and lock removed, ``DIR`` as before. A signal that arrives while
   the files are being renamed into place or the staging area is being removed is
   held until that step is done (the set is then complete, or untouched).
+  A failure while renaming (a subdirectory made read-only meanwhile) puts the
+  previous files back (kept as hard links until the set is complete): the set
+  is complete or as before, never half of each.
   Staging left by a killed run (SIGKILL) is removed by the next run into ``DIR``.
+* jointid writes, replaces and removes files only in real directories inside
+  ``DIR``: an output whose parent inside ``DIR`` is a symbolic link is refused
+  (a link to a directory elsewhere would let it write or delete there), and the
+  manifest's names are checked (a name leaving ``DIR`` is not jointid's).
 * Files of the same command's previous set that this run does not produce (a
   PNG after ``--no-plots``) are removed, if unchanged. The sets of other
   commands writing into the same ``DIR`` are kept (``jointid simulate --out d``
@@ -45,6 +53,9 @@ What a user can rely on
 * Subdirectories (``figures/``, ``data/``) are created as needed; jointid
   removes a subdirectory only if it created it and it is empty.
 * Files and directories get the user's umask permissions (like ``open``/``mkdir``).
+* What each commit did is recorded in this process (:func:`commits`): the
+  ``jointid`` command says so when a stop signal came after its output was
+  complete, and names the files it took over from another command.
 
 The manifest survives a crash between renames: before the first rename it lists
 both the old and the new content of every file being replaced.
@@ -57,7 +68,6 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import json
 import os
 import shutil
 import signal
@@ -67,7 +77,9 @@ from pathlib import Path, PurePosixPath
 from typing import Callable, Mapping, Sequence
 
 from ..errors import JointIdError
-from .atomic import atomic_write_text
+from .output_manifest import (
+    MANIFEST_NAME, MANIFEST_TEMP_GLOB, Commit, commits, empty_manifest, output_key, read_manifest, record_commit, write_manifest,
+)
 from .tables import format_csv
 
 try:  # POSIX; elsewhere runs are not locked against each other
@@ -75,15 +87,14 @@ try:  # POSIX; elsewhere runs are not locked against each other
 except ImportError:  # pragma: no cover
     fcntl = None
 
-__all__ = ["OutputSet", "OutputError", "MANIFEST_NAME", "LOCK_NAME", "STAGING_PREFIX"]
+__all__ = ["OutputSet", "OutputError", "Commit", "commits", "MANIFEST_NAME", "LOCK_NAME", "STAGING_PREFIX"]
 
-#: Manifest of the files jointid wrote in an output directory.
-MANIFEST_NAME = ".jointid-manifest.json"
 #: Lock file held (flock) while a run writes into the directory.
 LOCK_NAME = ".jointid.lock"
 #: Prefix of the staging directory inside the output directory.
 STAGING_PREFIX = ".jointid-staging-"
-_MANIFEST_FORMAT = "jointid-output-manifest"
+#: The file that marks a staging directory as jointid's (only such a one is removed as a killed run's).
+_STAGING_MARK = ".jointid-staging"
 
 
 class OutputError(JointIdError, OSError):
@@ -128,32 +139,14 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-def _empty_manifest() -> dict:
-    return {"format": _MANIFEST_FORMAT, "version": 1, "sets": {}, "directories": []}
-
-
-def _read_manifest(directory: Path) -> dict:
-    """The manifest of ``directory``; an absent or unreadable one owns nothing (the safe reading)."""
-    try:
-        data = json.loads((directory / MANIFEST_NAME).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return _empty_manifest()
-    if not isinstance(data, dict) or data.get("format") != _MANIFEST_FORMAT:
-        return _empty_manifest()
-    sets = data.get("sets")
-    dirs = data.get("directories")
-    m = _empty_manifest()
-    if isinstance(sets, dict):
-        for cmd, files in sets.items():
-            if isinstance(files, dict):
-                m["sets"][str(cmd)] = {str(k): [str(h) for h in v] for k, v in files.items() if isinstance(v, list)}
-    if isinstance(dirs, list):
-        m["directories"] = [str(d) for d in dirs]
-    return m
-
-
-def _write_manifest(directory: Path, manifest: dict) -> None:
-    atomic_write_text(directory / MANIFEST_NAME, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+def _real_path(directory: Path, key: str) -> bool:
+    """Every parent of ``key`` inside ``directory`` that exists is a real directory (no symbolic link on the way)."""
+    parts = PurePosixPath(key).parts
+    for i in range(1, len(parts)):
+        sub = directory.joinpath(*parts[:i])
+        if os.path.islink(sub) or (os.path.lexists(sub) and not sub.is_dir()):
+            return False
+    return True
 
 
 def _makedirs(path: Path) -> list[Path]:
@@ -170,16 +163,6 @@ def _makedirs(path: Path) -> list[Path]:
         os.mkdir(d)  # mode 0o777 filtered by the umask
         created.append(d)
     return created
-
-
-def _key(name: str) -> str:
-    """Normalized relative POSIX name; ValueError (a programming error) for anything else."""
-    p = PurePosixPath(name)
-    if not name or "\\" in name or p.is_absolute() or any(part in ("", ".", "..") for part in p.parts) or p.as_posix() != name.rstrip("/"):
-        raise ValueError(f"output name {name!r}: expected a relative path like 'data/x.csv'")
-    if p.parts[0].startswith(".jointid"):
-        raise ValueError(f"output name {name!r}: names starting with '.jointid' are reserved")
-    return p.as_posix()
 
 
 class OutputSet:
@@ -209,9 +192,11 @@ class OutputSet:
         self._staging: Path | None = None
         self._lock_fd: int | None = None
         self._created: list[Path] = []
-        self._manifest = _empty_manifest()
+        self._manifest = empty_manifest()
         self._files: dict[str, Path] = {}
         self._committed = False
+        self._manifest_found = False
+        self._manifest_unreadable = False
 
     # ------------------------------------------------------------ lifecycle
     def __enter__(self) -> "OutputSet":
@@ -238,20 +223,32 @@ class OutputSet:
         d = self.directory
         if self._staging is not None:
             raise RuntimeError("OutputSet is already open")
-        if d.exists() and not d.is_dir():
-            raise OutputError(f"--out {d} is a file; give a directory")
         try:
+            if d.is_symlink() and not d.exists():
+                raise OutputError(f"--out {d} is a symbolic link to {os.readlink(d)}, which does not exist; create that "
+                                  "directory or give another --out")
+            if d.exists() and not d.is_dir():
+                raise OutputError(f"--out {d} is a file; give a directory")
             self._created = _makedirs(d)
         except OSError as exc:
-            raise OutputError(f"--out {d}: cannot create the directory: {exc.strerror or exc}") from exc
+            if isinstance(exc, OutputError):
+                raise
+            raise OutputError(f"--out {d}: cannot create the directory: {exc.strerror or exc}; give another --out") from exc
         try:
             self._lock()
-            self._manifest = _read_manifest(d)
+            self._manifest, readable = read_manifest(d)
+            self._manifest_found = readable
+            self._manifest_unreadable = not readable and os.path.lexists(d / MANIFEST_NAME)
             for old in d.glob(STAGING_PREFIX + "*"):  # left by a killed run; we hold the lock
-                if old.is_dir() and not old.is_symlink():
+                if old.is_dir() and not old.is_symlink() and (old / _STAGING_MARK).is_file():
                     shutil.rmtree(old, ignore_errors=True)
+            for old in d.glob(MANIFEST_TEMP_GLOB):  # the manifest's temporary file of a killed run
+                if old.is_file() and not old.is_symlink():
+                    with contextlib.suppress(OSError):
+                        old.unlink()
             try:
                 self._staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=d))
+                (self._staging / _STAGING_MARK).touch()
             except OSError as exc:
                 raise OutputError(f"--out {d} is not writable: {exc.strerror or exc}") from exc
         except BaseException:
@@ -266,8 +263,10 @@ class OutputSet:
     def _lock(self) -> None:
         path = self.directory / LOCK_NAME
         while True:
+            if os.path.islink(path):
+                raise OutputError(f"{path} is a symbolic link (jointid's lock file name); remove it and run again")
             try:
-                fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+                fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o666)
             except OSError as exc:
                 raise OutputError(f"--out {self.directory} is not writable: {exc.strerror or exc}") from exc
             if fcntl is None:  # pragma: no cover
@@ -312,11 +311,11 @@ class OutputSet:
     # ------------------------------------------------------------ writing
     def path(self, name: str) -> Path:
         """Final path of output ``name`` in the directory (for messages; it exists after commit)."""
-        return self.directory / _key(name)
+        return self.directory / output_key(name)
 
     def staged(self, name: str) -> Path:
         """Staged file of output ``name``, already written in this set (to read it back before commit)."""
-        key = _key(name)
+        key = output_key(name)
         if key not in self._files:
             raise KeyError(f"{name!r} was not written in this output set")
         return self._files[key]
@@ -334,7 +333,7 @@ class OutputSet:
         if self._staging is None:
             raise RuntimeError("OutputSet is not open (use it in a with block)")
         for name in names:
-            self._check_target(_key(name))
+            self._check_target(output_key(name))
 
     def write_bytes(self, name: str, data: bytes) -> Path:
         """Stage ``data`` as output ``name``; returns its final path."""
@@ -362,7 +361,7 @@ class OutputSet:
         """
         if self._staging is None:
             raise RuntimeError("OutputSet is not open (use it in a with block)")
-        key = _key(name)
+        key = output_key(name)
         if key in self._files:
             raise ValueError(f"output {key!r} written twice in one output set")
         self._check_target(key)
@@ -392,6 +391,9 @@ class OutputSet:
         parts = PurePosixPath(key).parts
         for i in range(1, len(parts)):
             sub = d.joinpath(*parts[:i])
+            if os.path.islink(sub):
+                raise OutputError(f"{sub} is a symbolic link and jointid would write {d / key} through it (jointid writes only "
+                                  "into real directories of --out); replace it by a directory or choose another --out")
             if os.path.lexists(sub) and not sub.is_dir():
                 raise OutputError(f"{sub} is not a directory and jointid would write {d / key}; move it or choose another --out")
         target = d / key
@@ -399,6 +401,9 @@ class OutputSet:
             return
         owner = self._owner(key)
         if target.is_symlink() or not target.is_file() or owner is None:
+            if not target.is_symlink() and target.is_file() and self._manifest_unreadable:
+                raise OutputError(f"{target} exists, and jointid's record of the files it wrote ({d / MANIFEST_NAME}) cannot "
+                                  "be read; move the file away or choose another --out")
             raise OutputError(f"{target} exists and was not written by jointid; move it or choose another --out")
         if _sha256(target) not in owner[1]:
             raise OutputError(f"{target} was changed after jointid wrote it; move it or choose another --out")
@@ -406,8 +411,8 @@ class OutputSet:
     def commit(self) -> tuple[Path, ...]:
         """Rename every staged file into place, remove this command's stale files, update the manifest.
 
-        Returns the final paths written. Raises :class:`OutputError` (nothing
-        renamed) if a target became a file jointid did not write meanwhile.
+        Returns the final paths written. Raises :class:`OutputError` if a target became a file jointid did
+        not write meanwhile (nothing renamed), or if renaming failed (the previous files put back).
         """
         if self._staging is None:
             raise RuntimeError("OutputSet is not open")
@@ -417,51 +422,113 @@ class OutputSet:
         new = {key: _sha256(staged) for key, staged in self._files.items()}
         sets = {cmd: dict(files) for cmd, files in self._manifest["sets"].items()}
         previous = sets.pop(self.command, {})
+        taken = {k: cmd for cmd, files in sets.items() for k in files if k in new}
         for cmd in sets:  # a file this run writes now belongs to this command
             sets[cmd] = {k: v for k, v in sets[cmd].items() if k not in new}
         dirs = list(self._manifest["directories"])
-        with _signals_held():
+        with _signals_held():  # a stop signal now is raised once the set is complete (and recorded as such)
             self._commit_files(new, sets, previous, dirs)
-        self._committed = True
+            self._committed = True
+            record_commit(Commit(d, self.command, tuple(self._files), taken))
         return tuple(d / key for key in self._files)
 
     def _commit_files(self, new: dict, sets: dict, previous: dict, dirs: list) -> None:
         d = self.directory
+        placed: list[str] = []  # renamed into place, in order
+        backups: dict[str, Path] = {}  # the previous file of a placed one, hard-linked in the staging area
+        made: list[Path] = []  # subdirectories created here
         try:
             # 1. a manifest valid whatever happens next: old and new content of each file
             transition = dict(previous)
             for key, h in new.items():
                 old = self._owner(key)
                 transition[key] = [h] + (old[1] if old else [])
-            _write_manifest(d, {**_empty_manifest(), "sets": {**sets, self.command: transition}, "directories": sorted(set(dirs))})
-            # 2. directories, then every file renamed into place
-            for key, staged in self._files.items():
+            write_manifest(d, {**empty_manifest(), "sets": {**sets, self.command: transition}, "directories": sorted(set(dirs))})
+            # 2. the directories, each checked writable before the first rename
+            for key in self._files:
                 parent = PurePosixPath(key).parent
                 for i in range(1, len(parent.parts) + 1):
                     sub = PurePosixPath(*parent.parts[:i])
                     if not (d / sub).is_dir():
                         os.mkdir(d / sub)
+                        made.append(d / sub)
                         dirs.append(sub.as_posix())
-                os.replace(staged, d / key)
-            # 3. stale files of this command's previous set, if unchanged since jointid wrote them
-            for key, hashes in previous.items():
-                if key in new:
-                    continue
+                where = d / parent
+                if not os.access(where, os.W_OK | os.X_OK):
+                    raise OutputError(f"cannot write into {where}: permission denied; make it writable or choose another --out")
+            # 3. every file renamed into place, the one it replaces kept until all are
+            for key, staged in self._files.items():
                 target = d / key
-                if target.is_file() and not target.is_symlink() and _sha256(target) in hashes:
-                    target.unlink()
-            # 4. directories jointid created that are now empty and hold no output
-            kept = []
-            owned = set(new) | {k for files in sets.values() for k in files}
-            for sub in sorted(set(dirs), key=lambda s: -len(PurePosixPath(s).parts)):
-                p = d / sub
-                if not p.is_dir() or p.is_symlink():
-                    continue
-                if not any(k.startswith(sub + "/") for k in owned):
-                    with contextlib.suppress(OSError):
-                        p.rmdir()  # only if empty
-                if p.is_dir():
-                    kept.append(sub)
-            _write_manifest(d, {**_empty_manifest(), "sets": {**sets, self.command: {k: [h] for k, h in new.items()}}, "directories": sorted(kept)})
+                if os.path.lexists(target):
+                    keep = self._staging / ".previous" / key
+                    keep.parent.mkdir(parents=True, exist_ok=True)
+                    try:
+                        os.link(target, keep)
+                    except OSError:  # a file system without hard links
+                        shutil.copy2(target, keep)
+                    backups[key] = keep
+                os.replace(staged, target)
+                placed.append(key)
         except OSError as exc:
-            raise OutputError(f"cannot write into --out {d}: {exc.strerror or exc}") from exc
+            undone = self._undo(placed, backups, made)
+            if isinstance(exc, OutputError):
+                raise
+            raise OutputError(f"cannot write into --out {d}: {exc.strerror or exc} ({exc.filename or d}); "
+                              + ("the previous files are back" if undone else "some previous files could not be put back")
+                              + "; fix that and run again") from exc
+        # 4. stale files of this command's previous set, if unchanged since jointid wrote them (one that cannot be
+        #    removed stays listed as this command's)
+        stale_kept = {}
+        for key, hashes in previous.items():
+            if key in new:
+                continue
+            target = d / key
+            try:
+                if _real_path(d, key) and target.is_file() and not target.is_symlink() and _sha256(target) in hashes:
+                    target.unlink()
+            except OSError:
+                stale_kept[key] = hashes
+        # 5. directories jointid created that are now empty and hold no output
+        kept = []
+        owned = set(new) | set(stale_kept) | {k for files in sets.values() for k in files}
+        for sub in sorted(set(dirs), key=lambda s: -len(PurePosixPath(s).parts)):
+            p = d / sub
+            if not _real_path(d, sub + "/x") or not p.is_dir() or p.is_symlink():
+                continue
+            if not any(k.startswith(sub + "/") for k in owned):
+                with contextlib.suppress(OSError):
+                    p.rmdir()  # only if empty
+            if p.is_dir():
+                kept.append(sub)
+        final = {**{k: list(v) for k, v in stale_kept.items()}, **{k: [h] for k, h in new.items()}}
+        try:
+            write_manifest(d, {**empty_manifest(), "sets": {**sets, self.command: final}, "directories": sorted(kept)})
+        except OSError as exc:  # the files are in place; the transition manifest (old and new contents) still holds
+            raise OutputError(f"the output in --out {d} is complete but its record {d / MANIFEST_NAME} could not be "
+                              f"updated: {exc.strerror or exc}") from exc
+
+    def _undo(self, placed: list, backups: dict, made: list) -> bool:
+        """Put the previous files back over the ones placed, remove the new ones and the directories made; the manifest
+        as it was. True if everything was put back."""
+        ok = True
+        for key in reversed(placed):
+            target = self.directory / key
+            try:
+                if key in backups:
+                    os.replace(backups[key], target)
+                else:
+                    target.unlink()
+            except OSError:
+                ok = False
+        for sub in reversed(made):
+            with contextlib.suppress(OSError):
+                sub.rmdir()
+        try:
+            if self._manifest_found or self._manifest["sets"]:
+                write_manifest(self.directory, self._manifest)
+            else:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(self.directory / MANIFEST_NAME)
+        except OSError:
+            ok = False
+        return ok
