@@ -111,3 +111,11 @@ def test_writer_refuses_non_finite(tmp_path):
     with pytest.raises(DataError, match="not finite at 2 Hz"):
         write_frf_csv(tmp_path / "x.csv", FRF(f, d, ["1w"], ["2w"]))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_directory_given_as_the_frf_file_is_named_as_one(tmp_path):
+    from jointid.io.frf_files import read_frf
+
+    with pytest.raises(DataError) as e:
+        read_frf(tmp_path)
+    assert str(e.value) == f"FRF file {tmp_path} is a directory; give the FRF file in it (e.g. {tmp_path / 'frf.uff'})"

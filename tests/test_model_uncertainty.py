@@ -159,3 +159,17 @@ def test_a_mesh_coarser_than_the_criterion_puts_its_discretization_error_in_the_
     # the criterion's own mesh (the key absent) has no reference: nothing to add
     assert replace(st0.structure, elements_per_segment=None).reference_model(1000.0) is None
     assert replace(st0.structure, elements_per_segment=8).reference_model(1000.0) is None
+
+
+def test_an_uncertainty_as_large_as_its_parameter_is_refused_naming_the_key():
+    """std = E: the model at E - 1 sigma had E = 0 and the run stopped on "elastic modulus must be a positive finite
+    number in Pa, got np.float64(0.0)", naming neither the file nor the key."""
+    import tomllib
+
+    st = parse_study(tomllib.loads(BASE + "[uncertainty]\nelastic_modulus = 6.9e10\n"), "s.toml")
+    E = st.structure.update_model(None, st.frequency.stop)[1]["elastic_modulus"]
+    with pytest.raises(StudyError) as info:
+        uncertain_free_model(st, free_model(st))
+    assert str(info.value) == (f"s.toml: [uncertainty].elastic_modulus = 6.9e+10 is not below 0.5 times the parameter ({E:g}): the "
+                               "propagation of the free model's uncertainty is linear, and holds for standard deviations well "
+                               "below the values; give a smaller one or leave it out")

@@ -378,3 +378,10 @@ def test_dangling_out_link_and_unreadable_manifest_messages(tmp_path):
         write_set(d, **{"a.txt": "2"})
     assert str(e.value) == (f"{d / 'a.txt'} exists, and jointid's record of the files it wrote ({d / MANIFEST_NAME}) cannot be "
                             "read; move the file away or choose another --out")
+
+
+def test_a_directory_that_cannot_be_made_leaves_no_parent_behind(tmp_path):
+    out = tmp_path / "new1" / "new2" / ("x" * 300)  # a name too long for the file system
+    with pytest.raises(OutputError, match=r"cannot create the directory: File name too long; give another --out$"):
+        OutputSet(out, "cmd").open()
+    assert list(tmp_path.iterdir()) == []

@@ -80,6 +80,20 @@ def test_debug_is_accepted_after_the_subcommand(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+def test_debug_keeps_the_exit_codes_of_bad_input_and_of_a_bug(tmp_path):
+    """The `jointid` process with --debug: the traceback, and still exit 2 for bad input (was 1, a campaign's code)."""
+    import subprocess
+    import sys
+
+    bad = tmp_path / "s.toml"
+    bad.write_text(STUDY.replace("density = 2700.0", "density = 1e300"))
+    script = "import sys; from jointid.cli.main import entry_point; sys.argv = ['jointid'] + sys.argv[1:]; entry_point()"
+    r = subprocess.run([sys.executable, "-c", script, "--debug", "modes", str(bad), "--out", str(tmp_path / "o")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2
+    assert "Traceback (most recent call last)" in r.stderr and "density: 1e300 kg/m^3 is outside" in r.stderr
+
+
 def test_a_warning_during_a_command_becomes_one_finding_line(tmp_path, capsys, monkeypatch):
     """A numerical warning nobody prevented reaches the terminal as one line, not as Python's two-line warning."""
     import jointid.cli.modes as modes

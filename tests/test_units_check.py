@@ -19,8 +19,8 @@ from study_texts import beam_study_toml
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 
-REFUSAL_TAIL = (": give the file's units (UFF dataset 164 / unit labels, or the CSV header) or set [identification] "
-                "units_check = false to use them as they are")
+REFUSAL_TAIL = (": give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units), check the study's "
+                "free model, or set [identification] units_check = false to use them as they are")
 
 
 def _cal(factors, F=40) -> ColumnCalibration:
@@ -43,7 +43,30 @@ def test_a_gross_factor_without_a_unit_and_small_or_unequal_ones():
         "the FRFs look scaled by 3 in every excitation column (wrong units, or a wrong sensor sensitivity?)")
     assert units_conclusion(_cal([1.3] * 3)) is None  # a hammer sensitivity error: corrected by the calibration
     assert units_conclusion(_cal([9.81, 1.0, 1.0])) is None  # one column: not a units problem of the file
+    assert units_conclusion(_cal([1.3, 1.6, 2.2])) is None  # not every column beyond 1.5
     assert units_conclusion(None) is None
+
+
+def test_every_column_grossly_off_without_a_common_factor_is_a_wrong_model_or_units():
+    """A free model with a dimension in mm read as m predicts FRFs off by a different gross factor per column."""
+    text = ("the FRFs are off by factors {}-{} in the excitation columns from what the free model predicts (no unit factor, and "
+            "far beyond a force calibration error): the free model (the study's dimensions, material or their units) or the "
+            "FRFs' units are wrong")
+    assert units_conclusion(_cal([1000.0, 1300.0, 1150.0])) == text.format(1000, 1300)
+    assert units_conclusion(_cal([0.2, 0.5, 0.3])) == text.format(0.2, 0.5)
+
+
+def test_a_study_with_the_beam_width_in_mm_is_refused(beam):
+    """The black-box finding: width = 12.7 (mm typed as m) was "corrected" as a 1.2e5 % force calibration error and
+    K_w_w flagged reliable 2700x off. Now one line naming the free model."""
+    study, frf = beam
+    text = beam_study_toml(start=5.0, stop=200.0, step=5.0)
+    assert "width = 0.0127" in text
+    wrong = parse_study(tomllib.loads(text.replace("width = 0.0127", "width = 12.7")))
+    with pytest.raises(DataError) as exc:  # a common factor here (~1000 in every column), 1000-1300 on the benchmark
+        identify(wrong, frf)
+    assert str(exc.value).startswith(("the FRFs look scaled by", "the FRFs are off by factors"))
+    assert str(exc.value).endswith(REFUSAL_TAIL) and "check the study's free model" in REFUSAL_TAIL
 
 
 @pytest.fixture(scope="module")

@@ -30,7 +30,7 @@ from .study import Study
 
 __all__ = [
     "free_model", "uncertain_free_model", "true_joint", "true_joints", "build_true_joint", "true_joint_matrix",
-    "constrained_model", "config_elastomer_joint", "config_beam",
+    "constrained_model", "config_elastomer_joint", "config_beam", "UNCERTAINTY_MAX_RELATIVE",
 ]
 
 
@@ -77,6 +77,10 @@ class _FamilyMember:
         return self.family.receptance(self.values, frequency, rows, cols)
 
 
+#: An ``[uncertainty]`` standard deviation must be below this fraction of its parameter's value (linear propagation).
+UNCERTAINTY_MAX_RELATIVE = 0.5
+
+
 def uncertain_free_model(study: Study, free):
     """``free`` with what the study says of its errors: ``[uncertainty]`` and a mesh coarser than the criterion's.
 
@@ -91,7 +95,8 @@ def uncertain_free_model(study: Study, free):
     Raises
     ------
     StudyError
-        An ``[uncertainty]`` parameter of the accelerometers on a study that does not model them.
+        An ``[uncertainty]`` parameter of the accelerometers on a study that does not model them, or a standard
+        deviation not below :data:`UNCERTAINTY_MAX_RELATIVE` times its parameter.
     """
     from .physics.free_model import StructureModel, UncertainFreeModel, as_free_model
 
@@ -108,6 +113,12 @@ def uncertain_free_model(study: Study, free):
         if missing:
             raise StudyError(f"{study.source}: [uncertainty].{missing[0]}: this study's free model has no such parameter "
                              "(accelerometer parameters need [accelerometers] and [identification] model_accelerometers = true)")
+        std = np.sqrt(np.diag(cov))
+        for k, sd in zip(names, std):
+            if not sd < UNCERTAINTY_MAX_RELATIVE * abs(initial[k]):
+                raise StudyError(f"{study.source}: [uncertainty].{k} = {sd:g} is not below {UNCERTAINTY_MAX_RELATIVE:g} times the "
+                                 f"parameter ({initial[k]:g}): the propagation of the free model's uncertainty is linear, "
+                                 "and holds for standard deviations well below the values; give a smaller one or leave it out")
         lam, vec = np.linalg.eigh(cov)
         keep = lam > lam.max() * 1e-12 if lam.max() > 0 else np.zeros(lam.size, bool)
         steps = vec[:, keep] * np.sqrt(lam[keep])  # (parameters, directions)

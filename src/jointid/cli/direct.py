@@ -204,6 +204,8 @@ def _write_example(args) -> int:
     target = Path(args.example)
     if not target.name or target.name in (".", "..") or target.is_dir():
         raise DataError(f"--example {args.example}: give a file name, e.g. --example example.csv")
+    if target.name.startswith(".jointid"):
+        raise DataError(f"--example {args.example}: names starting with '.jointid' are jointid's own; give another file name")
     blocks = example_stepsine()
     try:
         with OutputSet(target.parent, command=f"direct --example {target.name}") as out:

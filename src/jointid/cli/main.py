@@ -16,6 +16,7 @@ import contextlib
 import os
 import signal
 import sys
+import traceback
 import warnings
 from importlib import import_module
 from pathlib import Path
@@ -219,7 +220,8 @@ def entry_point() -> None:
     aborted ("Fatal Python error: PyThreadState_Get ... finalizing", -6) after printing its one line, on
     about one run in twenty stopped under load. So a repeat of the stop signal keeps the run's exit code,
     further ones are ignored, and the process ends with ``os._exit`` after flushing its output: there is
-    nothing left to finalize.
+    nothing left to finalize. With ``--debug`` :func:`main` raises the error itself: its traceback is printed
+    and the exit code is still 2 (bad input, a :class:`~jointid.errors.JointIdError` or file error) or 3 (a bug).
     """
     try:
         code = main()
@@ -227,6 +229,12 @@ def entry_point() -> None:
         code = 130
     except Terminated as exc:
         code = 128 + exc.signum
+    except (JointIdError, OSError):  # --debug: main raised the error itself; the traceback, and bad input's exit code
+        traceback.print_exc()
+        code = 2
+    except Exception:  # --debug: a bug's traceback, and its exit code
+        traceback.print_exc()
+        code = 3
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, signal.SIG_IGN)
     for stream in (sys.stdout, sys.stderr):

@@ -22,6 +22,8 @@ MAX_FRF_MAGNITUDE = 1e15
 
 
 def _format(path: Path) -> str:
+    if path.is_dir():
+        raise DataError(f"FRF file {path} is a directory; give the FRF file in it (e.g. {path / 'frf.uff'})")
     ext = path.suffix.lower()
     if ext in UFF_EXTENSIONS:
         return "uff"

@@ -159,9 +159,15 @@ def _makedirs(path: Path) -> list[Path]:
             break
         p = p.parent
     created = []
-    for d in reversed(missing):
-        os.mkdir(d)  # mode 0o777 filtered by the umask
-        created.append(d)
+    try:
+        for d in reversed(missing):
+            os.mkdir(d)  # mode 0o777 filtered by the umask
+            created.append(d)
+    except OSError:  # e.g. a name too long for the file system: the parents made so far go again
+        for d in reversed(created):
+            with contextlib.suppress(OSError):
+                os.rmdir(d)
+        raise
     return created
 
 

@@ -282,7 +282,8 @@ def _units_check(freq: Frequency, Ymn, Yne, Yme, H, variance, cal, options: Coup
     if units is None:
         return None
     if options.units_check:
-        raise DataError(f"{units}: give the file's units (UFF dataset 164 / unit labels, or the CSV header) or set "
+        raise DataError(f"{units}: give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units), "
+                        "check the study's free model, or set "
                         "[identification] units_check = false to use them as they are")
     notes.append(f"{units}: used as they are (units_check = false); every term flagged unreliable")
     return np.ones(freq.size, bool)

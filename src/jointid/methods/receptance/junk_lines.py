@@ -1,7 +1,10 @@
 """Junk lines: frequency lines whose coherence or residual says they carry no information, left out with a finding.
 
-A line is junk when either
+A line is junk when
 
+- every FRF value on it is exactly 0 (nothing was measured there: an acquisition's dropout
+  or a zeroed block; left out whatever their number, since a floored variance would give
+  them nearly full weight on nothing); or
 - its median coherence over the FRF values is below :data:`JUNK_COHERENCE` (raw, not
   smoothed: the variance model of :mod:`jointid.methods.receptance.frf_variance` averages
   the coherence over neighbouring lines in log scale, which would spread a few junk lines'
@@ -68,8 +71,9 @@ def _spans(hz: np.ndarray, idx: np.ndarray) -> str:
     return ", ".join(text) + (" ..." if len(runs) > 4 else "")
 
 
-def find_junk_lines(hz: np.ndarray, coherence: np.ndarray | None, stats: ResidualStatistics | None) -> JunkLines:
-    """Find junk lines by coherence and by residual (module docstring).
+def find_junk_lines(hz: np.ndarray, coherence: np.ndarray | None, stats: ResidualStatistics | None,
+                    empty: np.ndarray | None = None) -> JunkLines:
+    """Find junk lines: empty, by coherence and by residual (module docstring).
 
     Parameters
     ----------
@@ -79,6 +83,8 @@ def find_junk_lines(hz: np.ndarray, coherence: np.ndarray | None, stats: Residua
         Ordinary coherence of each FRF value.
     stats : ResidualStatistics or None
         Residuals of the per-line coupling fit on every line (None: no residual test).
+    empty : ndarray of bool, shape (F,), optional
+        Lines whose every FRF value is exactly 0.
 
     Returns
     -------
@@ -89,12 +95,16 @@ def find_junk_lines(hz: np.ndarray, coherence: np.ndarray | None, stats: Residua
     keep = np.ones(F, bool)
     reasons = []
     limit = JUNK_MAX_FRACTION * F
+    if empty is not None and np.any(empty):
+        keep &= ~np.asarray(empty, bool)
+        reasons.append(f"every FRF value exactly 0 on {int(np.sum(empty))} of them (nothing measured there)")
+        limit += np.sum(empty)
     if coherence is not None:
         g = np.median(np.asarray(coherence, float).reshape(F, -1), axis=1)
-        low = g < JUNK_COHERENCE
-        if 0 < low.sum() <= limit:
+        low = (g < JUNK_COHERENCE) & keep
+        if 0 < low.sum() and (~keep).sum() + low.sum() <= limit:
             keep &= ~low
-            reasons.append(f"coherence {np.median(g[low]):.2g} (median; {np.median(g[~low]):.2g} on the other lines)")
+            reasons.append(f"coherence {np.median(g[low]):.2g} (median; {np.median(g[keep]):.2g} on the other lines)")
     if stats is not None:
         check = check_model(hz, stats)
         level = np.full(F, np.nan)
@@ -107,7 +117,7 @@ def find_junk_lines(hz: np.ndarray, coherence: np.ndarray | None, stats: Residua
         high = (excess > JUNK_RESIDUAL_RATIO) & keep
         if 0 < high.sum() and (~keep).sum() + high.sum() <= limit:
             keep &= ~high
-            reasons.append(f"residual {np.median(excess[high]):.0f}x the noise")
+            reasons.append(f"residual {np.median(excess[high]):.3g}x the noise")
     if keep.all():
         return JunkLines(keep, "")
     idx = np.flatnonzero(~keep)
@@ -137,7 +147,8 @@ def junk_lines(hz: np.ndarray, H: np.ndarray, coherence: np.ndarray | None, Ymn:
     -------
     JunkLines
     """
-    first = find_junk_lines(hz, coherence, None)
+    empty = ~np.any(np.asarray(H) != 0, axis=(1, 2))
+    first = find_junk_lines(hz, coherence, None, empty)
     if not residuals:
         return first
     k = first.keep
@@ -150,4 +161,4 @@ def junk_lines(hz: np.ndarray, H: np.ndarray, coherence: np.ndarray | None, Ymn:
         return first
     full = ResidualStatistics(np.full(hz.size, np.nan), np.full(hz.size, np.nan))
     full.chi2[k], full.noise[k] = stats.chi2, stats.noise
-    return find_junk_lines(hz, coherence, full)
+    return find_junk_lines(hz, coherence, full, empty)

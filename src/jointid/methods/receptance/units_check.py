@@ -10,7 +10,9 @@ factor in every column, usually a unit factor::
     9.80665 (g vs m/s^2), 1000 (mm vs m), 4.44822 (lbf vs N), 0.0254 (in vs m), ...
 
 When the columns agree within :data:`UNITS_COMMON_SPREAD` and their common factor ``s``
-is beyond :data:`UNITS_MAX_FACTOR` (or below its inverse), the FRFs are not identified
+is beyond :data:`UNITS_MAX_FACTOR` (or below its inverse), or when they do not agree but
+every one is beyond it on the same side (e.g. 1000-1300 x: a free model with a dimension
+in mm typed as m scales the predicted FRFs column by column differently), the FRFs are not identified
 as they are: :func:`units_conclusion` states one conclusion, naming the unit factor
 ``s`` is within :data:`UNITS_MATCH` of when there is one. The joint's terms from such
 data would only be as good as a correction of a gross error that the F test cannot tell
@@ -68,7 +70,13 @@ def units_conclusion(cal: ColumnCalibration | None) -> str | None:
     if cal is None or not cal.significant:  # a factor the F test cannot tell from noise (or a layout without redundancy for it)
         return None
     s = column_factors(cal)
-    if not np.all(np.isfinite(s)) or np.any(s <= 0) or s.max() / s.min() > UNITS_COMMON_SPREAD:
+    if not np.all(np.isfinite(s)) or np.any(s <= 0):
+        return None
+    if s.max() / s.min() > UNITS_COMMON_SPREAD:  # no common factor; every column grossly off is still no calibration error
+        if np.all(s > UNITS_MAX_FACTOR) or np.all(s < 1.0 / UNITS_MAX_FACTOR):
+            return (f"the FRFs are off by factors {s.min():.4g}-{s.max():.4g} in the excitation columns from what the free "
+                    "model predicts (no unit factor, and far beyond a force calibration error): the free model (the study's "
+                    "dimensions, material or their units) or the FRFs' units are wrong")
         return None
     common = float(np.exp(np.mean(np.log(s))))
     if 1.0 / UNITS_MAX_FACTOR <= common <= UNITS_MAX_FACTOR:
