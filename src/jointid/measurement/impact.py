@@ -54,6 +54,10 @@ from .sensor_correction import roving_sensor_correction
 WINDOW_MIN_ENERGY = 0.01
 #: A response whose median coherence over the band is below this (with >= 2 averages) is reported as dead.
 DEAD_CHANNEL_COHERENCE = 0.1
+#: H1 biased low by more than this (the force channel's noise in Gxx, measured after the pulse) on some line is reported.
+FORCE_NOISE_BIAS = 0.02
+#: Fewest force samples after the pulse (and its tail of as many samples again) to measure the force channel's noise.
+FORCE_NOISE_MIN_SAMPLES = 64
 
 __all__ = [
     "ImpactRecord",
@@ -131,29 +135,50 @@ class ImpactFRF:
 
 
 def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: int):
-    """Averaged Gxx (K,), Gyy (K, C), Gxy (K, C) over the kept hits (one batched rfft), and the fraction of the
-    responses' energy the exponential window keeps (1.0 without one)."""
+    """Averaged Gxx (K,), Gyy (K, C), Gxy (K, C) over the kept hits (one batched rfft), the fraction of the
+    responses' energy the exponential window keeps (1.0 without one), and the force noise's share of Gxx (K,) (NaN
+    where it cannot be measured: :func:`_force_noise_share`)."""
     fs = record.sample_rate_hz
     F = record.force[keep]
     Y = record.responses[keep]
-    _, start, _, _ = main_pulse(F, o.double_hit_fraction)
+    _, start, end, _ = main_pulse(F, o.double_hit_fraction)
     t_start = start / fs
+    weight = np.ones((F.shape[0], record.n_samples))  # what multiplies each force sample (the windows)
     if o.force_window_s is not None:
-        F = F * force_window(record.n_samples, fs, t_start - o.force_pretrigger_s, o.force_window_s, o.force_taper_s)
+        weight = weight * force_window(record.n_samples, fs, t_start - o.force_pretrigger_s, o.force_window_s, o.force_taper_s)
     if o.exp_tau_s is not None:
         w = exponential_window(record.n_samples, fs, t_start - o.force_pretrigger_s, o.exp_tau_s)
-        F = F * w
+        weight = weight * w
         e0 = float(np.sum(Y ** 2))
         Y = Y * w[:, None, :]
         kept = float(np.sum(Y ** 2)) / e0 if e0 > 0 else 1.0
     else:
         kept = 1.0
+    noise = _force_noise_share(F, start, end, weight)
+    F = F * weight
     X = scipy.fft.rfft(F, n=n_fft, axis=-1)  # (H, K)
     Yf = scipy.fft.rfft(Y, n=n_fft, axis=-1)  # (H, C, K)
     gxx = np.mean(np.abs(X) ** 2, axis=0)
     gyy = np.mean(np.abs(Yf) ** 2, axis=0).T
     gxy = np.mean(np.conj(X)[:, None, :] * Yf, axis=0).T
-    return gxx, gyy, gxy, kept
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = np.minimum(noise / gxx, 1.0)
+    return gxx, gyy, gxy, kept, share
+
+
+def _force_noise_share(F: np.ndarray, start: np.ndarray, end: np.ndarray, weight: np.ndarray) -> float:
+    """The force channel's noise in the averaged ``Gxx``: ``sigma^2 sum_n w_n^2`` (white noise of variance ``sigma^2``
+    weighted by the windows ``w``, unnormalized rfft), ``sigma^2`` the median over hits of the force's mean square
+    after the pulse (from as many samples again past its end); NaN when fewer than :data:`FORCE_NOISE_MIN_SAMPLES`
+    are left there. H1 = Gxy / Gxx is then low by this share of Gxx (the noise is in Gxx, not in Gxy)."""
+    n = F.shape[1]
+    after = end + (end - start) + 1
+    if np.min(n - after) < FORCE_NOISE_MIN_SAMPLES:
+        return float("nan")
+    idx = np.arange(n)
+    tail = idx[None, :] >= after[:, None]
+    sigma2 = float(np.median(np.sum(np.where(tail, F ** 2, 0.0), axis=1) / np.sum(tail, axis=1)))
+    return sigma2 * float(np.mean(np.sum(weight ** 2, axis=1)))
 
 
 def estimate_frf(record: ImpactRecord, options: ImpactOptions | None = None) -> ImpactFRF:
@@ -246,7 +271,18 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
             raise DataError(
                 f"excited node {rec.reference}: all {rec.n_hits} hits were rejected: " + " | ".join(b.reason for b in bad)
             )
-        a, b, c, kept = _spectra(rec, keep, o, n_fft)
+        a, b, c, kept, share = _spectra(rec, keep, o, n_fft)
+        bias = share[sel]
+        above = bias > FORCE_NOISE_BIAS
+        if np.any(above):
+            f_above = hz[sel][above]
+            checks.append(
+                f"excited node {rec.reference}: the force channel's noise (measured after the pulse) is more than "
+                f"{100 * FORCE_NOISE_BIAS:g} % of the force spectrum on {100 * above.mean():.3g} % of the lines "
+                f"({f_above.min():g}-{f_above.max():g} Hz; up to {100 * np.nanmax(bias):.3g} %), so H1 is low by as much "
+                "there; use a force window (--force-window-ms) and an exponential window (--exp-tau-ms), hit harder, or "
+                "keep to the band the hammer tip excites"
+            )
         if kept < WINDOW_MIN_ENERGY:
             checks.append(
                 f"excited node {rec.reference}: the exponential window (tau {1e3 * o.exp_tau_s:g} ms) keeps "
