@@ -124,18 +124,11 @@ def test_a_stop_after_the_output_was_committed_says_it_is_complete(tmp_path, mon
     import os
     import signal
 
-    from jointid.io import output_dir
+    from test_output_dir import signal_at_rename
 
     out = tmp_path / "out"
     assert main(["modes", "--out", str(out)]) == 0
-    real_replace = os.replace
-
-    def replace(src, dst):
-        if os.path.basename(dst) == "modes.csv":
-            signal.raise_signal(signal.SIGINT)
-        real_replace(src, dst)
-
-    monkeypatch.setattr(output_dir.os, "replace", replace)
+    signal_at_rename(monkeypatch, "modes.csv", signal.SIGINT)
     capsys.readouterr()
     assert main(["modes", "--out", str(out)]) == 130
     assert capsys.readouterr().err.splitlines()[-1] == f"jointid modes: interrupted; its output in {out} was complete before it stopped"

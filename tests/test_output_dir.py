@@ -22,6 +22,22 @@ def snapshot(root):
     return out
 
 
+def signal_at_rename(monkeypatch, name, signum):
+    """Deliver ``signum`` to this process as output ``name`` is renamed into place (a signal between two renames)."""
+    import signal
+
+    from jointid.io import output_dir
+
+    real_replace = os.replace
+
+    def replace(src, dst):
+        if os.path.basename(dst) == name:
+            signal.raise_signal(signum)
+        real_replace(src, dst)
+
+    monkeypatch.setattr(output_dir.os, "replace", replace)
+
+
 def write_set(d, command="cmd", **files):
     with OutputSet(d, command) as o:
         for name, text in files.items():
@@ -329,14 +345,7 @@ def test_a_signal_during_the_commit_is_raised_after_it_and_the_commit_recorded(t
         raise Terminated(signum)
 
     previous = signal.signal(signal.SIGTERM, on_term)
-    real_replace = os.replace
-
-    def replace(src, dst):
-        if os.path.basename(dst) == "a.txt":
-            signal.raise_signal(signal.SIGTERM)
-        real_replace(src, dst)
-
-    monkeypatch.setattr(output_dir.os, "replace", replace)
+    signal_at_rename(monkeypatch, "a.txt", signal.SIGTERM)
     n = len(output_dir.commits())
     try:
         with pytest.raises(Terminated):
