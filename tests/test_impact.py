@@ -164,6 +164,19 @@ def test_the_force_noise_bias_of_h1_is_measured_and_reported(hits3):
             assert share.max() < 0.1 * FORCE_NOISE_BIAS and notes == [] and np.all(np.abs(low) < 1e-3)
 
 
+def test_no_force_noise_note_for_an_offset_a_drift_or_a_small_rebound():
+    """Clean force with a DC offset (1 % of the peak), a slow drift and a rebound at 0.09 x the peak (below the
+    double-hit threshold): none is noise on the band's lines (H1 is not low there), and none gives the note
+    (a mean square after the pulse counted them as noise on every line, up to 100 %)."""
+    rng = np.random.default_rng(4)
+    t0s, amps = 0.05 + rng.uniform(0, 0.01, 4), [100.0, 90.0, 110.0, 95.0]
+    F, R = simulate(MODES3, A3, amps, t0s, rng, force_noise=0.0, extra={1: (0.2, 0.09)})
+    t = np.arange(F.shape[1]) / FS
+    F = F + np.asarray(amps)[:, None] * (0.01 + 0.01 * t / t[-1])[None, :]
+    res = estimate_frf(_record(F, R), ImpactOptions(band_hz=(5.0, 600.0)))
+    assert [n for n in res.notes if "force channel's noise" in n] == []
+
+
 def test_noise_free_h1_without_force_window_is_exact_and_h1_h2_coherence_consistent(hits3):
     rng = np.random.default_rng(5)
     _, t0s, amps, _ = hits3

@@ -81,7 +81,8 @@ def test_debug_is_accepted_after_the_subcommand(tmp_path, capsys):
 
 
 def test_debug_keeps_the_exit_codes_of_bad_input_and_of_a_bug(tmp_path):
-    """The `jointid` process with --debug: the traceback, and still exit 2 for bad input (was 1, a campaign's code)."""
+    """The `jointid` process with --debug: the traceback, and still exit 2 for bad input and 3 for a bug (both were 1,
+    a campaign's code)."""
     import subprocess
     import sys
 
@@ -92,6 +93,11 @@ def test_debug_keeps_the_exit_codes_of_bad_input_and_of_a_bug(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
     assert "Traceback (most recent call last)" in r.stderr and "density: 1e300 kg/m^3 is outside" in r.stderr
+    bug = ("import sys, jointid.cli.modes as m; from jointid.cli.main import entry_point\n"
+           "def run(args): raise ZeroDivisionError('a bug')\n"
+           "m.run = run; sys.argv = ['jointid', 'modes', '--out', sys.argv[1], '--debug']; entry_point()")
+    r = subprocess.run([sys.executable, "-c", bug, str(tmp_path / "o2")], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 3 and "ZeroDivisionError: a bug" in r.stderr and "Traceback" in r.stderr
 
 
 def test_a_warning_during_a_command_becomes_one_finding_line(tmp_path, capsys, monkeypatch):

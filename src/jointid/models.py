@@ -77,7 +77,8 @@ class _FamilyMember:
         return self.family.receptance(self.values, frequency, rows, cols)
 
 
-#: An ``[uncertainty]`` standard deviation must be below this fraction of its parameter's value (linear propagation).
+#: An ``[uncertainty]`` standard deviation may be at most this fraction of its parameter's value (linear propagation;
+#: ``jointid update`` writes none larger).
 UNCERTAINTY_MAX_RELATIVE = 0.5
 
 
@@ -96,7 +97,7 @@ def uncertain_free_model(study: Study, free):
     ------
     StudyError
         An ``[uncertainty]`` parameter of the accelerometers on a study that does not model them, or a standard
-        deviation not below :data:`UNCERTAINTY_MAX_RELATIVE` times its parameter.
+        deviation above :data:`UNCERTAINTY_MAX_RELATIVE` times its parameter.
     """
     from .physics.free_model import StructureModel, UncertainFreeModel, as_free_model
 
@@ -115,8 +116,8 @@ def uncertain_free_model(study: Study, free):
                              "(accelerometer parameters need [accelerometers] and [identification] model_accelerometers = true)")
         std = np.sqrt(np.diag(cov))
         for k, sd in zip(names, std):
-            if not sd < UNCERTAINTY_MAX_RELATIVE * abs(initial[k]):
-                raise StudyError(f"{study.source}: [uncertainty].{k} = {sd:g} is not below {UNCERTAINTY_MAX_RELATIVE:g} times the "
+            if not sd <= UNCERTAINTY_MAX_RELATIVE * abs(initial[k]):  # what `jointid update` writes at most
+                raise StudyError(f"{study.source}: [uncertainty].{k} = {sd:g} is above {UNCERTAINTY_MAX_RELATIVE:g} times the "
                                  f"parameter ({initial[k]:g}): the propagation of the free model's uncertainty is linear, "
                                  "and holds for standard deviations well below the values; give a smaller one or leave it out")
         lam, vec = np.linalg.eigh(cov)

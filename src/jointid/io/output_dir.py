@@ -69,6 +69,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import re
 import shutil
 import signal
 import tempfile
@@ -77,6 +78,7 @@ from pathlib import Path, PurePosixPath
 from typing import Callable, Mapping, Sequence
 
 from ..errors import JointIdError
+from .atomic import atomic_write_bytes
 from .output_manifest import (
     MANIFEST_NAME, MANIFEST_TEMP_GLOB, Commit, commits, empty_manifest, output_key, read_manifest, record_commit, write_manifest,
 )
@@ -95,6 +97,10 @@ LOCK_NAME = ".jointid.lock"
 STAGING_PREFIX = ".jointid-staging-"
 #: The file that marks a staging directory as jointid's (only such a one is removed as a killed run's).
 _STAGING_MARK = ".jointid-staging"
+#: The staging area's folder of the files a commit replaces, kept until the set is in place (a reserved name).
+_BACKUP_DIR = ".jointid-previous"
+#: The manifest's temporary file of a killed run (``atomic_path``: ``.<name>.<12 hex>.json``).
+_MANIFEST_TEMP = re.compile(r"^\." + re.escape(MANIFEST_NAME) + r"\.[0-9a-f]{12}\.json$")
 
 
 class OutputError(JointIdError, OSError):
@@ -203,6 +209,7 @@ class OutputSet:
         self._committed = False
         self._manifest_found = False
         self._manifest_unreadable = False
+        self._manifest_bytes: bytes | None = None
 
     # ------------------------------------------------------------ lifecycle
     def __enter__(self) -> "OutputSet":
@@ -242,6 +249,7 @@ class OutputSet:
             raise OutputError(f"--out {d}: cannot create the directory: {exc.strerror or exc}; give another --out") from exc
         try:
             self._lock()
+            self._manifest_bytes = (d / MANIFEST_NAME).read_bytes() if (d / MANIFEST_NAME).is_file() else None
             self._manifest, readable = read_manifest(d)
             self._manifest_found = readable
             self._manifest_unreadable = not readable and os.path.lexists(d / MANIFEST_NAME)
@@ -249,7 +257,7 @@ class OutputSet:
                 if old.is_dir() and not old.is_symlink() and (old / _STAGING_MARK).is_file():
                     shutil.rmtree(old, ignore_errors=True)
             for old in d.glob(MANIFEST_TEMP_GLOB):  # the manifest's temporary file of a killed run
-                if old.is_file() and not old.is_symlink():
+                if _MANIFEST_TEMP.match(old.name) and old.is_file() and not old.is_symlink():
                     with contextlib.suppress(OSError):
                         old.unlink()
             try:
@@ -418,7 +426,8 @@ class OutputSet:
         """Rename every staged file into place, remove this command's stale files, update the manifest.
 
         Returns the final paths written. Raises :class:`OutputError` if a target became a file jointid did
-        not write meanwhile (nothing renamed), or if renaming failed (the previous files put back).
+        not write meanwhile (nothing renamed), if renaming failed (the previous files put back), or if the
+        set is in place but its tidying or final manifest failed (the commit is complete and recorded).
         """
         if self._staging is None:
             raise RuntimeError("OutputSet is not open")
@@ -428,37 +437,52 @@ class OutputSet:
         new = {key: _sha256(staged) for key, staged in self._files.items()}
         sets = {cmd: dict(files) for cmd, files in self._manifest["sets"].items()}
         previous = sets.pop(self.command, {})
-        taken = {k: cmd for cmd, files in sets.items() for k in files if k in new}
+        taken = {k: cmd for cmd, files in sets.items() for k in files if k in new and os.path.lexists(d / k)}
         for cmd in sets:  # a file this run writes now belongs to this command
             sets[cmd] = {k: v for k, v in sets[cmd].items() if k not in new}
-        dirs = list(self._manifest["directories"])
+        dirs = sorted(set(self._manifest["directories"]) | self._new_directories())
         with _signals_held():  # a stop signal now is raised once the set is complete (and recorded as such)
-            self._commit_files(new, sets, previous, dirs)
+            self._place_files(new, sets, previous, dirs)
             self._committed = True
             record_commit(Commit(d, self.command, tuple(self._files), taken))
+            self._tidy(new, sets, previous, dirs)
         return tuple(d / key for key in self._files)
 
-    def _commit_files(self, new: dict, sets: dict, previous: dict, dirs: list) -> None:
+    def _new_directories(self) -> set:
+        """The subdirectories (relative names) this set needs that are not there yet."""
+        out = set()
+        for key in self._files:
+            parent = PurePosixPath(key).parent
+            for i in range(1, len(parent.parts) + 1):
+                sub = PurePosixPath(*parent.parts[:i]).as_posix()
+                if not (self.directory / sub).is_dir():
+                    out.add(sub)
+        return out
+
+    def _place_files(self, new: dict, sets: dict, previous: dict, dirs: list) -> None:
+        """Steps 1-3 of a commit: the transition manifest, the directories, every file renamed into place (undone on
+        failure: :meth:`_undo`)."""
         d = self.directory
         placed: list[str] = []  # renamed into place, in order
         backups: dict[str, Path] = {}  # the previous file of a placed one, hard-linked in the staging area
         made: list[Path] = []  # subdirectories created here
+        transition_written = False
         try:
-            # 1. a manifest valid whatever happens next: old and new content of each file
+            # 1. a manifest valid whatever happens next: old and new content of each file, the directories to be made
             transition = dict(previous)
             for key, h in new.items():
                 old = self._owner(key)
                 transition[key] = [h] + (old[1] if old else [])
-            write_manifest(d, {**empty_manifest(), "sets": {**sets, self.command: transition}, "directories": sorted(set(dirs))})
+            write_manifest(d, {**empty_manifest(), "sets": {**sets, self.command: transition}, "directories": dirs})
+            transition_written = True
             # 2. the directories, each checked writable before the first rename
             for key in self._files:
                 parent = PurePosixPath(key).parent
                 for i in range(1, len(parent.parts) + 1):
-                    sub = PurePosixPath(*parent.parts[:i])
-                    if not (d / sub).is_dir():
-                        os.mkdir(d / sub)
-                        made.append(d / sub)
-                        dirs.append(sub.as_posix())
+                    sub = d / PurePosixPath(*parent.parts[:i])
+                    if not sub.is_dir():
+                        os.mkdir(sub)
+                        made.append(sub)
                 where = d / parent
                 if not os.access(where, os.W_OK | os.X_OK):
                     raise OutputError(f"cannot write into {where}: permission denied; make it writable or choose another --out")
@@ -466,56 +490,59 @@ class OutputSet:
             for key, staged in self._files.items():
                 target = d / key
                 if os.path.lexists(target):
-                    keep = self._staging / ".previous" / key
+                    keep = self._staging / _BACKUP_DIR / key
                     keep.parent.mkdir(parents=True, exist_ok=True)
                     try:
-                        os.link(target, keep)
+                        os.link(target, keep, follow_symlinks=False)
                     except OSError:  # a file system without hard links
-                        shutil.copy2(target, keep)
+                        shutil.copy2(target, keep, follow_symlinks=False)
                     backups[key] = keep
                 os.replace(staged, target)
                 placed.append(key)
         except OSError as exc:
-            undone = self._undo(placed, backups, made)
+            undone = self._undo(placed, backups, made, transition_written)
             if isinstance(exc, OutputError):
                 raise
             raise OutputError(f"cannot write into --out {d}: {exc.strerror or exc} ({exc.filename or d}); "
                               + ("the previous files are back" if undone else "some previous files could not be put back")
                               + "; fix that and run again") from exc
-        # 4. stale files of this command's previous set, if unchanged since jointid wrote them (one that cannot be
-        #    removed stays listed as this command's)
-        stale_kept = {}
-        for key, hashes in previous.items():
-            if key in new:
-                continue
-            target = d / key
-            try:
-                if _real_path(d, key) and target.is_file() and not target.is_symlink() and _sha256(target) in hashes:
-                    target.unlink()
-            except OSError:
-                stale_kept[key] = hashes
-        # 5. directories jointid created that are now empty and hold no output
-        kept = []
-        owned = set(new) | set(stale_kept) | {k for files in sets.values() for k in files}
-        for sub in sorted(set(dirs), key=lambda s: -len(PurePosixPath(s).parts)):
-            p = d / sub
-            if not _real_path(d, sub + "/x") or not p.is_dir() or p.is_symlink():
-                continue
-            if not any(k.startswith(sub + "/") for k in owned):
-                with contextlib.suppress(OSError):
-                    p.rmdir()  # only if empty
-            if p.is_dir():
-                kept.append(sub)
-        final = {**{k: list(v) for k, v in stale_kept.items()}, **{k: [h] for k, h in new.items()}}
+
+    def _tidy(self, new: dict, sets: dict, previous: dict, dirs: list) -> None:
+        """Steps 4-6 of a commit, once the set is in place: this command's stale files, empty directories, the final
+        manifest. A stale file that cannot be removed stays listed as this command's."""
+        d = self.directory
         try:
+            stale_kept = {}
+            for key, hashes in previous.items():
+                if key in new:
+                    continue
+                target = d / key
+                try:
+                    if _real_path(d, key) and target.is_file() and not target.is_symlink() and _sha256(target) in hashes:
+                        target.unlink()
+                except OSError:
+                    stale_kept[key] = hashes
+            kept = []
+            owned = set(new) | set(stale_kept) | {k for files in sets.values() for k in files}
+            for sub in sorted(set(dirs), key=lambda s: -len(PurePosixPath(s).parts)):
+                p = d / sub
+                with contextlib.suppress(OSError):
+                    if not _real_path(d, sub + "/x") or not p.is_dir() or p.is_symlink():
+                        continue
+                    if not any(k.startswith(sub + "/") for k in owned):
+                        p.rmdir()  # only if empty
+                if os.path.isdir(p) and not os.path.islink(p):
+                    kept.append(sub)
+            final = {**{k: list(v) for k, v in stale_kept.items()}, **{k: [h] for k, h in new.items()}}
             write_manifest(d, {**empty_manifest(), "sets": {**sets, self.command: final}, "directories": sorted(kept)})
         except OSError as exc:  # the files are in place; the transition manifest (old and new contents) still holds
             raise OutputError(f"the output in --out {d} is complete but its record {d / MANIFEST_NAME} could not be "
                               f"updated: {exc.strerror or exc}") from exc
 
-    def _undo(self, placed: list, backups: dict, made: list) -> bool:
+    def _undo(self, placed: list, backups: dict, made: list, transition_written: bool) -> bool:
         """Put the previous files back over the ones placed, remove the new ones and the directories made; the manifest
-        as it was. True if everything was put back."""
+        as it was (unless a file could not be put back: then the transition manifest, which lists both contents, stays).
+        True if every file was put back."""
         ok = True
         for key in reversed(placed):
             target = self.directory / key
@@ -529,12 +556,13 @@ class OutputSet:
         for sub in reversed(made):
             with contextlib.suppress(OSError):
                 sub.rmdir()
-        try:
-            if self._manifest_found or self._manifest["sets"]:
-                write_manifest(self.directory, self._manifest)
-            else:
-                with contextlib.suppress(FileNotFoundError):
-                    os.unlink(self.directory / MANIFEST_NAME)
-        except OSError:
-            ok = False
+        if ok and transition_written:
+            try:
+                if self._manifest_bytes is None:
+                    with contextlib.suppress(FileNotFoundError):
+                        os.unlink(self.directory / MANIFEST_NAME)
+                else:
+                    atomic_write_bytes(self.directory / MANIFEST_NAME, self._manifest_bytes)
+            except OSError:
+                ok = False
         return ok

@@ -166,19 +166,29 @@ def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: in
     return gxx, gyy, gxy, kept, share
 
 
+#: Median of a chi-square variable of one degree of freedom: ``median(x^2) / this`` estimates a Gaussian's variance.
+_CHI2_1_MEDIAN = 0.454936423119572
+
+
 def _force_noise_share(F: np.ndarray, start: np.ndarray, end: np.ndarray, weight: np.ndarray) -> float:
     """The force channel's noise in the averaged ``Gxx``: ``sigma^2 sum_n w_n^2`` (white noise of variance ``sigma^2``
-    weighted by the windows ``w``, unnormalized rfft), ``sigma^2`` the median over hits of the force's mean square
-    after the pulse (from as many samples again past its end); NaN when fewer than :data:`FORCE_NOISE_MIN_SAMPLES`
-    are left there. H1 = Gxy / Gxx is then low by this share of Gxx (the noise is in Gxx, not in Gxy)."""
+    weighted by the windows ``w``, unnormalized rfft); NaN when fewer than :data:`FORCE_NOISE_MIN_SAMPLES` samples
+    are left after the pulse (and as many samples again past its end).
+
+    ``sigma^2`` is the median over hits of ``median(x^2) / 0.455`` over the force after the pulse less its straight
+    line: a Gaussian's variance, robust to a DC offset or a slow drift (near 0 Hz, not on the band's lines) and to a
+    short rebound below the double-hit threshold (a few samples), which a mean square counted as noise on every line. H1 = Gxy / Gxx is low
+    by this share of Gxx (the noise is in Gxx, not in Gxy)."""
     n = F.shape[1]
     after = end + (end - start) + 1
     if np.min(n - after) < FORCE_NOISE_MIN_SAMPLES:
         return float("nan")
-    idx = np.arange(n)
-    tail = idx[None, :] >= after[:, None]
-    sigma2 = float(np.median(np.sum(np.where(tail, F ** 2, 0.0), axis=1) / np.sum(tail, axis=1)))
-    return sigma2 * float(np.mean(np.sum(weight ** 2, axis=1)))
+    sigma2 = []
+    for f, a in zip(F, after):
+        t = np.arange(n - a, dtype=float)
+        x = f[a:] - np.polyval(np.polyfit(t, f[a:], 1), t)  # a DC offset or a slow drift is not noise on the lines
+        sigma2.append(np.median(x * x) / _CHI2_1_MEDIAN)
+    return float(np.median(sigma2)) * float(np.mean(np.sum(weight ** 2, axis=1)))
 
 
 def estimate_frf(record: ImpactRecord, options: ImpactOptions | None = None) -> ImpactFRF:

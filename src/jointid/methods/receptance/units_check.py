@@ -11,8 +11,8 @@ factor in every column, usually a unit factor::
 
 When the columns agree within :data:`UNITS_COMMON_SPREAD` and their common factor ``s``
 is beyond :data:`UNITS_MAX_FACTOR` (or below its inverse), or when they do not agree but
-every one is beyond it on the same side (e.g. 1000-1300 x: a free model with a dimension
-in mm typed as m scales the predicted FRFs column by column differently), the FRFs are not identified
+every one is beyond :data:`UNITS_GROSS_FACTOR` on the same side (e.g. 1000-1300 x: a free model with a
+dimension in mm typed as m scales the predicted FRFs column by column differently), the FRFs are not identified
 as they are: :func:`units_conclusion` states one conclusion, naming the unit factor
 ``s`` is within :data:`UNITS_MATCH` of when there is one. The joint's terms from such
 data would only be as good as a correction of a gross error that the F test cannot tell
@@ -28,12 +28,15 @@ import numpy as np
 
 from .column_calibration import ColumnCalibration
 
-__all__ = ["UNIT_FACTORS", "UNITS_MAX_FACTOR", "UNITS_COMMON_SPREAD", "UNITS_MATCH", "column_factors", "units_conclusion"]
+__all__ = ["UNIT_FACTORS", "UNITS_MAX_FACTOR", "UNITS_COMMON_SPREAD", "UNITS_GROSS_FACTOR", "UNITS_MATCH", "column_factors", "units_conclusion"]
 
 #: A factor common to every column beyond this (or below 1 / this) is a units problem, not force noise.
 UNITS_MAX_FACTOR = 1.5
 #: The columns share one factor when their largest and smallest factors are within this ratio.
 UNITS_COMMON_SPREAD = 1.2
+#: Columns off by different factors, every one beyond this (or below 1 / this): not a force calibration error to correct
+#: (a hammer's sensitivity wrong by 1.6-2x per column is corrected; a free model 1000x off is not).
+UNITS_GROSS_FACTOR = 5.0
 #: A common factor within this ratio of a unit factor is named as that unit.
 UNITS_MATCH = 1.1
 _G = 9.80665
@@ -73,10 +76,10 @@ def units_conclusion(cal: ColumnCalibration | None) -> str | None:
     if not np.all(np.isfinite(s)) or np.any(s <= 0):
         return None
     if s.max() / s.min() > UNITS_COMMON_SPREAD:  # no common factor; every column grossly off is still no calibration error
-        if np.all(s > UNITS_MAX_FACTOR) or np.all(s < 1.0 / UNITS_MAX_FACTOR):
+        if np.all(s > UNITS_GROSS_FACTOR) or np.all(s < 1.0 / UNITS_GROSS_FACTOR):
             return (f"the FRFs are off by factors {s.min():.4g}-{s.max():.4g} in the excitation columns from what the free "
                     "model predicts (no unit factor, and far beyond a force calibration error): the free model (the study's "
-                    "dimensions, material or their units) or the FRFs' units are wrong")
+                    "dimensions, material or their units), the FRFs' units or the force sensors' sensitivities are wrong")
         return None
     common = float(np.exp(np.mean(np.log(s))))
     if 1.0 / UNITS_MAX_FACTOR <= common <= UNITS_MAX_FACTOR:
