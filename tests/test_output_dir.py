@@ -38,6 +38,21 @@ def signal_at_rename(monkeypatch, name, signum):
     monkeypatch.setattr(output_dir.os, "replace", replace)
 
 
+def replace_failing(monkeypatch, fails):
+    """The writer's renames raise ``OSError(*fails(src, dst), dst)`` where ``fails`` returns (errno, text), else rename."""
+    from jointid.io import output_dir
+
+    real_replace = os.replace
+
+    def replace(src, dst):
+        err = fails(str(src), os.path.basename(dst))
+        if err:
+            raise OSError(*err, str(dst))
+        real_replace(src, dst)
+
+    monkeypatch.setattr(output_dir.os, "replace", replace)
+
+
 def write_set(d, command="cmd", **files):
     with OutputSet(d, command) as o:
         for name, text in files.items():
@@ -316,22 +331,13 @@ def test_a_directory_not_writable_is_found_before_the_first_rename(tmp_path, mon
 
 def test_a_rename_that_fails_midway_is_undone(tmp_path, monkeypatch):
     """The third of three renames fails (whatever the cause): the two placed files are put back as they were."""
-    from jointid.io import output_dir
-
     d = tmp_path / "d"
     write_set(d, **{"a.txt": "1", "b.txt": "1"})
     before = snapshot(d)
-    real_replace = os.replace
-
-    def replace(src, dst):
-        if os.path.basename(dst) == "c.txt":
-            raise OSError(28, "No space left on device", str(dst))
-        real_replace(src, dst)
-
-    monkeypatch.setattr(output_dir.os, "replace", replace)
+    replace_failing(monkeypatch, lambda src, name: (28, "No space left on device") if name == "c.txt" else None)
     with pytest.raises(OutputError, match=r"No space left on device .*c\.txt\); the previous files are back; fix that and run again$"):
         write_set(d, **{"a.txt": "2", "b.txt": "2", "c.txt": "2"})
-    monkeypatch.setattr(output_dir.os, "replace", real_replace)
+    monkeypatch.undo()
     assert snapshot(d) == before
 
 
@@ -399,21 +405,13 @@ def test_a_directory_that_cannot_be_made_leaves_no_parent_behind(tmp_path):
 def test_a_put_back_that_fails_keeps_the_manifest_that_lists_both_contents(tmp_path, monkeypatch):
     """c.txt's rename fails and b.txt's old content cannot be put back: b.txt is new on disk, so the manifest must
     still own it (the transition one: old and new hash), or the next run would refuse it as not jointid's."""
-    from jointid.io import output_dir
-
     d = tmp_path / "d"
     write_set(d, **{"a.txt": "1", "b.txt": "1"})
-    real_replace = os.replace
-
-    def replace(src, dst):
-        if os.path.basename(dst) == "c.txt" or (".jointid-previous" in str(src) and os.path.basename(dst) == "b.txt"):
-            raise OSError(5, "Input/output error", str(dst))
-        real_replace(src, dst)
-
-    monkeypatch.setattr(output_dir.os, "replace", replace)
+    replace_failing(monkeypatch, lambda src, name: (5, "Input/output error")
+                    if name == "c.txt" or (".jointid-previous" in src and name == "b.txt") else None)
     with pytest.raises(OutputError, match=r"some previous files could not be put back; fix that and run again$"):
         write_set(d, **{"a.txt": "2", "b.txt": "2", "c.txt": "2"})
-    monkeypatch.setattr(output_dir.os, "replace", real_replace)
+    monkeypatch.undo()
     assert (d / "a.txt").read_text() == "1" and (d / "b.txt").read_text() == "2" and not (d / "c.txt").exists()
     write_set(d, **{"a.txt": "3", "b.txt": "3"})  # b.txt is still jointid's: replaced, not refused
     assert (d / "b.txt").read_text() == "3"
