@@ -3,6 +3,7 @@
 import json
 import os
 import stat
+from pathlib import Path
 
 import pytest
 
@@ -409,9 +410,12 @@ def test_a_put_back_that_fails_keeps_the_manifest_that_lists_both_contents(tmp_p
     write_set(d, **{"a.txt": "1", "b.txt": "1"})
     replace_failing(monkeypatch, lambda src, name: (5, "Input/output error")
                     if name == "c.txt" or (".jointid-previous" in src and name == "b.txt") else None)
-    with pytest.raises(OutputError, match=r"some previous files could not be put back; fix that and run again$"):
+    with pytest.raises(OutputError, match=r"some previous files could not be put back \(they are kept in .*/\.jointid-previous-"
+                                          r"\w+/files\); fix that and run again$") as e:
         write_set(d, **{"a.txt": "2", "b.txt": "2", "c.txt": "2"})
     monkeypatch.undo()
+    kept = Path(str(e.value).split("kept in ")[1].split(")")[0])
+    assert (kept / "b.txt").read_text() == "1"  # the previous b.txt is not lost with the staging area
     assert (d / "a.txt").read_text() == "1" and (d / "b.txt").read_text() == "2" and not (d / "c.txt").exists()
     write_set(d, **{"a.txt": "3", "b.txt": "3"})  # b.txt is still jointid's: replaced, not refused
     assert (d / "b.txt").read_text() == "3"

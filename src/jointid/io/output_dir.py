@@ -501,10 +501,12 @@ class OutputSet:
                 placed.append(key)
         except OSError as exc:
             undone = self._undo(placed, backups, made, transition_written)
-            if isinstance(exc, OutputError):
+            kept = "" if undone else self._keep_backups()
+            if isinstance(exc, OutputError) and undone:
                 raise
-            raise OutputError(f"cannot write into --out {d}: {exc.strerror or exc} ({exc.filename or d}); "
-                              + ("the previous files are back" if undone else "some previous files could not be put back")
+            why = str(exc) if isinstance(exc, OutputError) else f"cannot write into --out {d}: {exc.strerror or exc} ({exc.filename or d})"
+            raise OutputError(why.removesuffix("; make it writable or choose another --out") + "; "
+                              + ("the previous files are back" if undone else f"some previous files could not be put back{kept}")
                               + "; fix that and run again") from exc
 
     def _tidy(self, new: dict, sets: dict, previous: dict, dirs: list) -> None:
@@ -538,6 +540,19 @@ class OutputSet:
         except OSError as exc:  # the files are in place; the transition manifest (old and new contents) still holds
             raise OutputError(f"the output in --out {d} is complete but its record {d / MANIFEST_NAME} could not be "
                               f"updated: {exc.strerror or exc}") from exc
+
+    def _keep_backups(self) -> str:
+        """Move the staging area's previous files out of it (the staging area is removed on close) to
+        ``DIR/.jointid-previous-<random>``, which jointid never removes; ``" (kept in ...)"``, or "" without any."""
+        src = self._staging / _BACKUP_DIR
+        if not src.is_dir():
+            return ""
+        try:
+            dst = Path(tempfile.mkdtemp(prefix=_BACKUP_DIR + "-", dir=self.directory))
+            os.replace(src, dst / "files")
+        except OSError:
+            return ""
+        return f" (they are kept in {dst / 'files'})"
 
     def _undo(self, placed: list, backups: dict, made: list, transition_written: bool) -> bool:
         """Put the previous files back over the ones placed, remove the new ones and the directories made; the manifest
