@@ -105,7 +105,8 @@ class ImpactFRF:
         Data checks, one line each: excited nodes with one accepted hit (coherence 1 by construction),
         a response channel that is flat zero (dead), a median coherence
         below :data:`DEAD_CHANNEL_COHERENCE`, an exponential window that keeps less than
-        :data:`WINDOW_MIN_ENERGY` of the responses' energy; then mode bands that were detected but
+        :data:`WINDOW_MIN_ENERGY` of the responses' energy, lines where the force channel's noise is more
+        than :data:`FORCE_NOISE_BIAS` of Gxx (H1 low by as much); then mode bands that were detected but
         not corrected, and why.
     """
 
@@ -177,8 +178,8 @@ def _force_noise_share(F: np.ndarray, start: np.ndarray, end: np.ndarray, weight
 
     ``sigma^2`` is the median over hits of ``median(x^2) / 0.455`` over the force after the pulse less its straight
     line: a Gaussian's variance, robust to a DC offset or a slow drift (near 0 Hz, not on the band's lines) and to a
-    short rebound below the double-hit threshold (a few samples), which a mean square counted as noise on every line. H1 = Gxy / Gxx is low
-    by this share of Gxx (the noise is in Gxx, not in Gxy)."""
+    short rebound below the double-hit threshold (a few samples), which a mean square counted as noise on every
+    line. H1 = Gxy / Gxx is low by this share of Gxx (the noise is in Gxx, not in Gxy)."""
     n = F.shape[1]
     after = end + (end - start) + 1
     if np.min(n - after) < FORCE_NOISE_MIN_SAMPLES:
