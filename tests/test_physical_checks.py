@@ -126,3 +126,13 @@ def test_a_warning_during_a_command_becomes_one_finding_line(tmp_path, capsys, m
         "(rerun with --debug to see the warnings)"
     ]
     assert cli_main._warning_line("x", []) is None
+
+
+def test_an_input_or_output_option_given_twice_is_a_usage_error(tmp_path, capsys):
+    """`--frf a --frf b` read only b, silently (the user may have meant both files)."""
+    for extra, text in ((["--frf", "b.uff", "--out", "o"], "--frf given twice (a.uff and b.uff); give it once"),
+                        (["--out", "o", "--out", "p"], "--out given twice (o and p); give it once")):
+        with pytest.raises(SystemExit) as e:
+            main(["identify", "s.toml", "--frf", "a.uff"] + extra)
+        assert e.value.code == 2
+        assert capsys.readouterr().err == f"jointid identify: error: {text} (see `jointid identify --help`)\n"

@@ -15,7 +15,7 @@ from ..benchmark import benchmark_study_path
 from ..errors import StudyError
 from ..study import Study, load_study
 
-__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "out_dir", "OUT_HELP"]
+__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "out_dir", "OUT_HELP", "Once"]
 
 #: Help text of ``--out DIR``.
 OUT_HELP = (
@@ -49,7 +49,18 @@ def study_from_args(args: argparse.Namespace) -> Study:
 
 def add_out_argument(p: argparse.ArgumentParser) -> None:
     """Add the required ``--out DIR`` option."""
-    p.add_argument("--out", required=True, type=out_dir, metavar="DIR", help=OUT_HELP)
+    p.add_argument("--out", required=True, type=out_dir, metavar="DIR", action=Once, help=OUT_HELP)
+
+
+class Once(argparse.Action):
+    """An option that may be given once: a second ``--frf`` or ``--out`` is a usage error, not the last one winning
+    silently (the user may have meant both files to be read)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if getattr(namespace, "_given_" + self.dest, False):
+            parser.error(f"{option_string} given twice ({getattr(namespace, self.dest)} and {values}); give it once")
+        setattr(namespace, "_given_" + self.dest, True)
+        setattr(namespace, self.dest, values)
 
 
 def out_dir(text: str) -> Path:

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
-from .common import add_out_argument, add_study_argument, study_from_args
+from .common import Once, add_out_argument, add_study_argument, study_from_args
 
 __all__ = [
     "add_parser", "run", "summary", "write_identification", "stiffness_file", "MAX_PRINTED_FINDINGS",
@@ -32,7 +32,7 @@ def add_parser(sub) -> None:
         "(one DIR/joint_stiffness_<name>.csv each when there are several; K_x_ry for a joint on one node, K_101x_201x on two).",
     )
     add_study_argument(p)
-    p.add_argument("--frf", required=True, type=Path, metavar="FILE", help="measured FRFs (.uff, .unv, .csv)")
+    p.add_argument("--frf", required=True, type=Path, metavar="FILE", action=Once, help="measured FRFs (.uff, .unv, .csv)")
     add_out_argument(p)
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.set_defaults(func=run)

@@ -16,7 +16,7 @@ from ..methods.updating.parameters import (
     check_parameter_names,
 )
 from ..study.edit import replace_study_table, replace_study_values
-from .common import add_out_argument, add_study_argument, study_from_args
+from .common import Once, add_out_argument, add_study_argument, study_from_args
 
 __all__ = ["add_parser", "run", "parse_parameters", "structure_paths_for"]
 
@@ -38,7 +38,7 @@ def add_parser(sub) -> None:
         "then names the matrix files relative to DIR.",
     )
     add_study_argument(p)
-    p.add_argument("--frf", required=True, type=Path, metavar="FILE", help="free-free FRFs (.uff, .unv, .csv)")
+    p.add_argument("--frf", required=True, type=Path, metavar="FILE", action=Once, help="free-free FRFs (.uff, .unv, .csv)")
     add_out_argument(p)
     p.add_argument(
         "--parameters", metavar="NAMES", default=None,
