@@ -140,6 +140,7 @@ def test_minor_ticks_as_one_artist_sit_where_matplotlib_puts_its_minor_ticks():
         assert minor_ticks_as_one_artist(a.xaxis)
         assert not minor_ticks_as_one_artist(a.xaxis)  # once only
         (artist,) = a.artists
+        # the same locator's values (10^k s, one product each): a few ulps apart at most, far inside 1e-12
         assert np.allclose(artist.positions(), expected, rtol=1e-12, atol=0) and len(expected) > 5
         assert not a.xaxis.get_minorticklocs().size  # matplotlib makes no minor Tick for it any more
 

@@ -69,7 +69,6 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
-import re
 import shutil
 import signal
 import tempfile
@@ -80,7 +79,7 @@ from typing import Callable, Mapping, Sequence
 from ..errors import JointIdError
 from .atomic import atomic_write_bytes
 from .output_manifest import (
-    MANIFEST_NAME, MANIFEST_TEMP_GLOB, Commit, commits, empty_manifest, output_key, read_manifest, record_commit, write_manifest,
+    MANIFEST_NAME, Commit, commits, empty_manifest, manifest_temp_files, output_key, read_manifest, record_commit, write_manifest,
 )
 from .tables import format_csv
 
@@ -99,8 +98,6 @@ STAGING_PREFIX = ".jointid-staging-"
 _STAGING_MARK = ".jointid-staging"
 #: The staging area's folder of the files a commit replaces, kept until the set is in place (a reserved name).
 _BACKUP_DIR = ".jointid-previous"
-#: The manifest's temporary file of a killed run (``atomic_path``: ``.<name>.<12 hex>.json``).
-_MANIFEST_TEMP = re.compile(r"^\." + re.escape(MANIFEST_NAME) + r"\.[0-9a-f]{12}\.json$")
 
 
 class OutputError(JointIdError, OSError):
@@ -256,10 +253,9 @@ class OutputSet:
             for old in d.glob(STAGING_PREFIX + "*"):  # left by a killed run; we hold the lock
                 if old.is_dir() and not old.is_symlink() and (old / _STAGING_MARK).is_file():
                     shutil.rmtree(old, ignore_errors=True)
-            for old in d.glob(MANIFEST_TEMP_GLOB):  # the manifest's temporary file of a killed run
-                if _MANIFEST_TEMP.match(old.name) and old.is_file() and not old.is_symlink():
-                    with contextlib.suppress(OSError):
-                        old.unlink()
+            for old in manifest_temp_files(d):  # the manifest's temporary file of a killed run
+                with contextlib.suppress(OSError):
+                    old.unlink()
             try:
                 self._staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=d))
                 (self._staging / _STAGING_MARK).touch()

@@ -10,18 +10,19 @@ owns nothing, and a name in it that leaves the directory or is reserved is not j
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from .atomic import atomic_write_text
 
-__all__ = ["MANIFEST_NAME", "MANIFEST_TEMP_GLOB", "Commit", "commits", "record_commit", "empty_manifest", "read_manifest",
+__all__ = ["MANIFEST_NAME", "manifest_temp_files", "Commit", "commits", "record_commit", "empty_manifest", "read_manifest",
            "write_manifest", "output_key", "valid_name"]
 
 #: Manifest of the files jointid wrote in an output directory.
 MANIFEST_NAME = ".jointid-manifest.json"
-#: Temporary files of the manifest's atomic write (:func:`~.atomic.atomic_path`), left by a killed run.
-MANIFEST_TEMP_GLOB = "." + MANIFEST_NAME + ".*.json"
+#: Temporary file of the manifest's atomic write (:func:`~.atomic.atomic_path`: ``.<name>.<12 hex>.json``).
+_MANIFEST_TEMP = re.compile(r"^\." + re.escape(MANIFEST_NAME) + r"\.[0-9a-f]{12}\.json$")
 _MANIFEST_FORMAT = "jointid-output-manifest"
 
 
@@ -106,3 +107,8 @@ def output_key(name: str) -> str:
     if p.parts[0].startswith(".jointid"):
         raise ValueError(f"output name {name!r}: names starting with '.jointid' are reserved")
     return p.as_posix()
+
+
+def manifest_temp_files(directory: Path) -> list[Path]:
+    """The manifest's temporary files in ``directory`` (regular files), left by a run killed while writing it."""
+    return [p for p in directory.glob("." + MANIFEST_NAME + ".*") if _MANIFEST_TEMP.match(p.name) and p.is_file() and not p.is_symlink()]

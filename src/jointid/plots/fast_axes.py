@@ -122,6 +122,12 @@ def _minor_label(v: float, _pos=None) -> str:
 IN_VIEW_MARGIN = 1e-6
 
 
+def _in_view(locs: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """The tick positions ``locs`` inside the view ``lo..hi`` of a log axis (within :data:`IN_VIEW_MARGIN`)."""
+    with np.errstate(invalid="ignore"):
+        return locs[(locs >= lo * (1.0 - IN_VIEW_MARGIN)) & (locs <= hi * (1.0 + IN_VIEW_MARGIN))]
+
+
 def _in_view_locator(base):
     """A Locator giving ``base``'s ticks inside the axis' view (see :func:`ticks_in_view`)."""
     from matplotlib.ticker import Locator
@@ -135,10 +141,7 @@ def _in_view_locator(base):
             self.base.set_axis(axis)
 
         def __call__(self):
-            locs = np.asarray(self.base())
-            lo, hi = sorted(self.axis.get_view_interval())
-            with np.errstate(invalid="ignore"):
-                return locs[(locs >= lo * (1.0 - IN_VIEW_MARGIN)) & (locs <= hi * (1.0 + IN_VIEW_MARGIN))]
+            return _in_view(np.asarray(self.base()), *sorted(self.axis.get_view_interval()))
 
         def tick_values(self, vmin, vmax):
             return self.base.tick_values(vmin, vmax)
@@ -223,9 +226,7 @@ def _minor_ticks_class():
         def positions(self) -> np.ndarray:
             """The minor ticks' positions inside the view, less the major ticks' (data units)."""
             lo, hi = sorted(self.axis.get_view_interval())
-            locs = np.asarray(self.locator.tick_values(lo, hi), dtype=float)
-            with np.errstate(invalid="ignore"):
-                locs = locs[(locs >= lo * (1.0 - IN_VIEW_MARGIN)) & (locs <= hi * (1.0 + IN_VIEW_MARGIN))]
+            locs = _in_view(np.asarray(self.locator.tick_values(lo, hi), dtype=float), lo, hi)
             major = np.asarray(self.axis.get_majorticklocs(), dtype=float)
             if major.size and locs.size:
                 locs = locs[~np.any(np.isclose(locs[:, None], major[None, :], rtol=1e-10, atol=0.0), axis=1)]
