@@ -138,12 +138,16 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     ok = result.amplitude_ok
     if ok.sum() < 2:
         raise DataError(
-            f"only {int(ok.sum())} of {ok.size} lines reached the commanded amplitude within {args.tolerance:.0%}; "
+            f"{args.data}: only {int(ok.sum())} of {ok.size} lines reached the commanded amplitude within {args.tolerance:.0%}; "
             "check --amplitude (m, peak) or widen --tolerance"
         )
     f, k = result.frequency_hz[ok], result.stiffness[ok]
     template = ElastomerJoint(10e6, 0.1, 1100.0, args.length, args.diameter, args.poisson_ratio)
-    static = static_estimate(f, k, lines=args.static_lines, length_m=args.length, diameter_m=args.diameter, poisson_ratio=args.poisson_ratio)
+    try:
+        static = static_estimate(f, k, lines=args.static_lines, length_m=args.length, diameter_m=args.diameter,
+                                 poisson_ratio=args.poisson_ratio)
+    except DataError as exc:  # about the lines of this file (e.g. a negative storage stiffness): name it
+        raise DataError(f"{args.data}: {exc}") from None
     fit = fit_material(f, k, joint=template, density_kg_m3=args.density)
     modulus = complex_modulus_per_line(f, k, fit.density_kg_m3, joint=template)
     zener = None
