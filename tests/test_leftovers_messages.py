@@ -39,3 +39,18 @@ def test_direct_too_few_lines_at_amplitude_names_the_data_file(tmp_path, capsys)
     assert main(["direct", str(tmp_path / "neg.csv"), "--out", str(tmp_path / "out"), "--amplitude", "1e-4"]) == 2
     assert capsys.readouterr().err == (f"jointid direct: error: {tmp_path / 'neg.csv'}: only 0 of 8 lines reached the commanded "
                                        "amplitude within 5%; check --amplitude (m, peak) or widen --tolerance\n")
+
+
+def test_layout_messages_name_the_study_keys():
+    from jointid.errors import IdentificationError
+    from jointid.methods.estimate import check_layout
+
+    with pytest.raises(IdentificationError) as e:
+        check_layout(2, ["3w"], ["3w", "9w"])
+    assert str(e.value) == ("[measurement].observed: 1 observed coordinate(s) for 2 joint DOFs: the estimation step needs at "
+                            "least as many observed coordinates as joint DOFs (|m| >= |n|); observe more points")
+    with pytest.raises(IdentificationError) as e:
+        check_layout(2, ["3w", "9w"], ["9w"])
+    assert str(e.value) == ("[measurement].excited: 1 excited coordinate(s) for 2 joint DOFs: the identification step needs "
+                            "at least as many excited coordinates as joint DOFs (|e| >= |n|); excite more points")
+    check_layout(2, ["3w", "9w"], ["3w", "9w"])  # enough of both: no error

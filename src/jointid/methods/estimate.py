@@ -60,12 +60,12 @@ def check_layout(n_joint: int, observed: Sequence, excited: Sequence) -> None:
     """Raise :class:`IdentificationError` unless ``|m| >= |n|`` and ``|e| >= |n|``."""
     if len(observed) < n_joint:
         raise IdentificationError(
-            f"{len(observed)} observed coordinate(s) for {n_joint} joint DOFs: the estimation step needs "
+            f"[measurement].observed: {len(observed)} observed coordinate(s) for {n_joint} joint DOFs: the estimation step needs "
             f"at least as many observed coordinates as joint DOFs (|m| >= |n|); observe more points"
         )
     if len(excited) < n_joint:
         raise IdentificationError(
-            f"{len(excited)} excited coordinate(s) for {n_joint} joint DOFs: the identification step needs "
+            f"[measurement].excited: {len(excited)} excited coordinate(s) for {n_joint} joint DOFs: the identification step needs "
             f"at least as many excited coordinates as joint DOFs (|e| >= |n|); excite more points"
         )
 
