@@ -12,7 +12,7 @@ from ..io.output_dir import OutputSet
 from .common import add_out_argument, add_study_argument, study_from_args
 
 __all__ = ["add_parser", "run", "parse_nodes", "parse_dof_labels", "parse_weights", "parse_targets", "summary_lines",
-           "verdict", "target_lines"]
+           "verdict", "target_lines", "MIN_TARGET_PERCENT"]
 
 
 def add_parser(sub) -> None:
@@ -53,8 +53,10 @@ def add_parser(sub) -> None:
     p.add_argument("--search-lines", type=int, default=300, metavar="N",
                    help="lines of the search grid, spread over the band (default 300)")
     p.add_argument("--target", default=None, metavar="TERM=PCT,...",
-                   help="target median relative error per term in percent, e.g. K_x_x=0.2,K_rx_rx=5: says per term "
-                        "whether the chosen and the current layout reach it (predicted, and with --monte-carlo confirmed)")
+                   help="target median relative error per term, in PERCENT (0.2 means 0.2 %%; each in [0.01, 100]), "
+                        "e.g. K_x_x=0.2,K_rx_rx=5 -- unlike the study's [identification.targets], which are fractions "
+                        "(0.002 = 0.2 %%) and are used when --target is not given: says per term whether the chosen and "
+                        "the current layout reach it (predicted, and with --monte-carlo confirmed)")
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N",
                    help="check the best layouts and the current one by the identification itself on N noise "
                         "realizations per noise model (default 0: prediction only)")
@@ -101,12 +103,31 @@ def parse_weights(text: str, option: str = "--weights", example: str = "K_theta_
     return out
 
 
+#: Smallest ``--target``, percent: a smaller value is a fraction given where a percentage is expected.
+MIN_TARGET_PERCENT = 0.01
+
+
 def parse_targets(text: str) -> dict[str, float]:
-    """``"K_x_x=0.2,K_rx_rx=5"`` (percent) -> ``{"K_x_x": 0.002, "K_rx_rx": 0.05}`` (relative)."""
+    """``"K_x_x=0.2,K_rx_rx=5"`` (percent) -> ``{"K_x_x": 0.002, "K_rx_rx": 0.05}`` (relative).
+
+    Each value is a percentage in ``[MIN_TARGET_PERCENT, 100]``. A value below
+    :data:`MIN_TARGET_PERCENT` (0.01 %) is refused as a fraction written where a
+    percentage is expected (``K_x_x=0.002`` copied from ``[identification.targets]``,
+    which is a fraction: 0.002 = 0.2 %); no identification reaches 1e-4 anyway.
+
+    Raises
+    ------
+    StudyError
+        Not ``TERM=PERCENT`` pairs, a value outside (0, 100], or below 0.01 (one line each).
+    """
     out = parse_weights(text, "--target", "K_x_x=0.2,K_rx_rx=5")
     for name, value in out.items():
-        if not (math.isfinite(value) and value > 0):
-            raise StudyError(f"--target: {name}={value:g}; expected a percentage > 0, e.g. {name}=5")
+        if not (math.isfinite(value) and 0 < value <= 100):
+            raise StudyError(f"--target: {name}={value:g}; expected a percentage in (0, 100], e.g. {name}=5")
+        if value < MIN_TARGET_PERCENT:
+            raise StudyError(f"--target: {name}={value:g} would be {value:g} %, below {MIN_TARGET_PERCENT:g} %: --target is "
+                             f"in percent (0.2 means 0.2 %); [identification.targets] is a fraction; for {100 * value:g} % "
+                             f"give {name}={100 * value:g}")
     return {name: value / 100.0 for name, value in out.items()}
 
 
@@ -122,12 +143,18 @@ def run(args: argparse.Namespace) -> int:
         raise StudyError(f"--monte-carlo: expected a number of realizations >= 0, got {args.monte_carlo}")
     if not (math.isfinite(args.noise) and args.noise > 0):
         raise StudyError(f"--noise: expected a relative FRF noise level > 0 (0.01 = 1 %), got {args.noise:g}")
+    goals = "" if targets is None else " for targets " + ", ".join(f"{t} {100 * v:g} %" for t, v in targets.items())
+    header = (f"design: searching {args.observed or len(study.measurement.observed)} observed x "
+              f"{args.excited or len(study.measurement.excited)} excited{goals} ...")
+    started: list = []
+
     def progress(text: str) -> None:  # one line per step, flushed: visible in a log as well as on a terminal
+        if not started:  # the header once the search runs: every option is checked by then (an error prints nothing here)
+            started.append(header)
+            print(header, flush=True)
         print(f"  {text}", flush=True)
 
-    print(f"design: searching {args.observed or len(study.measurement.observed)} observed x "
-          f"{args.excited or len(study.measurement.excited)} excited ...", flush=True)
-    with OutputSet(args.out, command="design") as out:
+    with OutputSet(args.out, command="design") as out:  # --out checked and locked before anything is printed
         d = design_study(
             study, args.observed, args.excited, candidates=candidates, noise=args.noise, weights=weights,
             band_hz=tuple(args.band_hz) if args.band_hz else None, search_lines=args.search_lines, progress=progress,
