@@ -11,23 +11,66 @@ subcommand); Python warnings of a run (numerical overflow, ...) become one
 
 from __future__ import annotations
 
-import argparse
-import contextlib
 import os
-import signal
 import sys
-import traceback
-import warnings
-from importlib import import_module
-from pathlib import Path
-
-from .. import __version__
-from ..errors import JointIdError, Terminated
-
-__all__ = ["main", "entry_point", "build_parser", "COMMANDS"]
 
 #: Subcommand modules under :mod:`jointid.cli`, in help order.
 COMMANDS = ("reproduce", "modes", "simulate", "identify", "update", "experiment", "frf", "direct", "design", "campaign")
+
+
+def _command_of(argv) -> str | None:
+    """The subcommand ``argv`` (without the program name) names, or None (usable before argparse is imported)."""
+    first = next((a for a in argv if not str(a).startswith("-")), None)
+    return first if first in COMMANDS else None
+
+
+def _interrupted_during_import(kind, value, tb) -> None:
+    """``sys.excepthook`` while this module's own imports run (argparse, pathlib, ...: about 10 ms of the ``jointid``
+    command's first 20 ms; the interpreter's start-up and the ``jointid`` and ``jointid.cli`` package imports come
+    before this module runs, so they are not covered).
+
+    A Ctrl-C then stops the console script's ``from jointid.cli.main import entry_point``
+    before :func:`entry_point` can handle it: the interrupt's one line and exit code 130,
+    as for a run (see :func:`_stopped`), instead of a traceback. Anything else, or an
+    interrupt that did not stop this module's import, goes to the hook that was there before.
+    """
+    frame_tb = tb
+    while frame_tb is not None:
+        frame = frame_tb.tb_frame
+        if frame.f_code.co_name == "<module>" and frame.f_globals.get("__name__") == __name__:
+            break
+        frame_tb = frame_tb.tb_next
+    if not (issubclass(kind, KeyboardInterrupt) and frame_tb is not None):
+        return _previous_excepthook(kind, value, tb)
+    command = _command_of(sys.argv[1:])
+    line = f"jointid{' ' + command if command else ''}: interrupted; no partial output was written\n"
+    try:
+        sys.stdout.flush()
+        sys.stderr.write(line)
+        sys.stderr.flush()
+    except (OSError, ValueError, AttributeError):  # a closed or absent stream: nothing more can be said
+        pass
+    os._exit(130)
+
+
+_previous_excepthook = sys.excepthook
+sys.excepthook = _interrupted_during_import  # until the imports below are done (restored after them)
+
+import argparse  # noqa: E402  (after the interrupt hook: a Ctrl-C during these imports is one line, exit 130)
+import contextlib  # noqa: E402
+import signal  # noqa: E402
+import traceback  # noqa: E402
+import warnings  # noqa: E402
+from importlib import import_module  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from .. import __version__  # noqa: E402
+from ..errors import JointIdError, Terminated  # noqa: E402
+
+if sys.excepthook is _interrupted_during_import:  # imported: entry_point handles an interrupt from here on
+    sys.excepthook = _previous_excepthook
+
+__all__ = ["main", "entry_point", "build_parser", "COMMANDS"]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -131,8 +174,11 @@ def main(argv: list[str] | None = None) -> int:
     SIGTERM and SIGINT unwind the run: no partial output.
     """
     argv, debug_anywhere = _split_debug(list(sys.argv[1:] if argv is None else argv))
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        parser = build_parser()  # imports every subcommand's module: a Ctrl-C here is the run's interrupt too
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        return _stopped(_command_of(argv), signal.SIGINT)
     debug = bool(args.debug or debug_anywhere)
     args.debug = debug
     from ..io.output_manifest import commits
@@ -179,21 +225,23 @@ def main(argv: list[str] | None = None) -> int:
     return code
 
 
-def _stopped(command: str, signum: int, done=()) -> int:
+def _stopped(command: str | None, signum: int, done=()) -> int:
     """The one line of a run stopped by a signal; its exit code (130 SIGINT, 128 + signum otherwise).
 
+    ``command``: the subcommand, or None when the run stopped before its command line was read.
     ``done``: the run's commits (:func:`~jointid.io.output_manifest.commits`); a signal that came while the
     output was being committed is raised once it is complete, and the line says so."""
     what = (f"its output in {done[-1].directory} was complete before it stopped" if done
             else "no partial output was written")
+    who = f"jointid {command}" if command else "jointid"
     if signum == signal.SIGINT:
-        print(f"jointid {command}: interrupted; {what}", file=sys.stderr)
+        print(f"{who}: interrupted; {what}", file=sys.stderr)
         return 130
     try:
         name = signal.Signals(signum).name
     except ValueError:
         name = f"signal {signum}"
-    print(f"jointid {command}: terminated ({name}); {what}", file=sys.stderr)
+    print(f"{who}: terminated ({name}); {what}", file=sys.stderr)
     return 128 + signum
 
 
