@@ -40,7 +40,9 @@ What a user can rely on
   A failure while renaming (a subdirectory made read-only meanwhile) puts the
   previous files back (kept as hard links until the set is complete): the set
   is complete or as before, never half of each.
-  Staging left by a killed run (SIGKILL) is removed by the next run into ``DIR``.
+  Staging left by a killed run (SIGKILL) is removed by the next run into ``DIR``;
+  an unmarked one (an older jointid's) only if it holds nothing but files jointid
+  writes there, else it is left and named on stderr (:mod:`jointid.io.staging`).
 * jointid writes, replaces and removes files only in real directories inside
   ``DIR``: an output whose parent inside ``DIR`` is a symbolic link is refused
   (a link to a directory elsewhere would let it write or delete there), and the
@@ -81,6 +83,7 @@ from .atomic import atomic_write_bytes
 from .output_manifest import (
     MANIFEST_NAME, Commit, commits, empty_manifest, manifest_temp_files, output_key, read_manifest, record_commit, write_manifest,
 )
+from .staging import STAGING_MARK, STAGING_PREFIX, clear_stale_staging
 from .tables import format_csv
 
 try:  # POSIX; elsewhere runs are not locked against each other
@@ -92,10 +95,6 @@ __all__ = ["OutputSet", "OutputError", "Commit", "commits", "MANIFEST_NAME", "LO
 
 #: Lock file held (flock) while a run writes into the directory.
 LOCK_NAME = ".jointid.lock"
-#: Prefix of the staging directory inside the output directory.
-STAGING_PREFIX = ".jointid-staging-"
-#: The file that marks a staging directory as jointid's (only such a one is removed as a killed run's).
-_STAGING_MARK = ".jointid-staging"
 #: The staging area's folder of the files a commit replaces, kept until the set is in place (a reserved name).
 _BACKUP_DIR = ".jointid-previous"
 
@@ -250,15 +249,14 @@ class OutputSet:
             self._manifest, readable = read_manifest(d)
             self._manifest_found = readable
             self._manifest_unreadable = not readable and os.path.lexists(d / MANIFEST_NAME)
-            for old in d.glob(STAGING_PREFIX + "*"):  # left by a killed run; we hold the lock
-                if old.is_dir() and not old.is_symlink() and (old / _STAGING_MARK).is_file():
-                    shutil.rmtree(old, ignore_errors=True)
+            owned = {k for files in self._manifest["sets"].values() for k in files}
+            clear_stale_staging(d, owned, self.command)  # left by a killed run; we hold the lock
             for old in manifest_temp_files(d):  # the manifest's temporary file of a killed run
                 with contextlib.suppress(OSError):
                     old.unlink()
             try:
                 self._staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=d))
-                (self._staging / _STAGING_MARK).touch()
+                (self._staging / STAGING_MARK).touch()
             except OSError as exc:
                 raise OutputError(f"--out {d} is not writable: {exc.strerror or exc}") from exc
         except BaseException:
