@@ -11,6 +11,8 @@ with 0.5 % complex relative noise on exact accelerances (``jointid.simulate``):
 - ``junk, coherence, no junk``: the same data without the junk lines (5-1000 Hz): the reference;
 - ``wrong free model``: data from a finer mesh (16 elements per segment; the model's converged mesh has 8),
   the study's E 2 % high and density 1 % low;
+- ``Euler-Bernoulli model``: the same data (a Timoshenko beam), the study's beam theory ``"euler-bernoulli"``
+  (shear deformation and rotary inertia left out: a free model's error that grows with frequency);
 - ``updated`` / ``updated, no [uncertainty]``: the same FRFs, identified after updating E, density and loss
   factor from a virtual free-free test of the true beam (1 % noise), with the fit's standard errors and
   correlation as ``[uncertainty]`` (what ``jointid update`` writes) and without them.
@@ -38,9 +40,9 @@ from jointid.study import TruthSpec, UncertaintySpec
 from jointid.reproduce.noise_robustness import TERMS, term_errors, within_band
 
 NOISE = 0.005
-CASES = ("clean", "gN", "gsi", "junk", "junkref", "model", "updated", "updated0")
+CASES = ("clean", "gN", "gsi", "junk", "junkref", "model", "euler", "updated", "updated0")
 NAMES = {"clean": "clean", "gN": "g/N unlabelled", "gsi": "g label on SI", "junk": "junk lines",
-         "junkref": "junk, coherence, no junk", "model": "wrong free model", "updated": "updated",
+         "junkref": "junk, coherence, no junk", "model": "wrong free model", "euler": "Euler-Bernoulli model", "updated": "updated",
          "updated0": "updated, no [uncertainty]"}
 TRUE_MESH = 16
 
@@ -69,6 +71,7 @@ class Data:
         b = self.st.structure
         self.true = {"elastic_modulus": b.elastic_modulus, "density": b.density}
         self.wrong = study(elastic_modulus=b.elastic_modulus * 1.02, density=b.density * 0.99)
+        self.euler = study(theory="euler-bernoulli")
 
     def case(self, name, rng):
         """(study, measured FRF, truth on the FRF's lines)."""
@@ -101,7 +104,7 @@ class Data:
                 k: v for k, v in up.values.items() if "." not in k}),
                 uncertainty=UncertaintySpec(unc, None if corr is None else tuple(map(tuple, corr))) if unc else None)
             return st, frf, self.fine.truth
-        return self.wrong, frf, self.fine.truth
+        return (self.euler if name == "euler" else self.wrong), frf, self.fine.truth
 
 
 def run(data: Data, name: str, rng):

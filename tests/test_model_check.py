@@ -8,7 +8,8 @@ import tomllib
 import numpy as np
 import pytest
 
-from jointid.methods.receptance.model_check import check_model, octave_bands, residual_statistics
+from jointid.methods.receptance.model_check import (MODEL_ERROR_PROVEN_RATIO, MODEL_RESIDUAL_RATIO, ResidualStatistics,
+                                                    check_model, octave_bands, residual_statistics)
 from jointid.pipeline import identify, simulate
 from jointid.study.parse import parse_study
 
@@ -66,6 +67,38 @@ def test_the_right_free_model_passes(fine_data):
     r = identify(_study(), fine_data)  # the study's own mesh is converged for the receptance method
     assert not any("free model does not explain" in f for f in r.findings()), r.findings()
     assert r.reliable_terms[:, 0, 0].mean() > 0.9
+
+
+@pytest.mark.parametrize("top", [5.0, 10.0])
+def test_a_band_far_above_the_noise_fails_every_band(top):
+    """Ratios 1, 1.5 and ``top`` in the three bands of 5-100 Hz: at 5 (above the limit 4, below 8) only the top band
+    fails; at 10 the free model is proven wrong and every band fails, the finding naming both kinds of band."""
+    hz = np.arange(5.0, 101.0)  # bands 5-39, 40-79, 80-100 Hz
+    chi2 = np.select([hz < 40, hz < 80], [1.0, 1.5], top)
+    check = check_model(hz, ResidualStatistics(chi2, np.ones(hz.size)))
+    assert np.array_equal(check.ratio, [1.0, 1.5, top])
+    assert MODEL_RESIDUAL_RATIO < 5.0 < MODEL_ERROR_PROVEN_RATIO < 10.0
+    if top == 5.0:
+        assert np.array_equal(check.failed_lines, hz >= 80) and not check.proven_wrong
+        assert check.finding(hz) == ("the free model does not explain these FRFs in 80-100 Hz (residual 5.0x the noise): "
+                                     "update it from a free-free test (`jointid update`) or correct the structure's model; "
+                                     "every term flagged unreliable there")
+    else:
+        assert check.failed_lines.all() and check.proven_wrong
+        assert check.finding(hz) == (
+            "the free model does not explain these FRFs in 80-100 Hz (residual 10x the noise); an error that large is in "
+            "the whole model, and in 5-79 Hz (residual 1.0-1.5x the noise) the joint terms absorb it: update it from a "
+            "free-free test (`jointid update`) or correct the structure's model; every term flagged unreliable on every line")
+
+
+def test_an_euler_bernoulli_model_of_a_timoshenko_beam_is_flagged_on_every_line(fine_data):
+    """The residual is near the noise at 5-39 Hz (ratio 0.9-1.0) while the joint terms absorb the model error there
+    (K_w_w's 90 % bands held the truth on 66 % of those lines when they were trusted): flagged too, with the finding."""
+    r = identify(_study(theory="euler-bernoulli"), fine_data)
+    found = [f for f in r.findings() if f.startswith("the free model does not explain these FRFs in ")]
+    assert len(found) == 1 and "the joint terms absorb it" in found[0], r.findings()
+    assert found[0].endswith("every term flagged unreliable on every line")
+    assert not r.reliable_terms.any()
 
 
 def _line_design_data(F, rng, m=5, n=2, e=3):
