@@ -21,7 +21,9 @@ Conventions
   (receptance), 11 = velocity (mobility), 12 = acceleration (accelerance);
   denominator 13 = excitation force. Anything else is an error naming the
   record. Records of different kinds in one file are converted exactly to
-  the kind of the first FRF record.
+  the kind of the first FRF record, or, when the axis holds a 0 Hz line and a
+  record is of a higher kind, to the highest kind present (converting down
+  would divide by zero at 0 Hz; :func:`common_kind`, said in the notes).
 * **Units** come from the records' units labels (``g``, ``mm/s^2``,
   ``in/s``, ``lbf``, ``g/N``, ...), or, where a label is blank or ``NONE``,
   from the units dataset 164 (SI, BG, MG, BA, MM, CM, IN, GM, user
@@ -55,6 +57,10 @@ Precision and pyuff 2.5.8
   abscissa values are then stored as doubles) and refused in ASCII files
   (:class:`~jointid.errors.DataError`: use ``binary=True``, the CSV layout,
   or a grid such as 0.5 Hz steps).
+* Numbers written with Fortran ``D`` exponents (``1.0D+00``) are read as with
+  ``E``, exactly; a tab that shifts the fixed-width columns and a binary file
+  damaged by a text-mode transfer (CR LF inserted into its values) are refused
+  naming the record and what to do (:mod:`jointid.io.uff_ascii58`).
 * pyuff replaces NaN/inf by numbers on writing (``numpy.nan_to_num``), so the
   writer refuses non-finite data itself.
 * pyuff's ``mode="overwrite"`` truncates binary 58 files; the writer always
@@ -76,7 +82,7 @@ from ..frf import FRF, KINDS, kind_factor
 from .atomic import atomic_path
 from .uff_records import FUNC_COHERENCE, FUNC_FRF, FUNC_TIME, Selection, assemble, axis_text, coherence_matrix, read_records, units_line
 
-__all__ = ["read_uff_frf", "write_uff_frf", "UFF_KIND_CODES", "FUNC_TIME", "FUNC_FRF", "FUNC_COHERENCE"]
+__all__ = ["read_uff_frf", "write_uff_frf", "common_kind", "UFF_KIND_CODES", "FUNC_TIME", "FUNC_FRF", "FUNC_COHERENCE"]
 
 #: Record 9 (ordinate numerator) specific data type of each FRF kind; denominator is 13.
 UFF_KIND_CODES: dict[str, int] = {"receptance": 8, "mobility": 11, "accelerance": 12}
@@ -173,14 +179,12 @@ def read_uff_frf(
             f"{path} holds no FRF record to read (UFF dataset 58, function type 4, along {axis[1] if axis else 'X/Y/Z/RX/RY/RZ'})"
             + (f"; {skipped}" if skipped else "") + hint
         )
-    base = frf_records[0].kind
-    assert base is not None
-    omega = 2.0 * np.pi * frf_records[0].x
+    base, kind_note = common_kind(frf_records)
     for r in frf_records:
         factor = r.sign * r.factor
         if r.kind != base:
-            try:
-                factor = factor * kind_factor(omega, r.kind, base)  # type: ignore[arg-type]
+            try:  # on the record's own axis (a different one is refused by assemble, naming both)
+                factor = factor * kind_factor(2.0 * np.pi * r.x, r.kind, base)  # type: ignore[arg-type]
             except JointIdError as exc:
                 raise DataError(f"{r.name()} in {path}: cannot convert {r.kind} to {base}: {exc}") from exc
         r.data = np.asarray(r.data, dtype=complex) * factor
@@ -190,13 +194,44 @@ def read_uff_frf(
         coh, coh_note = coherence_matrix(coh_records, path, frequency, resp, refs, sel)
     elif coh_records:
         sel.skipped["coherence"] += len(coh_records)
-    notes = tuple(n for n in (units_line(frf_records), sel.skipped_line(), coh_note) if n)
+    notes = tuple(n for n in (units_line(frf_records), kind_note, sel.skipped_line(), coh_note) if n)
     frf = FRF(frequency, data, resp, refs, base, coh if attach else None, notes)
     if kind is not None:
-        frf = frf.to(kind)
+        try:
+            frf = frf.to(kind)
+        except JointIdError as exc:  # at 0 Hz: name the file
+            raise DataError(f"{path}: {exc}") from exc
     if not coherence or attach:
         return frf
     return frf, coh
+
+def common_kind(records) -> tuple[str, str | None]:
+    """The kind records of several kinds are converted to, and a note when it is not the first record's.
+
+    The first record's kind, unless the axis holds a 0 Hz line and a record is of a higher kind
+    (mobility, accelerance over receptance): a conversion down to the first record's kind would divide
+    by ``j w = 0`` there, so the records are converted up, exactly on every line, to the highest kind
+    present (receptance and mobility are 0 at 0 Hz as accelerance), as a file of that kind alone is read.
+
+    Parameters
+    ----------
+    records : list of Record
+        The FRF records, in file order (each with ``kind`` and its abscissa ``x``, Hz).
+
+    Returns
+    -------
+    (str, str or None)
+        The kind, and the note (None when it is the first record's kind).
+    """
+    first = records[0].kind
+    kinds = {r.kind for r in records}
+    top = max(kinds, key=KINDS.index)
+    if KINDS.index(top) <= KINDS.index(first) or not any(np.any(r.x == 0.0) for r in records):
+        return first, None
+    lower = sorted({r.kind for r in records if r.kind != top}, key=KINDS.index)
+    return top, (f"kind: records of {', '.join(lower)} and {top} read as {top} (not as the first record's {first}: "
+                 f"the 0 Hz line of {top} cannot be converted to {first})")
+
 
 def _even_axis(hz: np.ndarray) -> tuple[bool, float, float]:
     """Whether ``hz`` is reproduced by pyuff's ``%13.5e`` min/increment header; and those two values."""

@@ -23,16 +23,28 @@ lines of differing lengths, a field running into the line end, bytes other
 than printable ASCII and the line ends) is left to pyuff itself, so an
 irregular file reads exactly as before and a broken one fails with pyuff's
 message.
+
+Two damages are found before pyuff reads a record:
+
+* Fortran ``D`` exponents (``1.0D+00``, a Fortran writer's double precision):
+  the numbers of record 7 and of an ASCII record's values are read with ``E``
+  in their place (:func:`fortran_exponents`): the same numbers, exactly; pyuff
+  alone refuses them.
+* A binary record damaged by a text-mode transfer (LF made CR LF inside the binary
+  data): :func:`crlf_damage` finds it from the byte count its header asks for, and
+  :meth:`Uff58Reader.values` raises :class:`UffDamage` instead of reading shifted bytes.
 """
 
 from __future__ import annotations
 
+import os
 import re
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Uff58Reader", "unclosed_dataset_line"]
+__all__ = ["Uff58Reader", "UffDamage", "unclosed_dataset_line", "fortran_exponents", "crlf_damage", "binary_data_bytes"]
 
 #: Header lines of a dataset 58 block (the leading ``    -1`` included), as pyuff counts them.
 _HEADER_LINES = 13
@@ -43,6 +55,10 @@ _REGULAR = bytes(range(0x20, 0x7F)) + b"\r\n"
 
 class _Irregular(Exception):
     """The record is not in a layout this module parses; pyuff reads it."""
+
+
+class UffDamage(Exception):
+    """A record whose bytes are damaged in a known way; the message says how, for "record N of FILE ..."."""
 
 
 class Uff58Reader:
@@ -69,19 +85,58 @@ class Uff58Reader:
 
     def header(self, i: int) -> dict:
         """Dataset ``i`` (0-based): a 58 record's header only (no ``x``/``data``), any other dataset whole."""
-        return self._uff.read_sets(i, header_only=self.types[i] == 58)
+        return self._read(i, header_only=self.types[i] == 58)
 
     def values(self, i: int, header: dict) -> dict:
-        """``header`` (from :meth:`header`) completed with ``x`` and ``data`` exactly as ``pyuff.read_sets(i)`` gives them."""
+        """``header`` (from :meth:`header`) completed with ``x`` and ``data`` exactly as ``pyuff.read_sets(i)`` gives them
+        (Fortran ``D`` exponents read as ``E``).
+
+        Raises
+        ------
+        UffDamage
+            A binary record damaged by a text-mode transfer (:func:`crlf_damage`).
+        """
+        if self.types[i] == 58 and header.get("binary"):
+            why = crlf_damage(self.block(i), header)
+            if why is not None:
+                raise UffDamage(why)
         if self.types[i] != 58 or header.get("binary"):
-            return self._uff.read_sets(i)
+            return self._read(i)
         try:
             values = _ascii_values(self._block(i), header["ord_data_type"], header["abscissa_spacing"])
         except _Irregular:
-            return self._uff.read_sets(i)
+            return self._read(i)
         d = dict(header)
         d["x"], d["data"] = _split(values, d)
         return d
+
+    def block(self, i: int) -> bytes:
+        """The bytes of dataset ``i`` as they are in the file (from its opening ``    -1`` to its closing one, excluded)."""
+        if self._bytes is None:
+            self._bytes = self._path.read_bytes()
+        start, end = (int(v) for v in self._uff._block_ind[i])
+        return self._bytes[start:end + 1]
+
+    def line_of(self, i: int, offset: int) -> int:
+        """Line (1-based) of the file at byte ``offset`` of dataset ``i``'s :meth:`block`."""
+        start = int(self._uff._block_ind[i][0])
+        return self.block(i)[:offset].count(b"\n") + (self._bytes or b"")[:start].count(b"\n") + 1
+
+    def _read(self, i: int, header_only: bool = False) -> dict:
+        """pyuff's reading of dataset ``i``, from the block with Fortran exponents as ``E`` when it has any (pyuff
+        reads files only: that block alone, in a temporary file)."""
+        fixed = fortran_exponents(self.block(i)) if self.types[i] == 58 else None
+        if fixed is None:
+            return self._uff.read_sets(i, header_only=header_only)
+        import pyuff
+
+        fd, name = tempfile.mkstemp(suffix=".uff")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(fixed + b"    -1\n")
+            return pyuff.UFF(name).read_sets(0, header_only=header_only)
+        finally:
+            os.unlink(name)
 
     def unclosed_dataset_line(self) -> int | None:
         """Line (1-based) where a dataset opens after the last complete one and is never closed, else None
@@ -91,10 +146,85 @@ class Uff58Reader:
         return unclosed_dataset_line(self._bytes, self._uff._block_ind)
 
     def _block(self, i: int) -> bytes:
-        if self._bytes is None:
-            self._bytes = self._path.read_bytes()
-        start, end = (int(v) for v in self._uff._block_ind[i])
-        return self._bytes[start:end + 1]
+        """:meth:`block`, with Fortran exponents as ``E`` (:func:`fortran_exponents`)."""
+        raw = self.block(i)
+        fixed = fortran_exponents(raw)
+        return raw if fixed is None else fixed
+
+
+#: A Fortran double precision exponent: ``D`` (or ``d``) between a number's digits and its exponent's.
+_FORTRAN_EXPONENT = re.compile(rb"(?<=[0-9.])[Dd](?=[+-]?[0-9])")
+
+
+def fortran_exponents(block: bytes) -> bytes | None:
+    """A dataset 58 block with the ``D`` exponents of its numbers as ``E``, or None when it has none.
+
+    Only record 7 (the abscissa minimum and increment) and, in an ASCII record, the
+    value lines are changed (``1.0D+00`` -> ``1.0E+00``, the same number); the ID and
+    label lines and binary values are left as they are. The block keeps its length.
+
+    Parameters
+    ----------
+    block : bytes
+        A dataset's bytes (:meth:`Uff58Reader.block`).
+    """
+    head = block[:4096].splitlines(True)[:_HEADER_LINES]  # header lines hold at most 80 characters
+    if len(head) < _HEADER_LINES:
+        return None
+    start = sum(len(line) for line in head)
+    record7 = _FORTRAN_EXPONENT.sub(b"E", head[8])
+    values = None
+    if head[1][6:7].lower() != b"b" and (block.find(b"D", start) >= 0 or block.find(b"d", start) >= 0):  # a byte scan
+        values = _FORTRAN_EXPONENT.sub(b"E", block[start:])
+        values = None if values == block[start:] else values
+    if values is None and record7 == head[8]:  # the usual case: no copy of the block
+        return None
+    return b"".join(head[:8]) + record7 + b"".join(head[9:]) + (block[start:] if values is None else values)
+
+
+def binary_data_bytes(header: dict) -> int | None:
+    """The bytes of a binary dataset 58 record's values as its header describes them (as pyuff reads them), or None.
+
+    ``num_pts`` values, complex ones (ordinate data type 5, 6) as two numbers, with the
+    abscissa values of an uneven axis; 4 bytes a number in single precision (2, 5), 8 in double (4, 6).
+    """
+    n, odt, spacing = header.get("num_pts"), header.get("ord_data_type"), header.get("abscissa_spacing")
+    if not isinstance(n, int) or odt not in (2, 4, 5, 6) or spacing not in (0, 1):
+        return None
+    per_point = (2 if odt in (5, 6) else 1) + (1 if spacing == 0 else 0)
+    return n * per_point * (4 if odt in (2, 5) else 8)
+
+
+def _fits(data: bytes, expected: int) -> bool:
+    """``data`` is ``expected`` bytes, or those and a line end before the closing ``    -1`` (some writers put one)."""
+    return len(data) == expected or (len(data) > expected and data[expected:] in (b"\n", b"\r\n", b"\r"))
+
+
+def crlf_damage(block: bytes, header: dict) -> str | None:
+    """What damaged a binary dataset 58 record by a text-mode transfer, or None (not that damage).
+
+    A text-mode copy writes each line feed (byte 10) as CR LF, also the line feeds
+    that are bytes of the binary values: the record then holds one byte more per such
+    byte, and exactly the bytes its header asks for once each CR LF is taken back to LF.
+    A record whose byte count is off in another way is left to the other checks.
+
+    Parameters
+    ----------
+    block : bytes
+        The dataset's bytes (:meth:`Uff58Reader.block`).
+    header : dict
+        Its header (``num_pts``, ``ord_data_type``, ``abscissa_spacing``).
+    """
+    expected = binary_data_bytes(header)
+    lines = block.splitlines(True)
+    if expected is None or len(lines) < _HEADER_LINES:
+        return None
+    data = block[sum(len(line) for line in lines[:_HEADER_LINES]):]
+    if _fits(data, expected) or not _fits(data.replace(b"\r\n", b"\n"), expected):
+        return None
+    extra = len(data) - len(data.replace(b"\r\n", b"\n"))
+    return (f"looks damaged by a text-mode transfer (CR LF line ends inserted into binary data: {extra} byte(s) more than "
+            f"its {header['num_pts']} points take, one before each line feed byte): copy it again in binary mode")
 
 
 #: A dataset delimiter: a line that reads exactly ``    -1`` (CR LF or LF; padded, pyuff does not see it either).

@@ -30,7 +30,7 @@ from ..errors import DataError, FrequencyError
 from ..frequency import Frequency
 from .uff_units import SI, UnitSystem, abscissa_factor, ordinate_units, units_from_164
 
-__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line", "map_record", "map_signal", "truncated_message"]
+__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line", "map_record", "map_signal", "truncated_message", "unreadable_message"]
 
 FUNC_TIME = 1
 FUNC_FRF = 4
@@ -219,7 +219,7 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
     decoded (:class:`~jointid.io.uff_ascii58.Uff58Reader`: vectorized, the same
     values as pyuff's).
     """
-    from .uff_ascii58 import Uff58Reader
+    from .uff_ascii58 import Uff58Reader, UffDamage
 
     if sel.axis is not None and sel.axis not in AXES:
         raise DataError(f"unknown measurement axis {sel.axis!r}; expected one of {', '.join(AXES)}")
@@ -241,7 +241,7 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
         try:
             d = uff.header(i)
         except Exception as exc:
-            raise DataError(f"record {index} of {path}: pyuff cannot read dataset {t}: {exc}") from exc
+            raise DataError(unreadable_message(uff, i, path, exc)) from exc
         if t == 164:
             system = units_from_164(d, f"record {index} of {path}", index)
             continue
@@ -260,8 +260,10 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
         response, reference, sign = mapped
         try:
             d = uff.values(i, d)
+        except UffDamage as exc:
+            raise DataError(f"record {index} of {path} {exc}") from None
         except Exception as exc:
-            raise DataError(f"record {index} of {path}: pyuff cannot read dataset {t}: {exc}") from exc
+            raise DataError(unreadable_message(uff, i, path, exc)) from exc
         if ft == FUNC_COHERENCE:
             try:
                 x, data = _values(d, where)
@@ -281,6 +283,25 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
         text = f"{units.text} ({units.source})"
         frfs.append(Record(index, FUNC_FRF, response, reference, sign, kind, x, data, text, units.factor))
     return frfs, cohs
+
+
+def unreadable_message(uff, i: int, path: Path, exc: Exception) -> str:
+    """The one line for dataset ``i`` (0-based) of ``path`` that pyuff cannot read (``exc``): its cause when it is a
+    tab character (UFF's columns are fixed-width), else pyuff's message.
+
+    Parameters
+    ----------
+    uff : Uff58Reader
+        The file's reader (its ``types``, ``block`` and ``line_of``).
+    """
+    t = uff.types[i]
+    block = uff.block(i)
+    tab = block.find(b"\t")
+    if tab >= 0:
+        return (f"record {i + 1} of {path} (dataset {t}) cannot be read: line {uff.line_of(i, tab)} holds a tab character, "
+                "which shifts UFF's fixed-width columns; re-export the file, or replace each tab by the spaces it stands "
+                "for (e.g. `expand` for tab stops every 8 columns)")
+    return f"record {i + 1} of {path}: pyuff cannot read dataset {t}: {exc}"
 
 
 #: UFF58 ordinate data types of real values (2 single, 4 double precision); 5 and 6 are complex.
