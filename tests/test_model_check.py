@@ -147,5 +147,6 @@ def test_a_whiteness_rejection_from_correlated_frf_errors_says_so():
         said[width] = [f for f in r.findings() if f.startswith("the FRFs' residuals to the free model are themselves correlated")]
         if width == 5:
             assert r.structured is not None and r.structured.shape_only
+            assert r.calibration.n_basis == 16  # correlated errors do not ask for a finer column calibration
     assert said[1] == []
     assert len(said[5]) == 1 and "its class, so its bands are kept wide" in said[5][0], said[5]

@@ -16,7 +16,7 @@ from ...dofs import Dof
 from ...frequency import Frequency
 from ...terms import term_names
 from ..estimate import JointEstimate
-from .column_calibration import ColumnCalibration
+from .column_calibration import CALIBRATION_BASIS, ColumnCalibration
 from .model_check import CORRELATED_RESIDUAL_Z
 from .options import MAX_CONDITION, CouplingOptions
 from .spline_fit import JointSplineFit
@@ -223,6 +223,10 @@ class CouplingResult(JointEstimate):
         if cal is not None and self.calibration_applied:
             eps = 100 * np.median(np.abs(cal.error), axis=0)
             why = f"F test p = {cal.p_value:.2g}" if self.options.calibration == "auto" else 'calibration = "columns"'
+            if cal.n_basis > CALIBRATION_BASIS:  # a finer basis than the default, taken because the data ask for it (column_calibration)
+                knots = (f[-1] - f[0]) / max(cal.n_basis - 3, 1)
+                why += (f"; varying over frequency on a {knots:.2g} Hz knot spacing ({cal.n_basis} functions per column, "
+                        "the finest the data ask for), as the noise of a short force window does")
             out.append(
                 "force calibration error of the excitation columns (median " + ", ".join(f"{v:.2g} %" for v in eps)
                 + f"; {why}): corrected, its uncertainty is in the bands"

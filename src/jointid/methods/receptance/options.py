@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import IdentificationError
-from .column_calibration import CALIBRATION_BASIS
+from .column_calibration import CALIBRATION_BASES
 from .frf_variance import WEIGHTINGS
 
 __all__ = ["CouplingOptions", "SMOOTHINGS", "CALIBRATIONS", "AUTO_STRUCTURED_MAX_DOFS", "AUTO_SPLINE_MAX_DOFS", "MAX_CONDITION"]
@@ -52,8 +52,9 @@ class CouplingOptions:
     calibration : {"auto", "columns", "none"}
         Force-calibration error per excitation column: corrected when the F test finds it
         ("auto"), always estimated and corrected ("columns"), or ignored ("none").
-    calibration_basis : int
-        B-spline functions per column for that error over the band.
+    calibration_basis : int or tuple of int
+        B-spline functions per column for that error over the band; a tuple: the candidates, the one of
+        lowest AIC is used (default :data:`~jointid.methods.receptance.column_calibration.CALIBRATION_BASES`).
     units_check : bool
         FRFs off by one gross factor in every excitation column (e.g. 1/9.81: g/N read as SI) are
         refused (:class:`~jointid.errors.DataError`); False: used as they are, with a finding and
@@ -73,7 +74,7 @@ class CouplingOptions:
     max_relative_std: float = 0.1
     n_basis: int | None = None
     calibration: str = "auto"
-    calibration_basis: int = CALIBRATION_BASIS
+    calibration_basis: int | tuple = CALIBRATION_BASES
     units_check: bool = True
     model_check: bool = True
     targets: tuple = ()
@@ -120,5 +121,6 @@ class CouplingOptions:
             raise IdentificationError(f"max_relative_std must be a positive number, got {self.max_relative_std!r}")
         if self.calibration not in CALIBRATIONS:
             raise IdentificationError(f"calibration must be one of {CALIBRATIONS}, got {self.calibration!r}")
-        if not (isinstance(self.calibration_basis, int) and self.calibration_basis >= 4):
-            raise IdentificationError(f"calibration_basis must be an integer >= 4, got {self.calibration_basis!r}")
+        bases = self.calibration_basis if isinstance(self.calibration_basis, tuple) else (self.calibration_basis,)
+        if not (bases and all(isinstance(b, int) and not isinstance(b, bool) and b >= 4 for b in bases)):
+            raise IdentificationError(f"calibration_basis must be an integer >= 4 or a tuple of them, got {self.calibration_basis!r}")
