@@ -150,3 +150,47 @@ def test_a_whiteness_rejection_from_correlated_frf_errors_says_so():
             assert r.calibration.n_basis == 16  # correlated errors do not ask for a finer column calibration
     assert said[1] == []
     assert len(said[5]) == 1 and "its class, so its bands are kept wide" in said[5][0], said[5]
+
+
+def _windowed_errors(shape, rng, tau_s, df_hz):
+    """FRF errors as an exponential window makes them: white noise times ``exp(-t / tau_s)`` over a record of
+    ``1 / df_hz`` seconds, Fourier transformed; every line and value, unit variance (complex)."""
+    F, m, e = shape
+    n = 4 * F
+    t = np.arange(n) / (n * df_hz)
+    x = rng.standard_normal((m * e, n)) * np.exp(-t / tau_s)
+    z = np.fft.rfft(x, axis=1)[:, 1:F + 1].T.reshape(F, m, e)
+    return z / np.sqrt(np.mean(np.abs(z) ** 2))
+
+
+def test_window_correlated_errors_are_not_a_smooth_residual_and_a_smooth_one_is():
+    """An exponential window (0.6 correlation at lag 1, a Lorentzian over lags) leaves ``smooth_excess`` near 0
+    and does not prove the free model wrong; independent errors plus a residual smooth over frequency (a quarter of
+    the noise's variance) prove it wrong although every band's ratio stays below the limit of 4."""
+    rng = np.random.default_rng(7)
+    F = 1000
+    Ymn, Yne, exact = _line_design_data(F, rng)
+    z = _windowed_errors(exact.shape, rng, tau_s=0.5, df_hz=0.5)
+    hz = np.linspace(5.0, 1000.0, F)
+    stats = residual_statistics(Ymn, Yne, exact + 0.01 * z, np.full(exact.shape, 1e-4))
+    assert 0.4 < stats.lag_correlation[0] < 0.8 and abs(stats.smooth_excess) < 0.02, (stats.lag_correlation, stats.smooth_excess)
+    assert not check_model(hz, stats).proven_wrong  # (a band's ratio can pass 4 from such correlation alone: 3.5-4.3)
+    phase = rng.uniform(0, 2 * np.pi, exact.shape[1:])
+    smooth = 0.5 * np.exp(1j * (2 * np.pi * hz[:, None, None] / 150.0 + phase))  # |.|^2 = 0.25 of the noise's
+    white = (rng.standard_normal(exact.shape) + 1j * rng.standard_normal(exact.shape)) / np.sqrt(2)
+    stats = residual_statistics(Ymn, Yne, exact + 0.01 * (white + smooth), np.full(exact.shape, 1e-4))
+    check = check_model(hz, stats)
+    assert stats.smooth_excess > 0.1 and np.all(check.ratio < MODEL_RESIDUAL_RATIO), (stats.smooth_excess, check.ratio)
+    assert check.proven_wrong and check.failed_lines.all()
+    assert check.finding(hz).startswith("the free model does not explain these FRFs: its residual is near the noise (")
+    assert check.finding(hz).endswith("every term flagged unreliable on every line")
+
+
+def test_a_modulus_0_2_percent_off_is_flagged_on_every_line(fine_data):
+    """E 0.2 % high: residual ratios 1.2-2.5, below the limit, but smooth over frequency; the joint terms absorbed
+    it (K_w_w's bands held the truth on 54 % of its lines, all flagged reliable)."""
+    b = _study().structure
+    r = identify(_study(elastic_modulus=b.elastic_modulus * 1.002), fine_data)
+    found = [f for f in r.findings() if f.startswith("the free model does not explain these FRFs")]
+    assert len(found) == 1 and "smooth over frequency" in found[0], r.findings()
+    assert not r.reliable_terms.any()

@@ -22,10 +22,13 @@ from .options import MAX_CONDITION, CouplingOptions
 from .spline_fit import JointSplineFit
 from .structured_select import StructuredEstimate
 
-__all__ = ["CouplingResult", "GROSS_CALIBRATION_ERROR"]
+__all__ = ["CouplingResult", "GROSS_CALIBRATION_ERROR", "SAME_ERROR_SPREAD"]
 
 #: A median column calibration error above this (relative) is reported as a units or sensitivity problem.
 GROSS_CALIBRATION_ERROR = 0.1
+#: Column errors whose spread (max - min) is below this fraction of their median are "alike on every column": a free
+#: model's stiffness or mass off by about as much makes them so too.
+SAME_ERROR_SPREAD = 0.3
 
 
 @dataclass(frozen=True, eq=False)
@@ -231,6 +234,8 @@ class CouplingResult(JointEstimate):
                 "force calibration error of the excitation columns (median " + ", ".join(f"{v:.2g} %" for v in eps)
                 + f"; {why}): corrected, its uncertainty is in the bands"
                 + ("; more than force noise makes: check the hammer's sensitivity per column" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
+                + ("; as alike on every column as a free model whose stiffness or mass is off by about as much makes it "
+                   "(`jointid update` tells them apart)" if eps.size > 1 and np.ptp(eps) < SAME_ERROR_SPREAD * np.median(eps) else "")
             )
         rel = self.relative_std
         limit = self.options.threshold(self.term_names())  # max_relative_std, or a term's own target below it
