@@ -233,7 +233,8 @@ class CouplingResult(JointEstimate):
             out.append(
                 "force calibration error of the excitation columns (median " + ", ".join(f"{v:.2g} %" for v in eps)
                 + f"; {why}): corrected, its uncertainty is in the bands"
-                + ("; more than force noise makes: check the hammer's sensitivity per column" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
+                + ("; more than force noise makes: check the hammer's sensitivity per column and the FRFs' units (a file "
+                   "in g/N without unit labels is read as (m/s^2)/N)" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
                 + ("; as alike on every column as a free model whose stiffness or mass is off by about as much makes it "
                    "(`jointid update` tells them apart)" if eps.size > 1 and np.ptp(eps) < SAME_ERROR_SPREAD * np.median(eps) else "")
             )
