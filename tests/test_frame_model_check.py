@@ -99,3 +99,22 @@ def test_a_modulus_2_percent_off_is_flagged_on_every_line(frame):
     assert not r.reliable_terms.any()
     cal = [f for f in r.findings() if f.startswith("force calibration error of the excitation columns")]
     assert len(cal) == 1 and "as alike on every column as a free model whose stiffness or mass is off" in cal[0], cal
+
+
+def test_a_file_whose_points_are_numbered_otherwise_names_some_of_them(frame, tmp_path):
+    """Every record at a DOF the study does not have (points 1003, 1005, 1010 for grids 3, 5, 10): the refusal shows
+    some of the file's DOFs and where to map them."""
+    from jointid.dofs import Dof
+    from jointid.errors import DataError
+    from jointid.io.frf_files import write_frf
+    from jointid.pipeline import read_measured
+
+    right, _, frf = frame
+    renamed = dataclasses.replace(frf, responses=tuple(Dof(d.node + 1000, d.direction) for d in frf.responses),
+                                  references=tuple(Dof(d.node + 1000, d.direction) for d in frf.references))
+    path = write_frf(tmp_path / "renamed.uff", renamed)
+    with pytest.raises(DataError) as err:
+        read_measured(right, path)
+    assert str(err.value).endswith(
+        "skipped 81 records: 81 at DOFs not in the study (the file's DOFs include 1003x, 1003y, 1003z, 1005x, 1005y, 1005z, "
+        "...: if the file numbers its points otherwise, map them to the model's nodes in the study's [measurement.points])"), err.value

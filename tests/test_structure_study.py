@@ -183,10 +183,10 @@ def test_structure_study_errors_are_one_exact_line(tmp_path):
     )
     few = 'observed = ["1x", "2x", "3x", "4x", "5x", "6x", "7x", "8x", "9x", "10x", "1y"]'
     assert _error(tmp_path, lambda t: re.sub(r"observed = \[.*\]", few, t)) == (
-        "[measurement].observed: 11 observed DOFs for 12 joint DOFs (all joints together); observed at least as many DOFs as there are joint DOFs"
+        "[measurement].observed: 11 observed DOFs for 12 joint DOFs (all joints together); observe at least as many DOFs as there are joint DOFs"
     )
     assert _error(tmp_path, lambda t: re.sub(r"excited = \[.*\]", 'excited = ["2x", "2y"]', t)) == (
-        "[measurement].excited: 2 excited DOFs for 12 joint DOFs (all joints together); excited at least as many DOFs as there are joint DOFs"
+        "[measurement].excited: 2 excited DOFs for 12 joint DOFs (all joints together); excite at least as many DOFs as there are joint DOFs"
     )
     assert _error(tmp_path, lambda t: t.replace('mass = "model.npz"', 'mass = "model.npz"\n[beam]\nlength = 1.0')) == (
         "give either [beam] (the beam factory) or [structure] (matrix files), not both"

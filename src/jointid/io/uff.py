@@ -168,7 +168,7 @@ def read_uff_frf(
     )
     frf_records, coh_records = read_records(path, sel)
     if not frf_records:
-        skipped = sel.skipped_line()
+        skipped = sel.skipped_line(examples=True)
         hint = ""
         if any(k.startswith("in ") for k in sel.skipped):
             hint = "; if the beam was measured along another direction, give that axis (the study's [measurement].axis)"

@@ -80,10 +80,12 @@ class Selection:
     references: Collection[Dof] | None = None
     coherence: bool = False
     skipped: Counter = field(default_factory=Counter)
+    unmatched: set = field(default_factory=set)  # DOFs of records skipped as not in the study (for the message)
     coherence_problem: str | None = None  # why the coherence records cannot be used (they are not needed)
 
-    def skipped_line(self) -> str | None:
-        """``skipped 42 records: 20 in X/Z, 19 coherence, 3 at DOFs not in the study`` (or None)."""
+    def skipped_line(self, examples: bool = False) -> str | None:
+        """``skipped 42 records: 20 in X/Z, 19 coherence, 3 at DOFs not in the study`` (or None); ``examples``: with
+        some of the DOFs not in the study and where to map them (when nothing could be read)."""
         n = sum(self.skipped.values())
         if not n:
             return None
@@ -92,7 +94,12 @@ class Selection:
         if dirs:  # one entry for every other direction: "42 in X/Z"
             counts["in " + "/".join(dirs)] = sum(v for k, v in self.skipped.items() if k.startswith("in "))
         parts = [f"{c} {what}" for what, c in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))]
-        return f"skipped {n} record{'s' if n != 1 else ''}: " + ", ".join(parts)
+        line = f"skipped {n} record{'s' if n != 1 else ''}: " + ", ".join(parts)
+        if examples and self.unmatched:
+            seen = sorted(self.unmatched, key=lambda d: (d.node, d.direction))
+            line += (f" (the file's DOFs include {', '.join(str(d) for d in seen[:6])}{', ...' if len(seen) > 6 else ''}: "
+                     "if the file numbers its points otherwise, map them to the model's nodes in the study's [measurement.points])")
+        return line
 
 
 def _describe(path: Path, index: int, d: dict) -> str:
@@ -146,6 +153,7 @@ def map_record(d: dict, sel: Selection, where: str) -> tuple[Dof, Dof, float] | 
     if (sel.responses is not None and dofs[0] not in sel.responses) or (
         sel.references is not None and dofs[1] not in sel.references
     ):
+        sel.unmatched.update(d for d, known in zip(dofs, (sel.responses, sel.references)) if known is not None and d not in known)
         return "at DOFs not in the study"
     if code is None:
         sign = (1.0 if dirs[0] > 0 else -1.0) * (1.0 if dirs[1] > 0 else -1.0)

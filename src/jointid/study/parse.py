@@ -499,7 +499,7 @@ def _parse_structure_study(data: Mapping[str, Any], source: str) -> Study:
         if len(dofs[key]) < n_joint:
             raise StudyError(
                 f"[measurement].{key}: {len(dofs[key])} {what} DOFs for {n_joint} joint DOFs (all joints together); "
-                f"{what} at least as many DOFs as there are joint DOFs"
+                f"{'observe' if key == 'observed' else 'excite'} at least as many DOFs as there are joint DOFs"
             )
     points = ()
     if "points" in mdata:
