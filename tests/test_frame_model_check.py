@@ -19,6 +19,8 @@ from jointid.physics import FrameSection, Material, build_frame
 from jointid.pipeline import identify, simulate
 from jointid.study.parse import load_study
 
+from structure_model import toml_list
+
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
@@ -34,7 +36,6 @@ def _frame_study(folder, e_factor=1.0):
     frame = build_frame(nodes, [(1, 2, tube, steel, 4), (2, 3, box, steel, 4), (3, 4, tube, steel, 4), (4, 1, box, steel, 4),
                                 (2, 5, tube, steel, 2)])
     write_free_matrices(folder / "model", sp.csr_matrix(frame.mass), sp.csr_matrix(frame.stiffness), frame.dofs, format="mtx")
-    names = lambda xs: "[" + ", ".join(f'"{x}"' for x in xs) + "]"  # noqa: E731
     (folder / "study.toml").write_text(textwrap.dedent(f"""\
         [structure]
         mass = "model_M.mtx"
@@ -44,7 +45,7 @@ def _frame_study(folder, e_factor=1.0):
 
         [[joint]]
         name = "mount"
-        dofs = {names(f"1{c}" for c in COMPONENTS)}
+        dofs = {toml_list(f"1{c}" for c in COMPONENTS)}
         [joint.model]
         type = "mount"
         stiffness = [3e6, 2e6, 4e6, 8e3, 6e3, 5e3]
@@ -55,8 +56,8 @@ def _frame_study(folder, e_factor=1.0):
         exponent = 1.0
 
         [measurement]
-        observed = {names(MEASURED)}
-        excited = {names(MEASURED)}
+        observed = {toml_list(MEASURED)}
+        excited = {toml_list(MEASURED)}
 
         [frequency]
         start = 2.0
