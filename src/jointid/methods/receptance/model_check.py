@@ -53,10 +53,9 @@ Euler-Bernoulli beam) with a model error. Above :data:`SMOOTH_EXCESS_LIMIT` and 
 (``1 / sqrt(2 dof F)``), or above :data:`SMOOTH_EXCESS_WITH_FAILED_BAND` when a band's ratio fails too
 (a 3-D frame on a 6-DOF mount with E 2 % off: 0.039 and 5.8x at 2-15.5 Hz, while the other bands'
 1.1-1.4x let rotational terms 3-10 times off through as reliable), the free model is proven wrong as
-above: every band fails. A smooth processing
-error (leakage, a window's correction) or a column error the calibration does not follow looks the
-same, and biases the joint as much. Caveat: E 0.05 % off is below the limit (K_w_w's bands then hold
-the truth on 84 % of its lines).
+above: every band fails. A smooth processing error (leakage, a window's correction) or a column error
+the calibration does not follow looks the same, and biases the joint as much. Caveat: E 0.05 % off is
+below the limit (K_w_w's bands then hold the truth on 84 % of its lines).
 
 Caveats: noise correlated over neighbouring lines (a strong time window smooths the
 spectrum) lowers ``noise_f`` and raises ``R``; a frequency step much coarser than the
