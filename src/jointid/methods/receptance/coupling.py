@@ -238,27 +238,33 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         lines = force.line_estimates(Ymn, Yne, Ynn, Yme - H, H, variance, options.symmetric, common_x_covariance=common)
     else:
         lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
-    spline = None
-    if options.over_frequency(nn) == "spline" and not _exact(lines):  # exact data: the per-line estimates are the answer
-        if not options.symmetric:
-            raise IdentificationError('smoothing = "spline" fits a symmetric joint; use symmetric = true or another smoothing')
-        # the FRFs as measured: the fit of every line at once has its own noise scale, and a column correction
-        # estimated line by line would be a second model of the same data
-        spline = fit_joint_spline(freq.hz, Ymn, Ynn, Yne, Yme, measured_H, measured_variance, symmetric=True,
-                                  initial=lines.stiffness)
-        if not spline.converged:
-            notes.append("the joint spline fit did not converge on these FRFs (smoothing = \"spline\"): each term smoothed "
-                         "on its own instead")
-            spline = None
     # with a measured variance the check weights by the chosen shape: the running means of the residuals would hold a
     # free-model error as "noise" and hide it
     stats = (residual_statistics(Ymn, Yne, Yme - H, shape if floor else variance, options.symmetric)
              if options.model_check and not kron else None)
+    proven_wrong = False
     if stats is not None:  # does the free model explain the FRFs, band by band (model_check)?
         check = check_model(freq.hz, stats)
+        proven_wrong = check.proven_wrong
         if not check.fits:
             notes.append(check.finding(freq.hz))
             checked = check.failed_lines if checked is None else checked | check.failed_lines
+    spline = None
+    if options.over_frequency(nn) == "spline" and not _exact(lines):  # exact data: the per-line estimates are the answer
+        if not options.symmetric:
+            raise IdentificationError('smoothing = "spline" fits a symmetric joint; use symmetric = true or another smoothing')
+        if proven_wrong:  # every line is flagged anyway: the fit of all lines at once (minutes on a 6-DOF mount) is not run
+            notes.append("the joint spline fit was not run: the free model does not explain these FRFs (above), so every "
+                         "line is flagged whatever the estimate; each term smoothed on its own instead")
+        else:
+            # the FRFs as measured: the fit of every line at once has its own noise scale, and a column correction
+            # estimated line by line would be a second model of the same data
+            spline = fit_joint_spline(freq.hz, Ymn, Ynn, Yne, Yme, measured_H, measured_variance, symmetric=True,
+                                      initial=lines.stiffness)
+            if not spline.converged:
+                notes.append("the joint spline fit did not converge on these FRFs (smoothing = \"spline\"): each term "
+                             "smoothed on its own instead")
+                spline = None
     uncertain = None
     if isinstance(model, UncertainFreeModel) and (model.directions or model.references):  # the free model's error -> the bands
         dY = model.receptance_deviations(freq, tuple(m_dofs) + tuple(n_dofs), tuple(n_dofs) + tuple(e_dofs))
