@@ -128,3 +128,27 @@ def test_the_default_estimator_does_not_fit_all_lines_when_every_line_is_flagged
     assert r.spline is None and not r.reliable_terms.any()
     assert ("the joint spline fit was not run: the free model does not explain these FRFs (above), so every line is "
             "flagged whatever the estimate; each term smoothed on its own instead") in r.findings()
+
+
+def test_the_headline_of_a_6_dof_mount_also_counts_the_diagonal_terms(monkeypatch):
+    """Couplings near zero are never reliable relative to themselves: "0% of lines reliable" said nothing of the
+    mount's own stiffnesses; the headline adds the lines where every diagonal term is reliable."""
+    from types import SimpleNamespace
+
+    import jointid.cli.identify as cli_identify
+    from jointid.frequency import Frequency
+
+    monkeypatch.setattr(cli_identify, "term_lines", lambda result, study: [])
+    terms = np.ones((4, 6, 6), bool)
+    terms[:, 0, 4] = terms[:, 4, 0] = False  # a zero coupling: never reliable
+    terms[3, 2, 2] = False  # K_z_z unreliable on the last line
+    result = SimpleNamespace(frequency=Frequency(np.array([10.0, 20.0, 30.0, 40.0])), joint_dofs=tuple(range(6)),
+                             reliable=terms.all(axis=(1, 2)), reliable_terms=terms, describe_estimator=lambda: "x",
+                             findings=lambda: [])
+    first = cli_identify.identification_lines(result, SimpleNamespace(joints=(0,)))[0]
+    assert first == ("identified 6x6 joint stiffness on 4 lines (10-40 Hz); 0% of lines reliable on every term, 75% on "
+                     "every diagonal term")
+    terms[:, 0, 4] = terms[:, 4, 0] = True
+    result = SimpleNamespace(**{**vars(result), "reliable": terms.all(axis=(1, 2))})  # couplings reliable: no second figure
+    assert cli_identify.identification_lines(result, SimpleNamespace(joints=(0,)))[0] == (
+        "identified 6x6 joint stiffness on 4 lines (10-40 Hz); 75% of lines reliable")

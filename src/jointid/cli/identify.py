@@ -281,6 +281,10 @@ def identification_lines(result, study, wrote=(), max_findings: int | None = MAX
     what = f"{len(study.joints)} joints, " if len(study.joints) > 1 else ""
     first = (f"identified {what}{len(result.joint_dofs)}x{len(result.joint_dofs)} joint stiffness on {f.size} lines "
              f"({f[0]:g}-{f[-1]:g} Hz); {100 * np.mean(result.reliable):.0f}% of lines reliable")
+    n = len(result.joint_dofs)
+    diagonal = float(np.mean(result.reliable_terms[:, np.arange(n), np.arange(n)].all(axis=1)))
+    if n > 1 and round(100 * diagonal) != round(100 * np.mean(result.reliable)):  # couplings near 0 are never reliable
+        first += f" on every term, {100 * diagonal:.0f}% on every diagonal term"
     lines = [first + (f"; wrote {', '.join(str(p) for p in wrote)}" if wrote else "")]
     lines.append(f"estimator: {result.describe_estimator()}")
     lines.extend(term_lines(result, study))
