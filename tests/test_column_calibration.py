@@ -227,3 +227,18 @@ def test_a_column_error_finer_than_the_default_basis_gets_a_finer_one(case):
     ok = auto.reliable_terms[:, 0, 0]
     assert ok.mean() > 0.5 and np.mean(z[ok] > 3) < 0.1
     assert any("functions per column, the finest the data ask for" in f for f in auto.findings()), auto.findings()
+
+
+def test_a_flipped_excitation_column_is_named_as_a_sign(case):
+    """One hit column measured with the sign flipped is corrected as a -200 % column error, which the finding names
+    as a sign of that column (it pointed at the hammer's sensitivity and the units only)."""
+    st, test, model = case
+    noisy = _measured(test, np.zeros((test.frf.data.shape[0], 3)), 0.002, seed=3)
+    d = noisy.data.copy()
+    d[:, :, 1] *= -1
+    flipped = FRF(test.frf.frequency, d, test.frf.responses, test.frf.references, test.frf.kind)
+    r = identify_joint_coupling(model, flipped, st.joint.joint_dofs)
+    said = [f for f in r.findings() if f.startswith("force calibration error of the excitation columns")]
+    assert len(said) == 1 and said[0].endswith(
+        "; excitation column 2 (in the study's order) measured the negative of what the free model predicts: a flipped "
+        "sign of the hammer or of the responses' direction in that column"), said

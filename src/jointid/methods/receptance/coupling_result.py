@@ -235,6 +235,7 @@ class CouplingResult(JointEstimate):
                 + f"; {why}): corrected, its uncertainty is in the bands"
                 + ("; more than force noise makes: check the hammer's sensitivity per column and the FRFs' units (a file "
                    "in g/N without unit labels is read as (m/s^2)/N)" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
+                + _flipped_columns(cal.error)
                 + ("; as alike on every column as a free model whose stiffness or mass is off by about as much makes it "
                    "(`jointid update` tells them apart)" if eps.size > 1 and np.ptp(eps) < SAME_ERROR_SPREAD * np.median(eps) else "")
             )
@@ -274,3 +275,15 @@ def _where(f: np.ndarray, lines: np.ndarray) -> str:
     if not spans:
         return f"on {int(lines.sum())} scattered lines"
     return "in " + ", ".join(f"{lo:g}-{hi:g} Hz" for lo, hi in spans[:4]) + (" ..." if len(spans) > 4 else "")
+
+
+def _flipped_columns(error: np.ndarray) -> str:
+    """"; column(s) 2 ... the negative of ..." for excitation columns whose median error is -200 % (measured = -true)."""
+    med = np.median(error.real, axis=0), np.median(error.imag, axis=0)
+    flipped = [j + 1 for j in range(error.shape[1]) if abs(med[0][j] + 2.0) < 0.2 and abs(med[1][j]) < 0.2]
+    if not flipped:
+        return ""
+    which = ", ".join(str(j) for j in flipped)
+    return (f"; excitation column{'s' if len(flipped) > 1 else ''} {which} (in the study's order) measured the negative of "
+            "what the free model predicts: a flipped sign of the hammer or of the responses' direction in that column")
+
