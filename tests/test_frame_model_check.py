@@ -73,7 +73,7 @@ def frame(tmp_path_factory):
     root = tmp_path_factory.mktemp("frame")
     right = _frame_study(root / "right")
     test = simulate(right)
-    rng = np.random.default_rng(1)
+    rng = np.random.default_rng(2)  # seed 1 happened not to find a column error; 2-8 did
     z = (rng.standard_normal(test.frf.data.shape) + 1j * rng.standard_normal(test.frf.data.shape)) / np.sqrt(2)
     frf = dataclasses.replace(test.frf, data=test.frf.data * (1 + 0.01 * z))
     return right, _frame_study(root / "stiff", e_factor=1.02), frf, _frame_study(root / "stiff_default", 1.02, None)
@@ -84,10 +84,15 @@ def _model_findings(r):
 
 
 def test_the_right_free_model_is_not_flagged_and_no_column_error_is_corrected(frame):
+    """The calibration's F test finds a column error that is not there (14-16 on 7 of 8 seeds), and the corrected
+    FRFs miss the free model by 42x the noise at 2-15.5 Hz: such a correction is not applied, and a note says why."""
     right, _, frf, _ = frame
     r = identify(right, frf)
     assert _model_findings(r) == [], r.findings()
     assert not r.calibration_applied
+    assert any(f.startswith("a force calibration error of the excitation columns was found (F test p = ") and f.endswith(
+        "but the corrected FRFs fit the free model worse than the measured ones (its model check fails with it and passes "
+        "without it): not applied") for f in r.findings()), r.findings()
     assert r.reliable_terms[:, 0, 0].any()
 
 

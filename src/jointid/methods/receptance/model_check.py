@@ -292,7 +292,8 @@ def _ratio_text(v: float) -> str:
     return f"{v:.1f}" if v < 9.95 else f"{v:.0f}"
 
 
-def check_model(hz: np.ndarray, stats: ResidualStatistics, ratio_limit: float = MODEL_RESIDUAL_RATIO) -> ModelCheck:
+def check_model(hz: np.ndarray, stats: ResidualStatistics, ratio_limit: float = MODEL_RESIDUAL_RATIO,
+                smooth_limit: float = SMOOTH_EXCESS_LIMIT) -> ModelCheck:
     """Test the free model band by band: ``R_b = median chi2 / median noise`` against ``ratio_limit``.
 
     A band fails above ``ratio_limit``; every band fails when some band is above
@@ -306,6 +307,9 @@ def check_model(hz: np.ndarray, stats: ResidualStatistics, ratio_limit: float = 
         Frequencies of the lines, Hz.
     stats : ResidualStatistics
     ratio_limit : float
+    smooth_limit : float
+        The ``smooth_excess`` that proves the free model wrong when no band fails (with a failed band:
+        :data:`SMOOTH_EXCESS_WITH_FAILED_BAND`, or ``smooth_limit`` if lower).
 
     Returns
     -------
@@ -323,7 +327,7 @@ def check_model(hz: np.ndarray, stats: ResidualStatistics, ratio_limit: float = 
         ratio[i] = float(np.median(chi2) / max(float(np.median(noise)), MIN_NOISE_LEVEL))
         failed[a:b] = ratio[i] > ratio_limit
     excess = stats.smooth_excess
-    limit = SMOOTH_EXCESS_WITH_FAILED_BAND if failed.any() else SMOOTH_EXCESS_LIMIT
+    limit = min(SMOOTH_EXCESS_WITH_FAILED_BAND, smooth_limit) if failed.any() else smooth_limit
     smooth = bool(np.isfinite(excess) and excess > max(limit, 5.0 * stats.lag_correlation_se))
     if np.any(ratio > MODEL_ERROR_PROVEN_RATIO) or smooth:
         failed[:] = True
