@@ -22,13 +22,15 @@ from .options import MAX_CONDITION, CouplingOptions
 from .spline_fit import JointSplineFit
 from .structured_select import StructuredEstimate
 
-__all__ = ["CouplingResult", "GROSS_CALIBRATION_ERROR", "SAME_ERROR_SPREAD"]
+__all__ = ["CouplingResult", "GROSS_CALIBRATION_ERROR", "SAME_ERROR_SPREAD", "SAME_ERROR_MIN"]
 
 #: A median column calibration error above this (relative) is reported as a units or sensitivity problem.
 GROSS_CALIBRATION_ERROR = 0.1
 #: Column errors whose spread (max - min) is below this fraction of their median are "alike on every column": a free
 #: model's stiffness or mass off by about as much makes them so too.
 SAME_ERROR_SPREAD = 0.3
+#: ... and each above this (relative): below it, force noise alone makes such errors.
+SAME_ERROR_MIN = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -237,7 +239,8 @@ class CouplingResult(JointEstimate):
                    "in g/N without unit labels is read as (m/s^2)/N)" if eps.max() > 100 * GROSS_CALIBRATION_ERROR else "")
                 + _flipped_columns(cal.error)
                 + ("; as alike on every column as a free model whose stiffness or mass is off by about as much makes it "
-                   "(`jointid update` tells them apart)" if eps.size > 1 and np.ptp(eps) < SAME_ERROR_SPREAD * np.median(eps) else "")
+                   "(`jointid update` tells them apart)"
+                   if eps.size > 1 and eps.min() > 100 * SAME_ERROR_MIN and np.ptp(eps) < SAME_ERROR_SPREAD * np.median(eps) else "")
             )
         rel = self.relative_std
         limit = self.options.threshold(self.term_names())  # max_relative_std, or a term's own target below it
