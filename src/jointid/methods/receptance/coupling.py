@@ -60,7 +60,7 @@ prints the default's largest error per term).
 from __future__ import annotations
 
 import warnings
-from typing import ClassVar, Sequence
+from typing import ClassVar, NamedTuple, Sequence
 
 import numpy as np
 
@@ -78,7 +78,7 @@ from .coupling_lines import MAX_INVERSE_PERTURBATION, coupling_per_line, inverse
 from .force_noise import detect_force_noise
 from .junk_lines import junk_lines
 from .model_uncertainty import ModelUncertainty, model_uncertainty
-from .model_check import SMOOTH_EXCESS_LIMIT, SMOOTH_EXCESS_WITH_FAILED_BAND, check_model, residual_statistics
+from .model_check import SMOOTH_EXCESS_LIMIT, SMOOTH_EXCESS_WITH_FAILED_BAND, ResidualStatistics, check_model, residual_statistics
 from .units_check import units_conclusion
 from ..frf_screening import check_visibility, floor_exact_zeros, noise_level_unknown, screen_measured
 from .frf_variance import RELATIVE_FLOOR, column_noise_fraction, frf_variance
@@ -230,16 +230,20 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     variance = floor_exact_zeros(variance, H, RELATIVE_FLOOR)
     common = None
     suspect = False  # a column error found and not applied (it made the fit worse): the model check is stricter
+    stats = None  # the model check's residual statistics, when already computed on the FRFs used below
     if applied:
         raw = H, variance
         H, variance = cal.apply(H, variance)
         common = cal.x_covariance
-        if (options.calibration == "auto" and options.model_check and not kron
-                and _calibration_worsens_fit(freq.hz, Ymn, Yne, Yme, raw, (H, variance), options.symmetric)):
+        fit = (_calibration_worsens_fit(freq.hz, Ymn, Yne, Yme, raw, (H, variance), options.symmetric)
+               if options.calibration == "auto" and options.model_check and not kron else None)
+        if fit is not None and fit.worse:
             (H, variance), common, applied, suspect = raw, None, False, True
             notes.append(f"a force calibration error of the excitation columns was found (F test p = {cal.p_value:.2g}) but "
                          "the corrected FRFs fit the free model worse than the measured ones (its model check fails with it "
                          "and passes without it): not applied")
+        if fit is not None and not floor:  # the check below weighs by the same variance: computed once
+            stats = fit.raw if fit.worse else fit.corrected
     # without coherence, a random error common to each excitation column line by line (force noise) is tested for
     # in the residuals and, when found, weighted by its own covariance (:mod:`.force_noise`)
     force = (detect_force_noise(Ymn, Yne, Yme - H, H, variance, options.symmetric)
@@ -251,8 +255,8 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         lines = coupling_per_line(Ymn, Yne, Ynn, Yme - H, variance, options.symmetric, common_x_covariance=common)
     # with a measured variance the check weights by the chosen shape: the running means of the residuals would hold a
     # free-model error as "noise" and hide it
-    stats = (residual_statistics(Ymn, Yne, Yme - H, shape if floor else variance, options.symmetric)
-             if options.model_check and not kron else None)
+    if stats is None and options.model_check and not kron:
+        stats = residual_statistics(Ymn, Yne, Yme - H, shape if floor else variance, options.symmetric)
     proven_wrong = False
     if stats is not None:  # does the free model explain the FRFs, band by band (model_check)?
         check = check_model(freq.hz, stats, smooth_limit=SUSPECT_SMOOTH_EXCESS if suspect else SMOOTH_EXCESS_LIMIT)
@@ -287,21 +291,32 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     return _finish(freq, n_dofs, lines, source, options, cal, applied, tuple(notes), checked, spline, uncertain, correlation)
 
 
-def _calibration_worsens_fit(hz, Ymn, Yne, Yme, raw: tuple, corrected: tuple, symmetric: bool) -> bool:
-    """The calibrated FRFs fail the model check (:func:`~.model_check.check_model`) while the measured ones pass it.
+class _CalibratedFit(NamedTuple):
+    """Whether a column correction makes the free model fit worse, and the model check's residual statistics of the
+    corrected and the measured FRFs (:func:`_calibration_worsens_fit`; None: not computed)."""
+
+    worse: bool
+    corrected: ResidualStatistics | None
+    raw: ResidualStatistics | None
+
+
+def _calibration_worsens_fit(hz, Ymn, Yne, Yme, raw: tuple, corrected: tuple, symmetric: bool) -> _CalibratedFit:
+    """Whether the calibrated FRFs fail the model check (:func:`~.model_check.check_model`) while the measured ones pass it.
 
     A correction that makes the free model fit worse is not one: on a 3-D frame with its right free model (9 x 9 FRFs,
     1 % relative noise) the calibration's F test came out 14-16 with no column error on 7 of 8 seeds, and the corrected
     FRFs missed the free model by 42x the noise at 2-15.5 Hz. A column error found and then not applied is a reason
     for suspicion: the measured FRFs must then pass with the lower smooth-residual limit
     (:data:`SUSPECT_SMOOTH_EXCESS`, also used by the model check that follows): with E 2 % off on that frame their
-    smooth excess was 0.046-0.081, with the right model 0.001. ``raw``, ``corrected``: ``(H, variance)`` each.
+    smooth excess was 0.046-0.081, with the right model 0.001. ``raw``, ``corrected``: ``(H, variance)`` each. The
+    statistics are returned for the model check that follows (computed once).
     """
-    stats = residual_statistics(Ymn, Yne, Yme - corrected[0], corrected[1], symmetric)
-    if stats is None or check_model(hz, stats).fits:
-        return False
-    stats = residual_statistics(Ymn, Yne, Yme - raw[0], raw[1], symmetric)
-    return stats is not None and check_model(hz, stats, smooth_limit=SUSPECT_SMOOTH_EXCESS).fits
+    fixed = residual_statistics(Ymn, Yne, Yme - corrected[0], corrected[1], symmetric)
+    if fixed is None or check_model(hz, fixed).fits:
+        return _CalibratedFit(False, fixed, None)
+    measured = residual_statistics(Ymn, Yne, Yme - raw[0], raw[1], symmetric)
+    worse = measured is not None and check_model(hz, measured, smooth_limit=SUSPECT_SMOOTH_EXCESS).fits
+    return _CalibratedFit(worse, fixed, measured)
 
 
 def _units_check(freq: Frequency, Ymn, Yne, Yme, H, variance, cal, options: CouplingOptions, kron: bool, notes: list) -> np.ndarray | None:

@@ -176,7 +176,8 @@ def residual_statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, va
     noise = np.full(F, np.nan)
     noise[1:-1] = np.median(d2.real ** 2 + d2.imag ** 2, axis=1) / (6.0 * np.log(2.0) * dof / (m * e))
     rho, z = _lag_correlation(r, dof)
-    lags = np.array([_lag_correlation(r, dof, k)[0] for k in range(1, SMOOTH_LAGS[-1] + 1)]) if F > 4 * SMOOTH_LAGS[-1] else np.zeros(0)
+    lags = (np.array([rho] + [_lag_correlation(r, dof, k)[0] for k in range(2, SMOOTH_LAGS[-1] + 1)])
+            if F > 4 * SMOOTH_LAGS[-1] else np.zeros(0))
     return ResidualStatistics(chi2, noise, rho, z, lags, 1.0 / float(np.sqrt(2.0 * dof * F)))
 
 
