@@ -1,7 +1,8 @@
 """The fast paths of ``jointid identify`` give what the plain paths give (issue 24 item 6).
 
 * the figure worker (a forked process) returns the PNG bytes this process draws, raises what it
-  raised, passes its warnings back, and ends when closed;
+  raised, passes its warnings back, and ends when closed; the FRF file it reads first is the one this
+  process reads, and when that read fails (or the worker is lost) this process reads the file itself;
 * the column calibration's banded sums and its covariance formed from factors equal the dense
   sums and ``G G^H`` within their rounding bounds;
 * the per-line design built from the parameter pairs equals ``kron(...) @ P`` within its rounding bound;
@@ -112,8 +113,8 @@ def test_identify_writes_the_same_files_with_and_without_the_worker(case, tmp_pa
 
     start = FigureWorker.start
 
-    def lost():  # a worker killed at once: the command draws the figure itself
-        worker = start()
+    def lost(**kwargs):  # a worker killed at once: the command reads the file and draws the figure itself
+        worker = start(**kwargs)
         os.kill(worker.pid, signal.SIGKILL)
         return worker
 
@@ -301,3 +302,113 @@ def test_a_signal_handler_of_the_caller_never_runs_the_caller_twice(tmp_path, mo
     finally:
         signal.signal(signal.SIGTERM, old)
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(f"{parent}-{i}" for i in range(3))
+
+
+def _same_frf(a, b) -> None:
+    """Every field of two FRFs equal, arrays bit for bit and read-only alike."""
+    assert a.frequency.hz.tobytes() == b.frequency.hz.tobytes()
+    assert a.data.tobytes() == b.data.tobytes() and a.data.dtype == b.data.dtype and a.data.shape == b.data.shape
+    assert (a.coherence is None) == (b.coherence is None)
+    if a.coherence is not None:
+        assert a.coherence.tobytes() == b.coherence.tobytes() and not b.coherence.flags.writeable
+    assert (a.responses, a.references, a.kind, a.notes) == (b.responses, b.references, b.kind, b.notes)
+    assert not b.data.flags.writeable and not b.frequency.hz.flags.writeable
+
+
+@posix_only
+@pytest.mark.parametrize("with_coherence", [False, True])
+def test_the_file_the_worker_reads_first_is_the_file_read_here(case, tmp_path, with_coherence):
+    """FigureWorker.start(first=read_study_frf): the FRF the worker sends back equals the one read here (data,
+    coherence, labels, notes); the worker still draws the figure afterwards."""
+    import functools
+
+    from jointid.io.uff import write_uff_frf
+    from jointid.pipeline import read_measured
+    from jointid.plots.figure_worker import FigureWorker
+    from jointid.plots.stiffness_data import JointStiffnessData
+    from jointid.plots.style import figure_png
+    from jointid.study.measured import read_study_frf
+
+    st, measured, result = case
+    uff = tmp_path / "frf.uff"
+    extra = FRF(measured.frequency, np.concatenate([measured.data, measured.data[:, :1]], axis=1),
+                tuple(measured.responses) + ("2w",), measured.references, measured.kind)  # a DOF the study does not use
+    coherence = np.full(extra.shape, 0.97) if with_coherence else None
+    write_uff_frf(uff, extra, kind="accelerance", coherence=coherence)
+    here = read_measured(st, uff)
+    assert here.notes  # the records skipped
+    with FigureWorker.start(first=functools.partial(read_study_frf, st, uff)) as worker:
+        there = worker.first()
+        assert there is not None
+        _same_frf(here, there)
+        _same_frf(here, read_measured(st, uff, preread=there))
+        assert worker.first() is there  # asked again: the same answer
+        assert worker.submit("joint_stiffness", JointStiffnessData.of(result)).result() == figure_png(result.plot())
+
+
+@posix_only
+def test_a_first_task_that_fails_or_warns_gives_no_result():
+    """An exception or a warning of the first task, a result that does not pickle, a lost worker: None (the caller
+    then runs the task itself, so its errors and warnings are its own); a worker without a first task: None."""
+    import signal
+    import threading
+
+    from jointid.plots.figure_worker import FigureWorker
+
+    def raises():
+        raise ValueError("bad file")
+
+    def warns():
+        warnings.warn("odd file")
+        return 1
+
+    for task in (raises, warns, lambda: threading.Lock()):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            with FigureWorker.start(first=task) as worker:
+                assert worker.first() is None
+        assert not caught  # nothing of the worker's is raised or warned here
+    with FigureWorker.start(first=lambda: 42) as worker:
+        assert worker.first() == 42
+    with FigureWorker.start() as worker:
+        assert worker.first() is None
+    with FigureWorker.start(first=lambda: __import__("time").sleep(60)) as worker:
+        os.kill(worker.pid, signal.SIGKILL)
+        assert worker.first() is None
+
+
+@posix_only
+def test_a_worker_that_hangs_on_its_first_task_is_ended(monkeypatch):
+    """No answer within FIRST_SECONDS: the worker is ended, the caller reads here and draws here (WorkerLost)."""
+    import time
+
+    from jointid.plots import figure_worker
+    from jointid.plots.figure_worker import FigureWorker, WorkerLost
+
+    monkeypatch.setattr(figure_worker, "FIRST_SECONDS", 0.2)
+    t = time.perf_counter()
+    with FigureWorker.start(first=lambda: time.sleep(60)) as worker:
+        assert worker.first() is None
+        with pytest.raises(WorkerLost):
+            worker.submit("joint_stiffness", None).result()
+    assert time.perf_counter() - t < 10.0
+
+
+@posix_only
+def test_identify_with_a_bad_file_says_the_same_with_and_without_the_worker(tmp_path, monkeypatch, capsys):
+    """A file the worker cannot read: the command reads it itself and stops with the same one line and exit 2."""
+    from jointid.cli.main import main
+    from jointid.benchmark import benchmark_study_path
+
+    study = tmp_path / "study.toml"
+    study.write_text(open(benchmark_study_path()).read())
+    bad = tmp_path / "frf.uff"
+    bad.write_text("    -1\n    58\nnot a record\n    -1\n")
+    said = {}
+    for flag in ("0", "1"):
+        monkeypatch.setenv("JOINTID_FIGURE_WORKER", flag)
+        code = main(["identify", str(study), "--frf", str(bad), "--out", str(tmp_path / f"out{flag}")])
+        out, err = capsys.readouterr()
+        said[flag] = (code, out, err)
+    assert said["0"] == said["1"]
+    assert said["0"][0] == 2 and len(said["0"][2].strip().splitlines()) == 1 and str(bad) in said["0"][2]

@@ -129,7 +129,7 @@ def coupling_options(study: Study) -> CouplingOptions:
     )
 
 
-def read_measured(study: Study, path: str | os.PathLike) -> FRF:
+def read_measured(study: Study, path: str | os.PathLike, preread: FRF | None = None) -> FRF:
     """Read a measured FRF file as the study describes it: only the FRFs the study uses, in SI.
 
     ``[measurement].points`` maps the file's point ids to model nodes; how the file's
@@ -139,16 +139,18 @@ def read_measured(study: Study, path: str | os.PathLike) -> FRF:
     excited FRFs (and their coherence, when the file has it) are read; ``FRF.notes`` says in one
     line each what was converted to SI and what was skipped.
 
+    ``preread``: the file as :func:`jointid.study.measured.read_study_frf` read it elsewhere (``jointid
+    identify`` reads it in its figure worker while this process imports the estimators); None: read here.
+    Either way the study's DOFs are checked here.
+
     Raises
     ------
     DataError
         A record the study needs cannot be read (naming the file and the record).
     """
-    from .io.frf_files import read_frf
+    from .study.measured import read_study_frf
 
-    m = study.measurement
-    measured = read_frf(path, points=m.point_map, responses=m.observed_dofs, references=m.excited_dofs, coherence=True,
-                        **study.structure.frf_reading(m))
+    measured = preread if preread is not None else read_study_frf(study, path)
     _require_study_dofs(study, measured, f"the FRF file {path}")
     return measured
 

@@ -217,7 +217,9 @@ def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, trut
     shown : Path, optional
         The name of the file in messages, ``summary.json`` and the report (default ``path``).
     worker : FigureWorker, optional
-        Draws the joint stiffness figures in a second process (:func:`write_identification`).
+        Draws the joint stiffness figures in a second process (:func:`write_identification`). When it was started
+        with ``first`` reading ``path`` (:func:`jointid.study.measured.read_study_frf`, as :func:`run` does), the FRF it
+        read is used (:meth:`~jointid.plots.figure_worker.FigureWorker.first`; none: ``path`` is read here).
     truth : ndarray, shape (F_file, n, n), optional
         True joint stiffness on the file's lines, drawn dashed in the figures
         (cut here to the lines identified).
@@ -231,7 +233,8 @@ def identify_file(study, path: Path, out: OutputSet, *, plots: bool = True, trut
     from ..pipeline import identify, read_measured
 
     shown = path if shown is None else shown
-    measured = read_measured(study, path)
+    # the pipeline's imports above ran while the worker (if any) read the file
+    measured = read_measured(study, path, preread=None if worker is None else worker.first())
     for note in measured.notes:  # unit conversion, skipped records
         print(f"{shown}: {note}")
     result = identify(study, measured)
@@ -304,15 +307,18 @@ def output_files(study) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     import contextlib
+    import functools
 
     from ..plots.figure_worker import FigureWorker
+    from ..study.measured import read_study_frf
 
-    # the figure's process starts first: it imports matplotlib while this one reads and identifies
-    worker = None if args.no_plots else FigureWorker.start()
+    study = study_from_args(args)
+    # the figure's process starts first: it reads the FRF file while this one imports the estimators, then imports
+    # matplotlib while this one identifies
+    worker = None if args.no_plots else FigureWorker.start(first=functools.partial(read_study_frf, study, args.frf))
     with contextlib.ExitStack() as stack:
         if worker is not None:
             stack.enter_context(worker)
-        study = study_from_args(args)
         with OutputSet(args.out, command="identify") as out:
             result, _ = identify_file(study, args.frf, out, plots=not args.no_plots, worker=worker)
     for line in identification_lines(result, study, wrote=[out.path(x) for x in output_files(study)]):

@@ -8,6 +8,12 @@ parent sends (plain data: :class:`~jointid.plots.joint_stiffness.JointStiffnessD
 PNG bytes, while the parent writes its CSV and summary. The same function draws the same figure
 as in the parent (:func:`render`): the PNG bytes are those the parent would have made.
 
+The worker can also run one task before it imports matplotlib (``first``): ``jointid identify`` has
+it read and parse the FRF file while the parent imports the estimators, and takes the FRF it sends
+back (:meth:`FigureWorker.first`); when that task fails (an exception, a warning, the worker lost) the
+parent is told nothing but "no result" and does the task itself, so its errors, warnings and
+messages are the parent's own, as without the worker.
+
 The CPU time is the same, the wall time shorter on a machine with a core to spare. Without
 ``os.fork`` (Windows), or when the fork fails, :meth:`FigureWorker.start` returns None and the
 caller draws in its own process. Python warnings the child raises while drawing are sent back
@@ -26,6 +32,7 @@ import struct
 import threading
 import traceback
 import warnings
+from typing import Any, Callable
 
 __all__ = ["FigureWorker", "PendingFigure", "WorkerLost", "render", "FIGURES"]
 
@@ -84,6 +91,9 @@ def _read_exactly(fd: int, size: int) -> bytes | None:
 
 #: Seconds a figure may take in the worker before the caller draws it itself.
 RESULT_SECONDS = 120.0
+#: Seconds the caller waits for the ``first`` task's result (:meth:`FigureWorker.first`) before it ends the worker
+#: and does the task itself.
+FIRST_SECONDS = 120.0
 #: Seconds close() waits for the worker to exit before it kills it (it exits at once when its pipe closes).
 REAP_SECONDS = 10.0
 
@@ -113,8 +123,27 @@ def _reap(pid: int) -> None:
         time.sleep(0.005)
 
 
-def _child(requests: int, replies: int) -> None:
-    """The worker's loop: import the figure modules, then draw each request until end of file."""
+def _run_first(first: Callable[[], Any]) -> tuple:
+    """``("ok", first())``, or ``("failed",)`` when it raised or warned (the parent then runs it itself: its own
+    exception, warnings and messages, as without the worker)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            value = first()
+        except BaseException:  # noqa: BLE001 - the parent runs the task again and sees it itself
+            return ("failed",)
+    return ("failed",) if caught else ("ok", value)
+
+
+def _child(requests: int, replies: int, first: Callable[[], Any] | None = None) -> None:
+    """The worker's loop: run ``first`` and send its result (if given), import the figure modules, then draw each
+    request until end of file."""
+    if first is not None:
+        reply = _run_first(first)
+        try:
+            _send(replies, reply)
+        except (pickle.PicklingError, TypeError, AttributeError):  # a result that does not pickle: the parent runs it
+            _send(replies, ("failed",))
     try:
         from importlib import import_module
 
@@ -160,6 +189,7 @@ class PendingFigure:
         """
         if self._png is None:
             self._sender.join()
+            self._worker._first_done()  # the first task's reply comes before the figures' on the same pipe
             if self._worker._send_error is not None:
                 raise WorkerLost("the figure worker stopped") from self._worker._send_error
             try:
@@ -185,16 +215,57 @@ class FigureWorker:
     Use :meth:`start` (None where it cannot fork) as a context manager; requests are answered in order.
     """
 
-    def __init__(self, pid: int, requests: int, replies: int):
+    def __init__(self, pid: int, requests: int, replies: int, first: bool = False):
         self.pid = pid
         self._requests = requests
         self._replies = replies
         self._send_error: BaseException | None = None
         self._pending: list[PendingFigure] = []
+        self._first_reply: tuple | None = None
+        self._first_reader: threading.Thread | None = None
+        if first:  # read at once by a thread: the worker goes on to its imports without waiting for this process
+            self._first_reader = threading.Thread(target=self._read_first, name="jointid-worker-first", daemon=True)
+            self._first_reader.start()
+
+    def _read_first(self) -> None:
+        try:
+            self._first_reply = _recv(self._replies)
+        except Exception:  # noqa: BLE001 - unreadable or not unpickled here: no result, the caller runs the task
+            self._first_reply = None
+
+    def _first_done(self, timeout: float | None = None) -> bool:
+        """Wait for the first task's reply to be read (at most ``timeout`` s); False when it is still being waited for."""
+        if self._first_reader is None:
+            return True
+        self._first_reader.join(timeout)
+        return not self._first_reader.is_alive()
+
+    def first(self) -> Any:
+        """What the ``first`` task given to :meth:`start` returned in the worker, or None: there was no such task, it
+        raised or warned, its result did not pickle, or the worker ended or gave no answer in :data:`FIRST_SECONDS`
+        (the worker is then ended: its figures are drawn here). The caller then runs the task itself."""
+        if self._first_reader is None:
+            return None
+        if not self._first_done(FIRST_SECONDS):  # a worker that hangs: end it (the reader then sees end of file)
+            self._terminate()
+            self._first_done()
+        reply = self._first_reply
+        return reply[1] if reply is not None and reply[0] == "ok" else None
+
+    def _terminate(self) -> None:
+        try:
+            os.kill(self.pid, signal.SIGTERM)
+        except ProcessLookupError:
+            pass
 
     @classmethod
-    def start(cls) -> "FigureWorker | None":
-        """Fork the worker (it starts importing matplotlib); None without ``os.fork`` or when the fork fails."""
+    def start(cls, first: Callable[[], Any] | None = None) -> "FigureWorker | None":
+        """Fork the worker (it starts importing matplotlib); None without ``os.fork`` or when the fork fails.
+
+        ``first``: a task the worker runs before its imports (e.g. reading a file); :meth:`first` gives its result.
+        It runs in the forked copy of this process: it may use anything this process holds, and what it returns must
+        pickle.
+        """
         if not hasattr(os, "fork") or os.environ.get("JOINTID_FIGURE_WORKER", "1") == "0":
             return None
         try:
@@ -225,14 +296,14 @@ class FigureWorker:
                 signal.pthread_sigmask(signal.SIG_SETMASK, old - mask)
                 os.close(req_w)
                 os.close(rep_r)
-                _child(req_r, rep_w)
+                _child(req_r, rep_w, first)
                 code = 0
             finally:
                 os._exit(code)
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
         os.close(req_r)
         os.close(rep_w)
-        return cls(pid, req_w, rep_r)
+        return cls(pid, req_w, rep_r, first=first is not None)
 
     def submit(self, kind: str, data, **kwargs) -> PendingFigure:
         """Send figure ``kind`` (:data:`FIGURES`) of ``data`` to the worker (a thread writes it: the call does not wait)."""
@@ -254,12 +325,10 @@ class FigureWorker:
         if self.pid <= 0:
             return
         if not self._pending or any(p._png is None for p in self._pending):  # not needed (an error, an interrupt, no figure)
-            try:
-                os.kill(self.pid, signal.SIGTERM)
-            except ProcessLookupError:
-                pass
+            self._terminate()
         for p in self._pending:
             p._sender.join()
+        self._first_done()  # ends: the worker sent its reply or ended (end of file)
         for fd in (self._requests, self._replies):
             try:
                 os.close(fd)
