@@ -412,3 +412,21 @@ def test_identify_with_a_bad_file_says_the_same_with_and_without_the_worker(tmp_
         said[flag] = (code, out, err)
     assert said["0"] == said["1"]
     assert said["0"][0] == 2 and len(said["0"][2].strip().splitlines()) == 1 and str(bad) in said["0"][2]
+
+
+def test_the_png_level_changes_the_bytes_not_the_pixels(case):
+    """figure_png writes at PNG_COMPRESS_LEVEL (faster than PIL's default 6): the same pixels and metadata as the default."""
+    import io
+
+    from PIL import Image
+
+    from jointid.plots.style import PNG_COMPRESS_LEVEL, figure_png
+
+    _, _, result = case
+    fig = result.plot()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=120)
+    ours, default = Image.open(io.BytesIO(figure_png(fig))), Image.open(buf)
+    assert PNG_COMPRESS_LEVEL < 6
+    assert ours.size == default.size and ours.mode == default.mode and ours.info == default.info
+    assert np.array_equal(np.asarray(ours), np.asarray(default))

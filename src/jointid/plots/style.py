@@ -9,7 +9,12 @@ from matplotlib.figure import Figure
 
 from ..io.atomic import atomic_path
 
-__all__ = ["new_figure", "save_figure", "figure_png"]
+__all__ = ["new_figure", "save_figure", "figure_png", "PNG_COMPRESS_LEVEL"]
+
+#: zlib level of the PNGs written here (the pixels do not depend on it). Measured on ``joint_stiffness.png`` of
+#: 19 901 lines (1380 x 840 px): level 6 (PIL's default) 0.053 s, 315 kB; 3: 0.036 s, 303 kB (a third faster, and
+#: smaller: the line-art's filtered rows compress as well at the lower level).
+PNG_COMPRESS_LEVEL = 3
 
 
 def new_figure(rows: int = 1, cols: int = 1, height_ratios=None, figsize=(8.0, 6.0), sharex: bool = True,
@@ -36,7 +41,7 @@ def save_figure(fig: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
     For a command's outputs use :meth:`jointid.io.output_dir.OutputSet.write_figure`.
     """
     with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png")
+        fig.savefig(tmp, dpi=dpi, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
     return Path(path)
 
 
@@ -45,5 +50,5 @@ def figure_png(fig: Figure, dpi: int = 120) -> bytes:
     import io
 
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
+    fig.savefig(buf, format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
     return buf.getvalue()
