@@ -430,3 +430,42 @@ def test_the_png_level_changes_the_bytes_not_the_pixels(case):
     assert PNG_COMPRESS_LEVEL < 6
     assert ours.size == default.size and ours.mode == default.mode and ours.info == default.info
     assert np.array_equal(np.asarray(ours), np.asarray(default))
+
+
+def test_residual_statistics_are_reused_for_the_same_inputs_and_a_variance_within_its_rounding(case):
+    """The junk-line test's statistics come back to the model check (the same blocks and residual, a variance 1 ulp
+    away), read-only, equal to its own computation; another residual or variance computes new ones."""
+    from jointid.methods.receptance import model_check
+    from jointid.methods.receptance.model_check import residual_statistics
+
+    _, Ymn, Yne, Yme, H = _blocks(case)
+    var = (0.003 * np.abs(H)) ** 2
+    first = residual_statistics(Ymn, Yne, Yme - H, var)
+    again = residual_statistics(Ymn.copy(), Yne.copy(), Yme - H, var * (1 + 2 * EPS))
+    assert again is first and not first.chi2.flags.writeable and not first.noise.flags.writeable
+    fresh = model_check._statistics(Ymn, Yne, Yme - H, var * (1 + 2 * EPS), True)
+    assert np.allclose(fresh.chi2, first.chi2, rtol=1e-12, atol=0) and np.allclose(fresh.lag_correlation, first.lag_correlation, rtol=1e-9)
+    other = residual_statistics(Ymn, Yne, Yme - 1.001 * H, var)
+    assert other is not first
+    assert residual_statistics(Ymn, Yne, Yme - 1.001 * H, var * 1.001) is not other
+
+
+def test_identify_computes_the_residual_statistics_once_when_no_line_is_left_out(case, monkeypatch):
+    """No junk line and no column correction: the junk-line test and the model check share one computation, and the
+    identification is the one computed with both."""
+    from jointid.methods.receptance import model_check
+
+    st, measured, result = case
+    calls = []
+    real = model_check._statistics
+
+    def counted(*args):
+        calls.append(1)
+        return real(*args)
+
+    monkeypatch.setattr(model_check, "_statistics", counted)
+    model_check._LAST_STATISTICS.entry = None
+    again = identify(st, measured)
+    assert not any("junk" in f or "calibration" in f for f in again.findings())
+    assert len(calls) == 1
+    assert np.array_equal(again.stiffness, result.stiffness) and np.array_equal(again.reliable_terms, result.reliable_terms)

@@ -103,7 +103,7 @@ from ...parallel import map_lines
 __all__ = [
     "LineEstimates", "coupling_per_line", "symmetric_parametrization", "relinearize", "uses_kronecker", "DENSE_PATH_BYTES",
     "separable_weights", "kronecker_basis", "kronecker_variance", "whitened_line_design", "inverse_perturbation",
-    "MAX_INVERSE_PERTURBATION",
+    "MAX_INVERSE_PERTURBATION", "DESIGN_VARIANCE_RTOL",
 ]
 
 #: The exact per-line path is taken while its arrays (the design, its weighted and Q copies, the p x p
