@@ -163,12 +163,14 @@ def _reference_calibration(hz, Ymn, Yne, change, H, variance, nb=16):
     for j in range(e):
         Dm[j, :, j, :] = np.einsum("f,fb,fc->bc", d[:, j], B, B)
     Nc = N - s2 * Dm.reshape(e * nb, e * nb)
-    c = np.linalg.solve(Nc, rhs - s2 * np.einsum("fj,fb->jb", d, B).reshape(e * nb))
-    reduction = np.real(2.0 * np.vdot(c, rhs) - np.vdot(c, N @ c))
+    rhs_c = rhs - s2 * np.einsum("fj,fb->jb", d, B).reshape(e * nb)
+    c = np.linalg.solve(Nc, rhs_c)
+    reduction = np.real(np.vdot(rhs_c, Ninv @ rhs_c))  # Wald: the compensated score against its covariance s^2 N
     rss1 = rss0 - reduction
     f_stat = (reduction / (2 * e * nb)) / (rss1 / (2 * dof))
     U = np.linalg.solve(R, QhG) / cs[:, :, None]
-    G = np.einsum("fpj,fb,jbk->fpk", U, B, _hermitian_factor(rss1 / dof * Ninv).reshape(e, nb, e * nb))
+    Nci = np.linalg.inv(Nc)
+    G = np.einsum("fpj,fb,jbk->fpk", U, B, _hermitian_factor(rss1 / dof * Nci @ N @ Nci.conj().T).reshape(e, nb, e * nb))
     Cx = np.einsum("fpk,fqk->fpq", G, G.conj())
     return c, f_stat, stats.f.sf(f_stat, 2 * e * nb, 2 * dof), Cx, np.linalg.cond(Nc), rss0 / reduction
 

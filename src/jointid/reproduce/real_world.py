@@ -410,7 +410,10 @@ def _findings(config, by_case: dict, stats: dict) -> tuple[tuple[str, ...], tupl
 
     def said(case: str, words: str) -> str:
         hits = [f for r in by_case.get(case, []) for f in r["findings"] if words in f]
-        return _first_words(hits[0]) if hits else ""
+        if not hits:
+            return ""
+        gist = _first_words(hits[0])  # the model check's fix can follow its first clause: kept
+        return gist + (": update it from a free-free test" if "update it from a free-free test" in hits[0] and "update it" not in gist else "")
 
     off = "E +2 %, density -1 %, loss factor +2 %"
     out = []

@@ -42,6 +42,14 @@ The default inverse method of jointid. Three steps, each documented where it liv
    in each value is then measured from the residuals of the corrected per-line fit
    (:func:`~jointid.methods.receptance.column_calibration.residual_variance`), and the
    calibration, the per-line fit and the structured model use those weights.
+   A free-model error can look like a column error: smooth column factors absorb much of it,
+   the corrected FRFs then pass the model check, and the joint's terms take the rest (a 3-D
+   frame with E 2 % off, 9 x 9 FRFs: K_rx_rx 10 times off, flagged reliable). The two differ
+   in how alike the columns are: errors of separate hits or force records are independent
+   per column, a model error corrects every column alike, varying over frequency. A correction
+   whose common varying part is :data:`COMMON_SHAPE_RATIO` times its differences between the
+   columns flags every term on every line, with a finding (``calibration = "columns"``: the
+   user says the forces are the cause, and it is not flagged).
 3. **Flags**: a term is reliable on a line when its predicted relative standard
    deviation ``sqrt(var Re + var Im) / |K|`` is at most ``max_relative_std``
    (default 10 %), the weighted design is well conditioned, and (diagonal terms)
@@ -102,6 +110,10 @@ STRUCTURED_MIN_LINES = 20
 RESIDUAL_MIN_REDUNDANCY = 10
 #: B-spline functions per column of the coarse calibration estimate the units check makes when there is none.
 UNITS_BASIS = 4
+#: A column correction whose part common to every column, beyond its mean over frequency, is this many times its
+#: differences between the columns is what a free-model error makes (:attr:`~.column_calibration.ColumnCalibration.common_shape_ratio`;
+#: measured: a 3-D frame's E 2 % off, 9 x 9 FRFs: 9e4-1e5; virtual hammer tests of the beam with force noise, 0.5-1.4).
+COMMON_SHAPE_RATIO = 10.0
 #: Fewest residual equations per line (``m e`` minus the joint's parameters) for the units check.
 UNITS_MIN_REDUNDANCY = 6
 #: The smooth-residual limit of the model check once a column error was found and not applied (it made the free model
@@ -244,6 +256,14 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
                          "and passes without it): not applied")
         if fit is not None and not floor:  # the check below weighs by the same variance: computed once
             stats = fit.raw if fit.worse else fit.corrected
+    shared = applied and options.calibration == "auto" and cal.common_shape_ratio > COMMON_SHAPE_RATIO
+    if shared:  # a correction that a free-model error makes: the joint terms would take what it leaves (module docstring)
+        notes.append(f"the force calibration correction is alike on every column and varies over frequency ({100 * cal.common_shape_rms:.2g} % "
+                     f"rms, {cal.common_shape_ratio:.3g} times its differences between the columns), as an error of the free "
+                     "model makes it, not the forces of separate hits: the free model may be off, and the joint's terms take "
+                     "what the correction leaves; every term flagged unreliable on every line. Update the free model from a "
+                     "free-free test (`jointid update`), or set calibration = \"columns\" if the forces are known to be off so")
+        checked = np.ones(freq.size, bool)
     # without coherence, a random error common to each excitation column line by line (force noise) is tested for
     # in the residuals and, when found, weighted by its own covariance (:mod:`.force_noise`)
     force = (detect_force_noise(Ymn, Yne, Yme - H, H, variance, options.symmetric)
@@ -268,8 +288,9 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     if options.over_frequency(nn) == "spline" and not _exact(lines):  # exact data: the per-line estimates are the answer
         if not options.symmetric:
             raise IdentificationError('smoothing = "spline" fits a symmetric joint; use symmetric = true or another smoothing')
-        if proven_wrong:  # every line is flagged anyway: the fit of all lines at once (minutes on a 6-DOF mount) is not run
-            notes.append("the joint spline fit was not run: the free model does not explain these FRFs (above), so every "
+        if proven_wrong or shared:  # every line is flagged anyway: the fit of all lines at once (minutes on a 6-DOF mount) is not run
+            why = "the free model does not explain these FRFs (above)" if proven_wrong else "the column correction is one a free-model error makes (above)"
+            notes.append(f"the joint spline fit was not run: {why}, so every "
                          "line is flagged whatever the estimate; each term smoothed on its own instead")
         else:
             # the FRFs as measured: the fit of every line at once has its own noise scale, and a column correction
