@@ -94,7 +94,43 @@ def test_the_right_free_model_is_not_flagged_and_no_column_error_is_found(frame)
     assert _model_findings(r) == [], r.findings()
     assert r.calibration.f_statistic < CALIBRATION_MIN_F and not r.calibration_applied, r.calibration
     assert not any("force calibration" in f for f in r.findings()), r.findings()
+    assert not any("share a random error" in f for f in r.findings()), r.findings()  # no force noise either
     assert r.reliable_terms[:, 0, 0].any()
+
+
+def test_force_noise_is_found_at_its_level_and_only_where_it_is(frame):
+    """The force-noise test projected the residual on the measured columns, whose noise is the residual's own: on
+    this frame (column directions with little signal below its first flexible modes) it found 0.1-0.2 % force noise
+    in FRFs with response noise only (F 5.7-6.0). On the fitted columns: F 1.0 without, the level with."""
+    import jointid.methods.receptance.coupling as coupling
+
+    right, _, frf, _ = frame
+    exact = simulate(right).frf
+    rng = np.random.default_rng(7)
+    F, m, e = exact.data.shape
+
+    def cn(*shape):
+        return (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) / np.sqrt(2)
+
+    noisy = dataclasses.replace(exact, data=exact.data * (1 + 0.01 * cn(F, m, e)) / (1 + 0.01 * cn(F, 1, e)))
+    tests = []
+    real = coupling.detect_force_noise
+
+    def spy(*args, **kwargs):
+        tests.append(real(*args, **kwargs))
+        return tests[-1]
+
+    coupling.detect_force_noise = spy
+    try:
+        identify(right, frf)
+        identify(right, noisy)
+    finally:
+        coupling.detect_force_noise = real
+    without, with_ = tests
+    # F(2 e F, ~2 (|m||e| - p - e) F) ~ 1 +- 0.02 without force noise
+    assert abs(without.f_statistic - 1.0) < 0.1 and not without.significant, without.f_statistic
+    level = with_.level  # per column, relative
+    assert with_.significant and np.all(np.abs(level - 0.01) < 0.004), level
 
 
 SHARED = ("the force calibration correction is alike on every column and varies over frequency (", " times its differences "
