@@ -277,7 +277,7 @@ PHASES = (
     ("  structured fit", "jointid.methods.receptance.structured_select", "structured_estimate"),
     ("  smoothing", "jointid.methods.receptance.smoothing", "smooth_series"),
     ("  junk lines (residual test)", "jointid.methods.receptance.junk_lines", "junk_lines"),
-    ("  model check (residual_statistics)", "jointid.methods.receptance.model_check", "residual_statistics"),
+    ("  residual statistics (junk test; model check reuses)", "jointid.methods.receptance.model_check", "residual_statistics"),
     ("figure data (JointStiffnessData.of)", "jointid.plots.stiffness_data", "JointStiffnessData.of"),
     ("CSV (OutputSet.write_csv)", "jointid.io.output_dir", "OutputSet.write_csv"),
     ("report.html", "jointid.report.identification", "identification_report"),
