@@ -129,11 +129,16 @@ def test_residual_variance_recovers_a_heteroskedastic_noise_from_wrong_weights()
     assert residual_variance(Ymn[:, :2], Yne[:, :, :2], change[:, :2, :2], np.ones((F, 2, 2))) is None
 
 
+def _hermitian_factor(C: np.ndarray) -> np.ndarray:
+    """``L`` with ``L L^H = C`` for a Hermitian positive semi-definite ``C`` (eigen-decomposition, clipped at 0)."""
+    lam, V = np.linalg.eigh(0.5 * (C + np.conj(C.T)))
+    return V * np.sqrt(np.clip(lam, 0.0, None))[None, :]
+
+
 def _reference_calibration(hz, Ymn, Yne, change, H, variance, nb=16):
     """The estimate written term by term as in the module docstring (dense einsum sums over the lines): c, f_stat, Cx, cond(Nc)."""
     from scipy import stats
 
-    from jointid.methods.receptance.column_calibration import _hermitian_factor
     from jointid.methods.receptance.coupling_lines import symmetric_parametrization, whitened_line_design
     from jointid.methods.receptance.smoothing import bspline_basis
 

@@ -41,7 +41,7 @@ relative noise variance, and the joint's terms by a few of their standard deviat
 Both are subtracted (bias-compensated least squares), and the F test is of the compensated score
 ``rhs_c = rhs - s^2 b`` against its covariance ``s^2 N`` (Wald: ``rhs_c^H N^-1 rhs_c``), not of the
 uncompensated residual reduction, which holds the bias: on a 6-DOF mount's 9 x 9 FRFs with no column
-error it gave F 12-22 (the compensated test 1.2-1.4). The estimate's covariance is the sandwich
+error it gave F 12-22 (the compensated test 1.0-1.1, below). The estimate's covariance is the sandwich
 ``Nc^-1 (s^2 N) Nc^-1`` (``Nc = N - s^2 D``). Where the regressor's own noise is most of the information
 on a direction of the column error (:func:`noise_shares` above :data:`EIV_MAX_NOISE_SHARE`; e.g. functions
 below a free structure's first flexible mode, where the joint's DOFs span its rigid-body motion and take
@@ -232,7 +232,7 @@ class _XFactors:
     pairs : scipy.sparse CSR, shape (F, nb nb)
         ``b_f (x) b_f`` (:func:`_pair_products`).
     L : ndarray, shape (e nb, e nb), complex
-        ``L L^H = s^2 N^-1`` (:func:`_hermitian_factor`).
+        ``L L^H`` the coefficients' covariance (the sandwich on the determined directions, :func:`_fit_basis`).
     """
 
     R: np.ndarray
@@ -324,8 +324,7 @@ def _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis) -> ColumnCa
     parts = map_lines(_calibration_lines, change, H, sw, Q)
     best = None
     ref_rss, ref_k = float(np.sum(parts[3])), 0  # the reference a finer basis must beat: no calibration at first
-    while usable:  # coarse to fine: a finer basis must earn its functions (module docstring)
-        nb = usable.pop(0)
+    for nb in usable:  # coarse to fine: a finer basis must earn its functions (module docstring)
         dof = F * (m * e - p) - e * nb
         fit = _fit_basis(np.asarray(hz, float), parts, R, cs, dof, nb)
         if fit is None:  # singular, or not determined by these FRFs (noise_shares): a finer basis is not either
@@ -550,9 +549,3 @@ def noise_shares(N: np.ndarray, noise: np.ndarray) -> tuple[np.ndarray, np.ndarr
     from scipy.linalg import eigh
 
     return eigh(0.5 * (noise + np.conj(noise.T)), 0.5 * (N + np.conj(N.T)))
-
-
-def _hermitian_factor(C: np.ndarray) -> np.ndarray:
-    """``L`` with ``L L^H = C`` for a Hermitian positive semi-definite ``C`` (eigen-decomposition, clipped at 0)."""
-    lam, V = np.linalg.eigh(0.5 * (C + np.conj(C.T)))
-    return V * np.sqrt(np.clip(lam, 0.0, None))[None, :]
