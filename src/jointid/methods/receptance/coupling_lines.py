@@ -103,7 +103,7 @@ from ...parallel import map_lines
 __all__ = [
     "LineEstimates", "coupling_per_line", "symmetric_parametrization", "relinearize", "uses_kronecker", "DENSE_PATH_BYTES",
     "separable_weights", "kronecker_basis", "kronecker_variance", "whitened_line_design", "inverse_perturbation",
-    "MAX_INVERSE_PERTURBATION", "DESIGN_VARIANCE_RTOL",
+    "MAX_INVERSE_PERTURBATION", "DESIGN_VARIANCE_RTOL", "same_inputs",
 ]
 
 #: The exact per-line path is taken while its arrays (the design, its weighted and Q copies, the p x p
@@ -279,8 +279,7 @@ def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray,
     """
     inputs = (np.asarray(Ymn), np.asarray(Yne), np.asarray(variance))
     last = getattr(_LAST_DESIGN, "entry", None)
-    if (last is not None and last[1] == bool(symmetric) and _equal(inputs[0], last[0][0]) and _equal(inputs[1], last[0][1])
-            and _close(inputs[2], last[0][2], DESIGN_VARIANCE_RTOL)):
+    if last is not None and last[1] == bool(symmetric) and same_inputs(inputs, last[0], DESIGN_VARIANCE_RTOL):
         return last[2]
     out = _line_design(*inputs, bool(symmetric))
     for a in out:
@@ -298,17 +297,17 @@ _LAST_DESIGN = threading.local()
 DESIGN_VARIANCE_RTOL = 4.0 * np.finfo(float).eps
 
 
-def _equal(a: np.ndarray, b: np.ndarray) -> bool:
-    """Same shape, dtype and values (a NaN never matches)."""
-    return a.shape == b.shape and a.dtype == b.dtype and bool(np.array_equal(a, b))
-
-
-def _close(a: np.ndarray, b: np.ndarray, rtol: float) -> bool:
-    """Same shape and dtype, ``|a - b| <= rtol |b|`` everywhere (a NaN never matches)."""
-    if a.shape != b.shape or a.dtype != b.dtype:
+def same_inputs(inputs: tuple, kept: tuple, rtol: float) -> bool:
+    """Whether arrays ``inputs`` are those of a kept result: every one but the last of the same shape, dtype and
+    values, the last (a variance) within ``rtol`` of its own (``|a - b| <= rtol |b|``); a NaN never matches.
+    The rule of the per-thread caches of :func:`whitened_line_design` and
+    :func:`~.model_check.residual_statistics`."""
+    if len(inputs) != len(kept) or any(a.shape != b.shape or a.dtype != b.dtype for a, b in zip(inputs, kept)):
+        return False
+    if not all(np.array_equal(a, b) for a, b in zip(inputs[:-1], kept[:-1])):
         return False
     with np.errstate(invalid="ignore"):
-        return bool(np.all(np.abs(a - b) <= rtol * np.abs(b)))
+        return bool(np.all(np.abs(inputs[-1] - kept[-1]) <= rtol * np.abs(kept[-1])))
 
 
 def _line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray, symmetric: bool):

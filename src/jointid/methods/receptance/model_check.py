@@ -71,7 +71,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...parallel import map_lines, single_threaded_blas
-from .coupling_lines import DESIGN_VARIANCE_RTOL, symmetric_parametrization, whitened_line_design
+from .coupling_lines import DESIGN_VARIANCE_RTOL, same_inputs, symmetric_parametrization, whitened_line_design
 
 __all__ = ["ResidualStatistics", "residual_statistics", "ModelCheck", "check_model", "octave_bands", "MODEL_RESIDUAL_RATIO", "MODEL_ERROR_PROVEN_RATIO",
            "SMOOTH_LAGS", "SMOOTH_EXCESS_LIMIT", "SMOOTH_EXCESS_WITH_FAILED_BAND",
@@ -175,8 +175,7 @@ def residual_statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, va
     """
     inputs = (np.asarray(Ymn), np.asarray(Yne), np.asarray(change), np.asarray(variance))
     last = getattr(_LAST_STATISTICS, "entry", None)
-    if (last is not None and last[1] == bool(symmetric) and all(_same(a, b) for a, b in zip(inputs[:3], last[0][:3]))
-            and _within(inputs[3], last[0][3], DESIGN_VARIANCE_RTOL)):
+    if last is not None and last[1] == bool(symmetric) and same_inputs(inputs, last[0], DESIGN_VARIANCE_RTOL):
         return last[2]
     out = _statistics(*inputs, bool(symmetric))
     if out is not None:
@@ -188,19 +187,6 @@ def residual_statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, va
 
 #: The last statistics of :func:`residual_statistics` in each thread: (inputs, symmetric, outputs).
 _LAST_STATISTICS = threading.local()
-
-
-def _same(a: np.ndarray, b: np.ndarray) -> bool:
-    """Same shape, dtype and values (a NaN never matches)."""
-    return a.shape == b.shape and a.dtype == b.dtype and bool(np.array_equal(a, b))
-
-
-def _within(a: np.ndarray, b: np.ndarray, rtol: float) -> bool:
-    """Same shape and dtype, ``|a - b| <= rtol |b|`` everywhere (a NaN never matches)."""
-    if a.shape != b.shape or a.dtype != b.dtype:
-        return False
-    with np.errstate(invalid="ignore"):
-        return bool(np.all(np.abs(a - b) <= rtol * np.abs(b)))
 
 
 def _statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, variance: np.ndarray, symmetric: bool):
