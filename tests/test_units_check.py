@@ -53,8 +53,8 @@ def test_every_column_grossly_off_without_a_common_factor_is_a_wrong_model_or_un
     """A free model with a dimension in mm read as m predicts FRFs off by a different gross factor per column."""
     text = ("the FRFs are off by factors {}-{} in the excitation columns from what the free model predicts (no unit factor, and "
             "far beyond a force calibration error): the free model (the study's dimensions, material or their units), the "
-            "FRFs' units, the force sensors' sensitivities or a response's sign or direction (`--axis`, `[measurement] axis`) "
-            "are wrong")
+            "FRFs' units, the force sensors' sensitivities or a record's sign or direction (its direction code in the file; a "
+            "beam study's `--axis`, `[measurement] axis`) are wrong")
     assert units_conclusion(_cal([1000.0, 1300.0, 1150.0])) == text.format(1000, 1300)
     assert units_conclusion(_cal([0.05, 0.1, 0.08])) == text.format(0.05, 0.1)
 
@@ -74,7 +74,8 @@ def test_a_study_with_the_beam_width_in_mm_is_refused():
     with pytest.raises(DataError) as exc:
         identify(wrong, frf)
     assert re.fullmatch(r"the FRFs are off by factors (\d+)-(\d+) in the excitation columns .* force sensors' sensitivities "
-                        r"or a response's sign or direction \(`--axis`, `\[measurement\] axis`\) are wrong" + re.escape(REFUSAL_TAIL),
+                        r"or a record's sign or direction \(its direction code in the file; a beam study's `--axis`, "
+                        r"`\[measurement\] axis`\) are wrong" + re.escape(REFUSAL_TAIL),
                         str(exc.value))
 
 

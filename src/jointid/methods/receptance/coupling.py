@@ -87,6 +87,7 @@ from .force_noise import detect_force_noise
 from .junk_lines import junk_lines
 from .model_uncertainty import ModelUncertainty, model_uncertainty
 from .model_check import SMOOTH_EXCESS_LIMIT, SMOOTH_EXCESS_WITH_FAILED_BAND, ResidualStatistics, check_model, residual_statistics
+from .gross_errors import GROSS_COLUMN_ERROR, GrossError, gross_error
 from .units_check import units_conclusion
 from ..frf_screening import check_visibility, floor_exact_zeros, noise_level_unknown, screen_measured
 from .frf_variance import RELATIVE_FLOOR, column_noise_fraction, frf_variance
@@ -235,7 +236,8 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
                 variance = left
             else:
                 cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, options.calibration_basis) or cal
-    checked = _units_check(freq, Ymn, Yne, Yme, H, variance, cal, options, kron, notes) if columns_checked else None
+    checked = _units_check(freq, Ymn, Yne, Yme, H, variance, cal, options, kron, notes, (m_dofs, e_dofs)) if columns_checked else None
+    units_flagged = checked is not None  # used as they are (units_check = false): noted, every line flagged
     if unknown and not applied and measurable and not kron:
         measured_var = residual_variance(Ymn, Yne, Yme - H, variance, options.symmetric)
         variance = variance if measured_var is None else measured_var
@@ -273,7 +275,9 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     # in the residuals and, when found, weighted by its own covariance (:mod:`.force_noise`)
     force = (detect_force_noise(Ymn, Yne, Yme - H, H, variance, options.symmetric)
              if source == "relative" and not floor and not kron and columns_checked else None)
+    force_note = None  # where the force noise's finding is (reworded when the model check finds the free model off)
     if force is not None and force.significant:
+        force_note = len(notes)
         notes.append(force.finding)
         lines = force.line_estimates(Ymn, Yne, Ynn, Yme - H, H, variance, options.symmetric, common_x_covariance=common)
     else:
@@ -286,6 +290,13 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
     if stats is not None:  # does the free model explain the FRFs, band by band (model_check)?
         check = check_model(freq.hz, stats, smooth_limit=SUSPECT_SMOOTH_EXCESS if suspect else SMOOTH_EXCESS_LIMIT)
         proven_wrong = check.proven_wrong
+        if (not check.fits or shared) and not units_flagged:
+            # FRFs the free model does not explain: a slip in the data (units, a sign, a dead channel) before the model
+            gross = gross_error(Ymn, Yne, Yme, measured_H, measured_variance, options.symmetric, m_dofs, e_dofs)
+            if gross is not None:
+                checked = _refuse(freq, gross, None, options, notes)
+        if force_note is not None and (not check.fits or shared):
+            notes[force_note] = force.finding_text(model_fits=False)
         if not check.fits:
             notes.append(check.finding(freq.hz))
             checked = check.failed_lines if checked is None else checked | check.failed_lines
@@ -345,22 +356,40 @@ def _calibration_worsens_fit(hz, Ymn, Yne, Yme, raw: tuple, corrected: tuple, sy
     return _CalibratedFit(worse, fixed, measured)
 
 
-def _units_check(freq: Frequency, Ymn, Yne, Yme, H, variance, cal, options: CouplingOptions, kron: bool, notes: list) -> np.ndarray | None:
-    """Refuse FRFs off by one gross factor in every column (:mod:`.units_check`), or (``units_check = False``) note it
-    and return every line as flagged (else None). The column calibration's estimate is used when there is one."""
+def _units_check(freq: Frequency, Ymn, Yne, Yme, H, variance, cal, options: CouplingOptions, kron: bool, notes: list,
+                 dofs: tuple) -> np.ndarray | None:
+    """Refuse FRFs off by one gross factor in every column (:mod:`.units_check`) or by a gross error that one slip explains
+    (:mod:`.gross_errors`: a column off by more than :data:`~.gross_errors.GROSS_COLUMN_ERROR` starts that search too),
+    or (``units_check = False``) note it and return every line as flagged (else None). The column calibration's
+    estimate is used when there is one. ``dofs``: the observed and the excited DOFs, named in the conclusion."""
     F, m, n = Ymn.shape
     if kron or m * Yne.shape[2] - n * (n + 1) // 2 < UNITS_MIN_REDUNDANCY:  # too few equations: a column factor trades with X
         return None
     if cal is None:  # not estimated (calibration = "none", or too few lines for its basis): a coarse one for the check
         cal = estimate_column_calibration(freq.hz, Ymn, Yne, Yme - H, H, variance, options.symmetric, UNITS_BASIS)
     units = units_conclusion(cal)
-    if units is None:
+    gross_column = cal is not None and cal.significant and float(np.max(np.median(np.abs(cal.error), axis=0))) > GROSS_COLUMN_ERROR
+    if units is None and not gross_column:
         return None
+    gross = gross_error(Ymn, Yne, Yme, H, variance, options.symmetric, *dofs)
+    if gross is None and units is None:
+        return None
+    if units is not None and gross is not None and gross.kind == "units":  # the units check's own conclusion names it
+        gross = None
+    return _refuse(freq, gross, units, options, notes)
+
+
+def _refuse(freq: Frequency, gross: GrossError | None, units: str | None, options: CouplingOptions, notes: list) -> np.ndarray:
+    """Raise the DataError of a gross error (its explanation, else the units check's conclusion ``units``), or
+    (``units_check = False``) note it and return every line as flagged."""
+    if gross is not None:
+        what, fix = gross.conclusion, "; or set [identification] units_check = false to use the FRFs as they are"
+    else:
+        what, fix = units, (": give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units), check "
+                            "the study's free model, or set [identification] units_check = false to use them as they are")
     if options.units_check:
-        raise DataError(f"{units}: give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units), "
-                        "check the study's free model, or set "
-                        "[identification] units_check = false to use them as they are")
-    notes.append(f"{units}: used as they are (units_check = false); every term flagged unreliable")
+        raise DataError(what + fix)
+    notes.append(f"{what}: used as they are (units_check = false); every term flagged unreliable")
     return np.ones(freq.size, bool)
 
 

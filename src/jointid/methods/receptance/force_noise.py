@@ -141,12 +141,19 @@ class ForceNoise:
     @property
     def finding(self) -> str:
         """One line naming the force noise as the cause (whether significant or not: check :attr:`significant`)."""
+        return self.finding_text()
+
+    def finding_text(self, model_fits: bool = True) -> str:
+        """:attr:`finding`; ``model_fits`` False (the model check found the free model off): the residual it was measured
+        from holds the model's error too, and the finding says so instead of ruling a model error out."""
         lv = ", ".join(f"{100 * v:.2g}" for v in self.level)
         gross = ("; more than force noise makes: check the units and the hammer's sensitivity per column"
                  if float(np.max(self.level)) > FORCE_NOISE_GROSS_LEVEL else "")
+        cause = ("not a joint or model error" if model_fits else
+                 "the free model does not explain these FRFs (see that finding), so part or all of it may be the model's error")
         return (f"the excitation columns share a random error line by line (force noise, ~{lv} % per column; "
-                f"F test F = {self.f_statistic:.3g}, p = {self.p_value:.2g}), measured from the residuals: not a joint or "
-                "model error; it is in the variance model, so the per-line covariance and the bands include it" + gross)
+                f"F test F = {self.f_statistic:.3g}, p = {self.p_value:.2g}), measured from the residuals: {cause}; it is in "
+                "the variance model, so the per-line covariance and the bands include it" + gross)
 
     def variance(self, variance: np.ndarray) -> np.ndarray:
         """Response (independent) variance of each value, ``a_f * variance``, shape (F, m, e)."""

@@ -73,7 +73,7 @@ import numpy as np
 from ...parallel import map_lines, single_threaded_blas
 from .coupling_lines import DESIGN_VARIANCE_RTOL, same_inputs, symmetric_parametrization, whitened_line_design
 
-__all__ = ["ResidualStatistics", "residual_statistics", "ModelCheck", "check_model", "octave_bands", "MODEL_RESIDUAL_RATIO", "MODEL_ERROR_PROVEN_RATIO",
+__all__ = ["ResidualStatistics", "residual_statistics", "line_residuals", "design_residual", "ModelCheck", "check_model", "octave_bands", "MODEL_RESIDUAL_RATIO", "MODEL_ERROR_PROVEN_RATIO",
            "SMOOTH_LAGS", "SMOOTH_EXCESS_LIMIT", "SMOOTH_EXCESS_WITH_FAILED_BAND",
            "BAND_MIN_LINES", "MIN_NOISE_LEVEL",
            "CORRELATED_RESIDUAL_Z"]
@@ -189,17 +189,41 @@ def residual_statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, va
 _LAST_STATISTICS = threading.local()
 
 
-def _statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, variance: np.ndarray, symmetric: bool):
-    """:func:`residual_statistics`' computation."""
-    F, m, n = Ymn.shape
-    e = Yne.shape[2]
-    p = symmetric_parametrization(n, symmetric).shape[1]
-    dof = m * e - p
-    if F < 3 or dof < MIN_REDUNDANCY:
+def line_residuals(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, variance: np.ndarray, symmetric: bool = True,
+                   keep: bool = True) -> tuple[np.ndarray, int] | None:
+    """The whitened residual of the weighted per-line coupling fit and its degrees of freedom per line.
+
+    ``r_f = (I - Q Q^H) W^(1/2) (Y[m,e] - H)`` (module docstring); ``sum_k |r_fk|^2 / dof`` is ``chi2_f``.
+
+    Parameters
+    ----------
+    Ymn, Yne, change, variance, symmetric
+        As :func:`residual_statistics`.
+    keep : bool
+        Keep the per-line design for the next caller (:func:`~.coupling_lines.whitened_line_design`); False for a
+        design asked for once (a hypothesis tried on a subset of the lines).
+
+    Returns
+    -------
+    (r, dof) : ndarray, shape (F, m e), complex, and int; or None below :data:`MIN_REDUNDANCY` degrees of freedom.
+    """
+    _, m, n = Ymn.shape
+    dof = m * Yne.shape[2] - symmetric_parametrization(n, symmetric).shape[1]
+    if dof < MIN_REDUNDANCY:
         return None
     with single_threaded_blas():
-        sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric)
-    r = map_lines(_residual_lines, change, sw, Q)
+        sw, _, Q, _ = whitened_line_design(Ymn, Yne, variance, symmetric, keep=keep)
+    return map_lines(design_residual, change, sw, Q), dof
+
+
+def _statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, variance: np.ndarray, symmetric: bool):
+    """:func:`residual_statistics`' computation."""
+    F, m, _ = Ymn.shape
+    e = Yne.shape[2]
+    fit = line_residuals(Ymn, Yne, change, variance, symmetric) if F >= 3 else None
+    if fit is None:
+        return None
+    r, dof = fit
     chi2 = np.sum(r.real ** 2 + r.imag ** 2, axis=1) / dof
     d2 = r[2:] - 2.0 * r[1:-1] + r[:-2]
     noise = np.full(F, np.nan)
@@ -210,8 +234,11 @@ def _statistics(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, variance: 
     return ResidualStatistics(chi2, noise, rho, z, lags, 1.0 / float(np.sqrt(2.0 * dof * F)))
 
 
-def _residual_lines(change, sw, Q):
-    """The weighted per-line fit's residual ``(I - Q Q^H) d_w`` on some lines, shape (F, m e)."""
+def design_residual(change, sw, Q):
+    """The weighted per-line fit's residual ``(I - Q Q^H) d_w``, ``d_w = sw vec(change)``, shape (F, m e), complex.
+
+    ``sw``, ``Q``: the design of :func:`~.coupling_lines.whitened_line_design` (shapes (F, m e), (F, m e, p));
+    ``change``: ``Y[m,e] - H``, shape (F, m, e)."""
     F, m, e = change.shape
     dw = change.reshape(F, m * e) * sw
     return dw - (Q @ (np.conj(np.swapaxes(Q, 1, 2)) @ dw[:, :, None]))[:, :, 0]

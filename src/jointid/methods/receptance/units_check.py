@@ -80,7 +80,8 @@ def units_conclusion(cal: ColumnCalibration | None) -> str | None:
             return (f"the FRFs are off by factors {s.min():.4g}-{s.max():.4g} in the excitation columns from what the free "
                     "model predicts (no unit factor, and far beyond a force calibration error): the free model (the study's "
                     "dimensions, material or their units), the FRFs' units, the force sensors' sensitivities or a "
-                    "response's sign or direction (`--axis`, `[measurement] axis`) are wrong")
+                    "record's sign or direction (its direction code in the file; a beam study's `--axis`, `[measurement] "
+                    "axis`) are wrong")
         return None
     common = float(np.exp(np.mean(np.log(s))))
     if 1.0 / UNITS_MAX_FACTOR <= common <= UNITS_MAX_FACTOR:

@@ -1,0 +1,182 @@
+"""Gross errors of a measured FRF set -- a unit factor, a flipped sign, a dead channel -- named by what explains them.
+
+When the FRFs are far from what the free model and any joint can give (the units check of
+:mod:`.units_check` refuses them, the column calibration finds a column off by more than
+:data:`GROSS_COLUMN_ERROR`, or the model check of :mod:`.model_check` fails), the cause is
+more often a slip in the data than in the model: a file in g/N read as m/s^2/N, a hammer hit
+from the other side of the structure or a response whose direction code is the opposite of
+the sensor's, a disconnected sensor that records noise. Each leaves the per-line coupling fit
+with a residual far above the noise, and each has a one-line fix; a column calibration, a
+model update or the joint itself would each take up part of it and turn a slip into a wrong
+joint. :func:`gross_error` tries each such explanation on an evenly spread subset of at most
+:data:`GROSS_LINES` lines and returns the one that explains the data.
+
+Hypotheses (``H`` measured, ``V`` its variance shape; ``H'`` what the hypothesis says the
+true FRFs are):
+
+* **units**: ``H' = H / u``, ``V' = V / u^2`` for each unit factor ``u`` of
+  :data:`~.units_check.UNIT_FACTORS` (every value off by one factor);
+* **signs**: ``H' = diag(s_r) H diag(s_c)`` with ``s = -1`` on the responses, the
+  references, or both, along one direction (``x``, ``y``, ``z``, ... of the DOF labels: a
+  direction convention reversed), then on one response or one reference;
+* **channels**: one response row or one reference column left out (the rest must still
+  have the joint's DOFs and :data:`~.model_check.MIN_REDUNDANCY` residual degrees of freedom).
+
+Each is scored by the median over lines of the per-line fit's ``chi2_f``
+(:func:`~.model_check.line_residuals`; medians, so that a few junk lines do not decide).
+The data as given score ``chi2_0``. An explanation is taken when its score is at most
+``chi2_0 /`` :data:`GROSS_RATIO`; among those within a factor :data:`GROSS_TIE` of the best
+score, the first in the order above (a unit factor before a sign, a sign before leaving a
+channel out: the most specific fix that keeps the data).
+
+Caveats: a free model that is off where one sensor sits (a wrong node, a local mode missed)
+makes that sensor's residual large too; leaving it out then "explains" the data, and the
+conclusion says that the sensor or the model there is wrong. Two slips at once (a flipped
+column in a file in g/N) are not explained (each hypothesis is tried alone); the check that
+asked then refuses with its own conclusion.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ...dofs import parse_dofs
+from ...parallel import single_threaded_blas
+from .coupling_lines import symmetric_parametrization, whitened_line_design
+from .model_check import MIN_REDUNDANCY, design_residual, line_residuals
+from .units_check import UNIT_FACTORS
+
+__all__ = ["GrossError", "gross_error", "GROSS_LINES", "GROSS_RATIO", "GROSS_TIE", "GROSS_COLUMN_ERROR"]
+
+#: Most lines the hypotheses are tried on (evenly spread over the band).
+GROSS_LINES = 128
+#: An explanation is taken when the median residual with it is at most the data's divided by this.
+GROSS_RATIO = 20.0
+#: Explanations within this factor of the best one's score are equivalent; the first in the module's order is named.
+GROSS_TIE = 2.0
+#: A column whose calibration factor ``1 + eps`` is off by more than this (median over lines of ``|eps|``) is a gross
+#: error, not a force calibration error (a hammer's sensitivity is known to a few per cent).
+GROSS_COLUMN_ERROR = 0.5
+
+
+@dataclass(frozen=True)
+class GrossError:
+    """An explanation of FRFs far from the free model.
+
+    Attributes
+    ----------
+    kind : str
+        ``"units"``, ``"sign"`` or ``"channel"``.
+    conclusion : str
+        One line: what is wrong and how to fix it (no trailing period).
+    ratio : float
+        The median residual of the data as given over the one with the explanation.
+    """
+
+    kind: str
+    conclusion: str
+    ratio: float
+
+
+def _score(Ymn, Yne, Yme, H, V, symmetric) -> float:
+    """Median over lines of ``chi2_f`` of the per-line fit (inf without residual degrees of freedom)."""
+    fit = line_residuals(Ymn, Yne, Yme - H, V, symmetric, keep=False)
+    return np.inf if fit is None else _median_chi2(*fit)
+
+
+def _median_chi2(r: np.ndarray, dof: int) -> float:
+    return float(np.median(np.sum(r.real ** 2 + r.imag ** 2, axis=1) / dof))
+
+
+def _names(dofs, which) -> str:
+    return ", ".join(str(dofs[i]) for i in which)
+
+
+#: The fix named for each kind of explanation.
+_FIX = {
+    "units": "give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units)",
+    "sign": "fix the direction code of those records in the FRF file (or the sensor's or the hammer's direction)",
+    "response": "fix it, or leave it out of [measurement] observed",
+    "reference": "fix it, or leave it out of [measurement] excited",
+}
+
+
+def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray, variance: np.ndarray, symmetric: bool,
+                responses: Sequence, references: Sequence) -> GrossError | None:
+    """The explanation of FRFs far from the free model (module docstring), or None when none explains them.
+
+    Parameters
+    ----------
+    Ymn, Yne, Yme : ndarray, shapes (F, m, n), (F, n, e), (F, m, e), complex
+        Free receptance blocks (m observed, n joint, e excited DOFs), m/N.
+    H : ndarray, shape (F, m, e), complex
+        Measured receptance, m/N.
+    variance : ndarray, shape (F, m, e)
+        Its variance shape (the weights), (m/N)^2.
+    symmetric : bool
+    responses, references : sequence of Dof
+        The m observed and e excited DOFs, named in the conclusion.
+    """
+    responses, references = parse_dofs(responses), parse_dofs(references)
+    F, m, n = Ymn.shape
+    e = Yne.shape[2]
+    idx = np.unique(np.round(np.linspace(0, F - 1, min(F, GROSS_LINES))).astype(int))
+    Ymn, Yne, Yme, H, V = (np.asarray(a)[idx] for a in (Ymn, Yne, Yme, H, variance))
+    dof = m * e - symmetric_parametrization(n, symmetric).shape[1]
+    if dof < MIN_REDUNDANCY:
+        return None
+    # a unit factor scales every weight alike and a sign leaves them: one design for both, only the data change
+    with single_threaded_blas():
+        sw, _, Q, _ = whitened_line_design(Ymn, Yne, V, symmetric, keep=False)
+
+    def same_design(H_true, u=1.0) -> float:  # V / u^2: the weights u sw
+        return _median_chi2(design_residual(Yme - H_true, u * sw, Q), dof)
+
+    base = same_design(H)
+    if not np.isfinite(base) or base <= 0:
+        return None
+    tried: list[tuple[float, str, str, str]] = []  # (score, kind, what is wrong, fix), in the module's order
+    how = {"units": "divided by it", "sign": "with the sign reversed", "channel": "without it"}
+
+    for u, label, why in UNIT_FACTORS:
+        tried.append((same_design(H / u, u), "units",
+                      f"the FRFs look scaled by {label} in every excitation column ({why})", _FIX["units"]))
+
+    def flipped(rows, cols) -> float:
+        s_r, s_c = np.ones(m), np.ones(e)
+        s_r[list(rows)], s_c[list(cols)] = -1.0, -1.0
+        return same_design(H * s_r[:, None] * s_c[None, :])
+
+    negative = "measured the negative of what the free model predicts"
+    for d in dict.fromkeys(x.direction for x in (*responses, *references)):
+        rows = [i for i, x in enumerate(responses) if x.direction == d]
+        cols = [j for j, x in enumerate(references) if x.direction == d]
+        for r_, c_, who in ((rows, [], "responses"), ([], cols, "excitations"), (rows, cols, "responses and excitations")):
+            if (r_ or c_) and len(r_) < m and len(c_) < e and len(r_) + len(c_) > 1:  # one record: below
+                names = ", ".join(x for x in (_names(responses, r_), _names(references, c_)) if x)
+                tried.append((flipped(r_, c_), "sign", f"the {who} along {d} ({names}) {negative}", _FIX["sign"]))
+    for i in range(m):
+        tried.append((flipped([i], []), "sign", f"response {responses[i]} {negative}", _FIX["sign"]))
+    for j in range(e):
+        tried.append((flipped([], [j]), "sign", f"the excitation at {references[j]} (column {j + 1}) {negative}", _FIX["sign"]))
+
+    for i in range(m if m - 1 >= n else 0):
+        k = np.arange(m) != i
+        tried.append((_score(Ymn[:, k], Yne, Yme[:, k], H[:, k], V[:, k], symmetric), "channel",
+                      f"response {responses[i]} does not follow the free model while the others do (a dead, disconnected "
+                      "or misplaced sensor, or the model wrong there)", _FIX["response"]))
+    for j in range(e if e - 1 >= n else 0):
+        k = np.arange(e) != j
+        tried.append((_score(Ymn, Yne[:, :, k], Yme[:, :, k], H[:, :, k], V[:, :, k], symmetric), "channel",
+                      f"the excitation at {references[j]} (column {j + 1}) does not follow the free model while the others "
+                      "do (a dead force channel, a hit elsewhere, or the model wrong there)", _FIX["reference"]))
+
+    best = min(t[0] for t in tried)
+    if not best * GROSS_RATIO <= base:
+        return None
+    score, kind, what, fix = next(t for t in tried if t[0] <= GROSS_TIE * best)
+    ratio = base / score
+    return GrossError(kind, f"{what} ({how[kind]}, the per-line fit's residual is {ratio:.2g} times lower): {fix}", ratio)
