@@ -20,6 +20,7 @@ from jointid.dofs import parse_dofs
 from jointid.errors import DataError
 from jointid.methods.receptance.gross_errors import GROSS_RATIO, gross_error
 from jointid.pipeline import free_model, identify, simulate, study_frfs
+from jointid.reproduce.common import add_noise
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 
@@ -31,10 +32,7 @@ SIGN_FIX = "fix the direction code of those records in the FRF file (or the sens
 def measured():
     """The benchmark's FRFs with 1 % complex noise (7 x 3 receptances, 199 lines), and its study."""
     study = benchmark_study()
-    vt = simulate(study)
-    rng = np.random.default_rng(3)
-    z = (rng.standard_normal(vt.frf.data.shape) + 1j * rng.standard_normal(vt.frf.data.shape)) / np.sqrt(2)
-    return study, dataclasses.replace(vt.frf, data=vt.frf.data * (1 + 0.01 * z))
+    return study, add_noise(simulate(study).frf, 0.01, np.random.default_rng(3))
 
 
 def _with(frf, data):
