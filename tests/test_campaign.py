@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -149,7 +150,12 @@ def test_failing_test_is_listed_exit_1_and_the_others_written(campaign, tmp_path
     assert (f["row"], f["file"]) == (2, rows[1]["file"])
     assert f["reason"] == f"{bad}: column 'time_s', data line 5: 'x' is not a number"
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"jointid campaign: test failed: {data / 'manifest.csv'}: row 2 ({rows[1]['file']}): {f['reason']}"]
+    notes = [line for line in err if line.startswith("jointid campaign: note: ")]
+    # the master curve's own findings reach the terminal too (they were in master_curve.json and the report only)
+    assert len(notes) == 1 and re.fullmatch(r"jointid campaign: note: specimen S1: master curve: shift law: WLF preferred "
+                                            r"\(AIC \S+ vs \S+\)", notes[0]), notes
+    assert [line for line in err if line not in notes] == [
+        f"jointid campaign: test failed: {data / 'manifest.csv'}: row 2 ({rows[1]['file']}): {f['reason']}"]
     results = pq.read_table(out / "results.parquet").to_pandas()
     assert sorted(results["manifest_row"].unique()) == [1] + list(range(3, len(rows) + 1))
     tests = pq.read_table(out / "tests.parquet").to_pandas()
@@ -401,3 +407,19 @@ def test_one_data_file_in_two_rows_is_refused(campaign, tmp_path, capsys):
         f"jointid campaign: error: {m}: rows 1 (line 2) and 3 (line 4) both use {Path(rows[0]['file']).name} as a direct "
         "test; a repeated test needs its own data file: remove one row"]
     assert not (tmp_path / "o").exists()
+
+
+def test_a_temperature_left_out_of_the_master_curve_has_no_shift_and_the_terminal_says_why(tmp_path, capsys):
+    """A black-box finding: temperatures the master curve left out (curves that do not overlap) still got a
+    ``log10_shift`` in the tables, from a law that could only extrapolate to them (0.3 decades off), and why they were
+    left out was only in master_curve.json and the report."""
+    manifest = small_campaign(tmp_path / "data", temperatures=(-40.0, 10.0, 20.0, 30.0), amplitudes=(2e-5,), extra=False)
+    out = tmp_path / "o"
+    assert main(["campaign", str(manifest), "--out", str(out), "--workers", "1", "--no-plots"]) == 0
+    df = pq.read_table(out / "results.parquet").to_pandas()
+    assert df.loc[df["temperature_c"] == -40.0, "log10_shift"].isna().all()
+    assert df.loc[df["temperature_c"] == -40.0, "reduced_frequency_hz"].isna().all()
+    assert df.loc[df["temperature_c"] != -40.0, "log10_shift"].notna().all()
+    err = capsys.readouterr().err
+    assert "jointid campaign: note: specimen S1: master curve: -40 deg C: its curve does not overlap the others; left out" in err
+    assert any(f.startswith("specimen S1: master curve: -40 deg C") for f in _json(out / "master_curve.json")["findings"])

@@ -214,6 +214,8 @@ def analyze_specimens(tests, outcomes, *, reference_temperature_c: float | None 
     for specimen, group in by_specimen.items():
         findings: list[str] = []
         amp, pre, mc = _master_curve(specimen, group, outcomes, reference_temperature_c, vertical_shift, findings)
+        if mc is not None:  # what the master curve found (temperatures left out, laws not determined, ...) is the campaign's
+            findings.extend(f"specimen {specimen}: master curve: {f}" for f in mc.findings)
         kraus = _kraus(specimen, group, outcomes, findings)
         preload = _preload(specimen, group, outcomes, findings)
         result[specimen] = SpecimenAnalysis(specimen, amp, pre, mc, kraus, preload, findings)

@@ -170,7 +170,7 @@ def campaign_report(manifest, outcomes, analysis, summary, *, plots: bool = True
         tests = [t for t in manifest.tests if t.specimen == specimen and t.kind == "direct" and outcomes[t.row].ok]
         figs = _figures(specimen, tests, outcomes, a) if plots else []
         figures.update({f"figures/{name}.png": png for name, png, _ in figs})
-        notes = list(a.findings) + (list(a.master_curve.to_dict().get("findings") or []) if a.master_curve is not None else [])
+        notes = list(a.findings)  # the master curve's own findings among them (campaign.analysis)
         sections.append(Section(f"Specimen {specimen}", _anchor(specimen), paragraphs=notes,
                                 tables=_summary_table(specimen, tests, a), figures=tuple(figs)))
     others = [t for t in manifest.tests if t.kind == "identify" and outcomes[t.row].ok]

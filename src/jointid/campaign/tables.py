@@ -10,7 +10,9 @@ test: the blocked transfer stiffness per joint), ``frequency_hz``, ``stiffness_r
 ``amplitude_ok``, ``amplitude_ratio`` (``direct``), ``reliable`` (``identify``),
 ``log10_shift`` and ``reduced_frequency_hz`` (``f aT``): the shift of the specimen's master
 curve at the test's temperature from its preferred law (WLF or Arrhenius; the measured
-shift when no law was fitted), null without a master curve.
+shift when no law was fitted), null without a master curve and for a temperature left out
+of it (a curve that does not overlap the others: a law fitted without it would only
+extrapolate to it).
 
 ``tests``: one row per test: ``manifest_row``, the manifest's columns, ``status``
 (``ok``/``failed``), ``reason``, ``file_sha256``, the per-test parameters of the
@@ -83,6 +85,8 @@ def _log10_shift(analysis, test) -> float | None:
     a = analysis.get(test.specimen)
     if a is None or a.master_curve is None or test.kind != "direct":
         return None
+    if not any(abs(t - test.temperature_c) <= 1e-9 for t in a.master_curve.measured_shift):
+        return None  # left out of the master curve (its findings say why): no shift, rather than a law's extrapolation
     try:
         x = float(a.master_curve.log10_shift(test.temperature_c))
     except JointIdError:  # no shift law fitted and the temperature is not on the master curve

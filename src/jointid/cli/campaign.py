@@ -14,7 +14,10 @@ from pathlib import Path
 
 from .common import OUT_HELP, out_dir
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "MAX_PRINTED_NOTES"]
+
+#: Most findings printed on the terminal (all are in ``campaign.json`` and the report).
+MAX_PRINTED_NOTES = 20
 
 
 def add_parser(sub) -> None:
@@ -61,9 +64,12 @@ def run(args: argparse.Namespace) -> int:
                               vertical_shift=args.vertical_shift, plots=not args.no_plots)
     result = run_campaign(args.manifest, args.out, options, workers=args.workers, scheduler=args.scheduler)
     s = result.summary
-    for a in result.analysis.values():
-        for finding in a.findings:
-            print(f"jointid campaign: note: {finding}", file=sys.stderr)
+    notes = [f for a in result.analysis.values() for f in a.findings]
+    for finding in notes[:MAX_PRINTED_NOTES]:
+        print(f"jointid campaign: note: {finding}", file=sys.stderr)
+    if len(notes) > MAX_PRINTED_NOTES:
+        print(f"jointid campaign: note: ... and {len(notes) - MAX_PRINTED_NOTES} more in {args.out}/master_curve.json (findings) "
+              "and report.html", file=sys.stderr)
     for f in s["failed"]:
         print(f"jointid campaign: test failed: {args.manifest}: row {f['row']} ({f['file']}): {f['reason']}", file=sys.stderr)
     curves = sum(a.master_curve is not None for a in result.analysis.values())

@@ -468,7 +468,11 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
             wlf = law
         else:
             arr = law
-    pref = preferred_law(wlf, arr)
+    # a WLF law whose pole lies in the measured range or whose constants the temperatures do not determine is shown
+    # (findings below) but never preferred: its shifts between and beyond the temperatures are not the data's
+    wlf_usable = wlf is not None and wlf.c2 > 0 and np.all(wlf.c2 + (T - tref) > 0) and (
+        wlf.c1_std <= 0.5 * abs(wlf.c1) and wlf.c2_std <= 0.5 * abs(wlf.c2))
+    pref = preferred_law(wlf if wlf_usable else None, arr)
     offset = offset_var = 0.0
     if pref is not None:
         chosen = wlf if pref == "wlf" else arr
@@ -479,10 +483,10 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
     if wlf is not None:
         x = T - tref
         if np.any(wlf.c2 + x <= 0) or wlf.c2 <= 0:
-            findings.append(f"WLF c2 = {wlf.c2:.3g} K puts the law's pole inside or below the measured temperatures: not physical")
+            findings.append(f"WLF c2 = {wlf.c2:.3g} K puts the law's pole inside or below the measured temperatures: not physical, not used")
         if not (wlf.c1_std <= 0.5 * abs(wlf.c1) and wlf.c2_std <= 0.5 * abs(wlf.c2)):
             findings.append(f"WLF c1 = {wlf.c1:.3g} +- {wlf.c1_std:.2g}, c2 = {wlf.c2:.3g} +- {wlf.c2_std:.2g} K: not determined "
-                            "by these temperatures (relative std > 50 %); use the shift factors or the Arrhenius law")
+                            "by these temperatures (relative std > 50 %): not used; use the shift factors or the Arrhenius law")
     if pref is None and not measured_ref:
         findings.append(f"no shift law fitted: the shift factors stay relative to {temps[anchor]:g} deg C, not {tref:g} deg C")
     sf = s - offset
