@@ -85,6 +85,7 @@ def reference_condition(tests) -> tuple[float, float]:
 
 def _master_curve(specimen, tests, outcomes, reference_temperature_c, vertical_shift, findings):
     from ..methods.direct.master_curve import TemperatureCurve, build_master_curve
+    from ..methods.direct.phase_sign import reversed_phase
 
     amp, pre = reference_condition(tests)
     curves = []
@@ -98,6 +99,10 @@ def _master_curve(specimen, tests, outcomes, reference_temperature_c, vertical_s
                             "commanded amplitude; left out of the master curve (3 needed)")
             continue
         k = lines["stiffness_real"][ok] + 1j * lines["stiffness_imag"][ok]
+        reversed_ = reversed_phase(k)
+        if reversed_ is not None:  # no material superposes on a reversed phase (methods.direct.phase_sign)
+            findings.append(f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C): {reversed_}; left out of the master curve")
+            continue
         curves.append(TemperatureCurve(t.temperature_c, lines["frequency_hz"][ok], k))
     temps = sorted({c.temperature_c for c in curves})
     if len(temps) < 2:

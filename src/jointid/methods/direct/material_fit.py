@@ -53,6 +53,7 @@ from ..fit_statistics import (
 from ...physics.elastomer_joint import DEFAULT_DIAMETER_M, DEFAULT_LENGTH_M, DEFAULT_POISSON, ElastomerJoint
 from .material_static import StaticEstimate, as_band_arrays, joint_template, static_estimate
 from .modulus_per_line import ComplexModulus, complex_modulus_per_line
+from .phase_sign import reversed_phase
 from .zener_fit import ZenerFit, fit_zener, zener_modulus
 
 __all__ = [
@@ -250,6 +251,11 @@ def _fit(tpl: ElastomerJoint, f: np.ndarray, k: np.ndarray, x0: np.ndarray, dens
     return vals, cov, sol
 
 
+#: A constant-modulus fit whose relative rms residual exceeds this does not describe the data: E and eta are not
+#: identified (a frequency-dependent modulus over the band: the Zener fit is the model; measured K21 scatter is ~1 %).
+MATERIAL_MISFIT_RMS = 0.1
+
+
 def fit_material(
     frequency_hz,
     stiffness,
@@ -357,8 +363,16 @@ def fit_material(
     fitted_joint = tpl.with_material(E, eta, rho)
     _, S, _ = tpl._blocked(f, modulus=E * (1.0 + 1j * eta), density=rho)
     kf = -S[:, 2, 0]
+    residual = float(np.sqrt(np.mean(np.abs((kf - k) / k) ** 2)))
+    # a material fitted to a reversed phase (:mod:`.phase_sign`) or that misses the data is not the data's material
+    why = reversed_phase(k) or (
+        f"the constant-modulus model misses K21 by {residual:.0%} rms (more than {MATERIAL_MISFIT_RMS:.0%}): the modulus "
+        "depends on frequency over the band (fit the fractional Zener law: --zener) or the data are wrong"
+        if residual > MATERIAL_MISFIT_RMS else None)
+    if why is not None:
+        params = tuple(replace(p, status=NOT_IDENTIFIED, reason=why) for p in params[:2]) + params[2:]  # E, eta; rho as it is
     frac = inertia_fraction(tpl, f, E, eta, rho)
     return MaterialFit(
-        E, eta, rho, params, correlation_matrix(cov), float(np.sqrt(np.mean(np.abs((kf - k) / k) ** 2))), frac,
+        E, eta, rho, params, correlation_matrix(cov), residual, frac,
         f, k, kf, fitted_joint, bool(sol.success), int(nfev),
     )

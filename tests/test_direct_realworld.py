@@ -1,0 +1,94 @@
+"""The direct method's honesty on real-world slips (black-box findings, 2026-11-28).
+
+* A reversed phase sign (the force lagging the displacement on every line): the constant-modulus fit reported E with
+  a 55 % residual, a campaign's Zener fit K0 +141 % "identified". Now named, no material is identified from it, and a
+  campaign leaves such a test out of the master curve with the reason.
+* A constant-modulus fit that misses the data by 39 % rms (a modulus rising over the band) was "identified".
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from campaign_data import small_campaign
+from jointid.cli.main import main
+from jointid.methods.direct.material_fit import MATERIAL_MISFIT_RMS, fit_material
+from jointid.methods.direct.phase_sign import reversed_phase
+from jointid.physics.elastomer_joint import ElastomerJoint
+
+REVERSED = ("the force lags the displacement (loss factor Im K21 / Re K21 < 0, median {}) on {} of {} lines, which a "
+            "passive elastomer cannot do: a reversed phase sign convention (which channel leads, exp(+jwt) or exp(-jwt))? "
+            "fix the export or the phase sign")
+
+
+def _k21(E=10e6, eta=0.15, f=np.linspace(20.0, 400.0, 20)):
+    joint = ElastomerJoint(E, eta, 1100.0)
+    _, S, _ = joint._blocked(f, modulus=E * (1 + 1j * eta), density=1100.0)
+    return f, -S[:, 2, 0]
+
+
+def test_a_reversed_phase_is_named_and_no_material_is_identified():
+    f, k = _k21()
+    assert reversed_phase(k) is None
+    said = REVERSED.format(f"{np.median(-k.imag / k.real):.2g}", 20, 20)
+    assert reversed_phase(np.conj(k)) == said
+    fit = fit_material(f, np.conj(k))
+    E, eta, _ = fit.parameters
+    assert E.status == eta.status == "not_identified"
+    assert E.reason == eta.reason == said
+    good = fit_material(f, k)
+    assert good.parameters[0].status == "identified" and good.parameters[0].value == pytest.approx(10e6, rel=1e-6)
+
+
+def test_the_transfer_stiffness_through_the_internal_mode_is_not_a_reversed_phase():
+    """K21 of a joint with inertia turns through its internal mode (both parts change sign): its loss factor stays
+    positive on most lines, and the fit identifies the material."""
+    f, k = _k21(E=2e6, f=np.linspace(25.0, 1500.0, 60))
+    assert np.mean(k.imag < 0) > 0.3  # the imaginary part alone would say "reversed"
+    assert reversed_phase(k) is None
+
+
+def test_a_constant_modulus_that_misses_the_data_is_not_identified():
+    f = np.linspace(20.0, 400.0, 20)
+    k = np.array([_k21(E=10e6 * (fi / 20.0) ** 0.5, f=np.array([fi]))[1][0] for fi in f])  # the modulus grows 4.5x
+    fit = fit_material(f, k)
+    assert fit.residual_rms > MATERIAL_MISFIT_RMS
+    E = fit.parameters[0]
+    assert E.status == "not_identified" and E.reason == (
+        f"the constant-modulus model misses K21 by {fit.residual_rms:.0%} rms (more than 10%): the modulus depends on "
+        "frequency over the band (fit the fractional Zener law: --zener) or the data are wrong")
+
+
+def _reverse_phase(path: Path) -> None:
+    """Each block's force with its quadrature part (to the displacement) negated, ``f' = 2 c x - f`` with ``c =
+    <f, x> / <x, x>`` the in-phase part: the force's phase to the displacement changes sign, as a reversed phase
+    convention gives it."""
+    rows = list(csv.reader(path.open(newline="")))
+    head, body = rows[0], rows[1:]
+    freq = np.array([float(r[0]) for r in body])
+    x = np.array([float(r[2]) for r in body])
+    f = np.array([float(r[3]) for r in body])
+    for v in np.unique(freq):
+        b = freq == v
+        c = np.dot(f[b], x[b]) / np.dot(x[b], x[b])
+        f[b] = 2.0 * c * x[b] - f[b]
+    with path.open("w", newline="") as fh:
+        csv.writer(fh, lineterminator="\n").writerows([head] + [[r[0], r[1], r[2], repr(float(v))] for r, v in zip(body, f)])
+
+
+def test_a_campaign_leaves_a_reversed_test_out_of_the_master_curve(tmp_path, capsys):
+    manifest = small_campaign(tmp_path / "data", temperatures=(10.0, 20.0, 30.0, 40.0), amplitudes=(2e-5,), extra=False)
+    _reverse_phase(tmp_path / "data" / "S1_T40C_A20um_P0N.csv")
+    out = tmp_path / "o"
+    assert main(["campaign", str(manifest), "--out", str(out), "--workers", "1", "--no-plots"]) == 0
+    err = capsys.readouterr().err
+    assert "jointid campaign: note: specimen S1: row 4 (40 C): the force lags the displacement (loss factor" in err
+    assert "fix the export or the phase sign; left out of the master curve" in err
+    import json
+
+    master = json.loads((out / "master_curve.json").read_text())["specimens"]["S1"]
+    assert sorted(s["temperature_c"] for s in master["shift_factors"]) == [10.0, 20.0, 30.0]
