@@ -385,7 +385,9 @@ def test_a_tolerance_that_leaves_the_modulus_undetermined_is_reported_not_an_int
     data = tmp_path / "data"
     data.mkdir()
     assert main(["direct", "--example", str(data / "t1.csv")]) == 0
-    shutil.copy(data / "t1.csv", data / "t2.csv")
+    lines = (data / "t1.csv").read_text().splitlines(keepends=True)
+    lines[1] = lines[1].rstrip("\n") + "1\n"  # the last digit of one force sample: not the same test (that is refused)
+    (data / "t2.csv").write_text("".join(lines))
     m = data / "m.csv"
     m.write_text("file,specimen,temperature_c,amplitude_m,preload_n\nt1.csv,S1,20,2.5e-5,0\nt2.csv,S1,40,2.5e-5,0\n")
     out = tmp_path / "out"
@@ -423,3 +425,18 @@ def test_a_temperature_left_out_of_the_master_curve_has_no_shift_and_the_termina
     err = capsys.readouterr().err
     assert "jointid campaign: note: specimen S1: master curve: -40 deg C: its curve does not overlap the others; left out" in err
     assert any(f.startswith("specimen S1: master curve: -40 deg C") for f in _json(out / "master_curve.json")["findings"])
+
+
+def test_the_same_test_listed_twice_is_refused_naming_both_rows(tmp_path, capsys):
+    """A black-box finding: a test copied under another name and listed again was counted twice in the master curve
+    (its bands too narrow), and the counts disagreed (4 to compute, 5 computed)."""
+    manifest = small_campaign(tmp_path / "data", temperatures=(10.0, 20.0), amplitudes=(2e-5,), extra=False)
+    rows = manifest_rows(manifest)
+    shutil.copy(manifest.parent / rows[1]["file"], manifest.parent / "copy.csv")
+    write_manifest(manifest, rows + [{**rows[1], "file": "copy.csv"}])
+    assert main(["campaign", str(manifest), "--out", str(tmp_path / "o"), "--workers", "1", "--no-plots"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"jointid campaign: error: {manifest}: row 3 (line 4, copy.csv) has the same content (SHA-256) as row 2 (line 3, "
+        f"{rows[1]['file']}): one test listed twice would count twice in the master curve and the fits (bands too narrow); "
+        "remove one of the rows")
+    assert not (tmp_path / "o" / "results.parquet").exists()

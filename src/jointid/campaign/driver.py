@@ -93,9 +93,12 @@ def plan_tasks(manifest: Manifest, processing: ProcessingOptions) -> tuple[dict[
     Raises
     ------
     DataError
-        A file that cannot be read, naming the row and the column.
+        A file that cannot be read, naming the row and the column; two rows of the same kind whose files (and
+        studies) have the same content: the same test listed twice would count twice in the master curve and
+        the fits (bands too narrow), naming both rows.
     """
     hashes: dict[Path, str] = {}
+    seen: dict[tuple, object] = {}  # (kind, file SHA-256, study SHA-256) -> the first row with it
 
     def digest(path: Path, row, column) -> str:
         if path not in hashes:
@@ -110,6 +113,11 @@ def plan_tasks(manifest: Manifest, processing: ProcessingOptions) -> tuple[dict[
     for t in manifest.tests:
         h = digest(t.file, t, "file")
         study_h = digest(t.study, t, "study") if t.study is not None else None
+        first = seen.setdefault((t.kind, h, study_h), t)
+        if first is not t:
+            raise DataError(f"{manifest.path}: row {t.row} (line {t.line}, {t.value('file')}) has the same content (SHA-256) as "
+                            f"row {first.row} (line {first.line}, {first.value('file')}): one test listed twice would count "
+                            "twice in the master curve and the fits (bands too narrow); remove one of the rows")
         key = task_key(t.kind, h, processing, parallel_joints=t.parallel_joints, amplitude_m=t.amplitude_m, study_sha256=study_h)
         tasks[t.row] = TestTask(key=key, kind=t.kind, file=str(t.file.resolve()), sha256=h, parallel_joints=t.parallel_joints,
                                 amplitude_m=t.amplitude_m, options=processing,
