@@ -440,3 +440,28 @@ def test_the_same_test_listed_twice_is_refused_naming_both_rows(tmp_path, capsys
         f"{rows[1]['file']}): one test listed twice would count twice in the master curve and the fits (bands too narrow); "
         "remove one of the rows")
     assert not (tmp_path / "o" / "results.parquet").exists()
+
+
+def test_files_with_their_own_column_names_and_units_are_read_as_direct_reads_one(tmp_path, capsys):
+    """A black-box finding: the message said "map it with --column QUANTITY=NAME", which ``jointid campaign`` did not
+    have. Files in mm and kN read with --column/--scale give the SI files' stiffness (to the rounding of the unit
+    conversion: a few eps relative)."""
+    manifest = small_campaign(tmp_path / "si", temperatures=(10.0, 20.0), amplitudes=(2e-5,), extra=False)
+    assert main(["campaign", str(manifest), "--out", str(tmp_path / "o_si"), "--workers", "1", "--no-plots"]) == 0
+    other = tmp_path / "mm"
+    other.mkdir()
+    shutil.copy(manifest, other / manifest.name)
+    for row in manifest_rows(manifest):
+        text = (manifest.parent / row["file"]).read_text().splitlines()
+        lines = ["frequency_hz,time_s,disp_mm,force_kN"] + [
+            f"{f},{t},{float(x) * 1e3!r},{float(y) * 1e-3!r}" for f, t, x, y in (line.split(",") for line in text[1:])]
+        (other / row["file"]).write_text("\n".join(lines) + "\n")
+    args = ["campaign", str(other / manifest.name), "--out", str(tmp_path / "o_mm"), "--workers", "1", "--no-plots"]
+    assert main(args) == 1  # without the mapping every test fails, naming the column
+    assert "missing column 'displacement_m'" in capsys.readouterr().err
+    assert main(args + ["--column", "displacement=disp_mm", "--column", "force=force_kN", "--scale", "displacement=1e-3",
+                        "--scale", "force=1e3"]) == 0
+    si = pq.read_table(tmp_path / "o_si" / "results.parquet").to_pandas()
+    mm = pq.read_table(tmp_path / "o_mm" / "results.parquet").to_pandas()
+    np.testing.assert_allclose(mm["stiffness_real"], si["stiffness_real"], rtol=1e-12)
+    np.testing.assert_allclose(mm["stiffness_imag"], si["stiffness_imag"], rtol=1e-12, atol=1e-12 * si["magnitude"].max())

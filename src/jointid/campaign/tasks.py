@@ -44,12 +44,17 @@ class ProcessingOptions:
         Relative amplitude deviation above which a step-sine line is flagged ``amplitude_ok = False``.
     harmonics, settle_tolerance, min_cycles
         See :func:`jointid.measurement.stepsine.process_block`.
+    columns, scale : tuple of (str, str) and of (str, float)
+        How the step-sine files name their columns and the factors from their units to SI, per quantity
+        (:func:`jointid.measurement.stepsine.read_stepsine_csv`; ``jointid campaign --column/--scale``).
     """
 
     tolerance: float = 0.05
     harmonics: int = 5
     settle_tolerance: float = 0.02
     min_cycles: int = 2
+    columns: tuple = ()
+    scale: tuple = ()
 
     def __post_init__(self) -> None:
         import math
@@ -172,7 +177,7 @@ def _direct(task: TestTask) -> tuple[dict, dict]:
     from ..measurement.stepsine import process_stepsine, read_stepsine_csv
 
     o = task.options
-    blocks = read_stepsine_csv(task.file)
+    blocks = read_stepsine_csv(task.file, columns=dict(o.columns) or None, scale=dict(o.scale) or None)
     r = process_stepsine(blocks, parallel_joints=task.parallel_joints, commanded_amplitude_m=task.amplitude_m,
                          tolerance=o.tolerance, harmonics=o.harmonics, settle_tolerance=o.settle_tolerance,
                          min_cycles=o.min_cycles)

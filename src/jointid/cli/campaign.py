@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import OUT_HELP, out_dir
+from .common import OUT_HELP, add_column_arguments, out_dir, quantity_pairs
 
 __all__ = ["add_parser", "run", "MAX_PRINTED_NOTES"]
 
@@ -44,6 +44,7 @@ def add_parser(sub) -> None:
     p.add_argument("--vertical-shift", action="store_true", help="also shift the master curves vertically (density-temperature factor)")
     p.add_argument("--tolerance", type=float, default=0.05,
                    help="flag step-sine lines whose achieved amplitude is off by more than this fraction (default 0.05)")
+    add_column_arguments(p)  # every direct test's file read so (as jointid direct reads one)
     p.add_argument("--no-plots", action="store_true", help="no figures (the report has the tables only)")
     p.set_defaults(func=run)
 
@@ -60,7 +61,16 @@ def run(args: argparse.Namespace) -> int:
         raise DataError(f"--tolerance must be a positive fraction (e.g. 0.05), got {args.tolerance}")
     if args.reference_temperature is not None and not (math.isfinite(args.reference_temperature) and args.reference_temperature > -273.15):
         raise DataError(f"--reference-temperature must be a temperature in degrees C, got {args.reference_temperature}")
-    options = CampaignOptions(processing=ProcessingOptions(tolerance=args.tolerance), reference_temperature_c=args.reference_temperature,
+    from ..measurement.stepsine import DEFAULT_COLUMNS
+
+    columns = tuple(sorted(quantity_pairs(args.column, "column", False).items()))
+    scale = tuple(sorted(quantity_pairs(args.scale, "scale", True).items()))
+    for what, pairs in (("column", columns), ("scale", scale)):  # before any test is read (each would fail alike)
+        unknown = [k for k, _ in pairs if k not in DEFAULT_COLUMNS]
+        if unknown:
+            raise DataError(f"--{what} {unknown[0]}=...: unknown quantity; expected one of {', '.join(DEFAULT_COLUMNS)}")
+    processing = ProcessingOptions(tolerance=args.tolerance, columns=columns, scale=scale)
+    options = CampaignOptions(processing=processing, reference_temperature_c=args.reference_temperature,
                               vertical_shift=args.vertical_shift, plots=not args.no_plots)
     result = run_campaign(args.manifest, args.out, options, workers=args.workers, scheduler=args.scheduler)
     s = result.summary

@@ -12,10 +12,11 @@ import argparse
 from pathlib import Path
 
 from ..benchmark import benchmark_study_path
-from ..errors import StudyError
+from ..errors import DataError, StudyError
 from ..study import Study, load_study
 
-__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "out_dir", "OUT_HELP", "Once"]
+__all__ = ["add_study_argument", "study_from_args", "add_out_argument", "out_dir", "OUT_HELP", "Once", "add_column_arguments",
+           "quantity_pairs"]
 
 #: Help text of ``--out DIR``.
 OUT_HELP = (
@@ -68,3 +69,35 @@ def out_dir(text: str) -> Path:
     if not text.strip():
         raise argparse.ArgumentTypeError("expected a directory, got an empty path (for the current directory give '.')")
     return Path(text)
+
+
+def add_column_arguments(p: argparse.ArgumentParser) -> None:
+    """Add ``--column QUANTITY=NAME`` and ``--scale QUANTITY=FACTOR`` (how a step-sine CSV names its columns and their
+    units; ``jointid direct`` and ``jointid campaign``)."""
+    p.add_argument("--column", action="append", metavar="QUANTITY=NAME",
+                   help="CSV column of a quantity (frequency, time, displacement, force); repeatable")
+    p.add_argument("--scale", action="append", metavar="QUANTITY=FACTOR",
+                   help="factor from the file's unit to SI for a quantity, e.g. displacement=1e-3 for mm; repeatable")
+
+
+def quantity_pairs(items, what: str, number: bool) -> dict:
+    """``--column``/``--scale`` values as ``{quantity: name or factor}``.
+
+    Raises
+    ------
+    DataError
+        An item that is not ``QUANTITY=VALUE`` (or, ``number``, whose value is not a number).
+    """
+    out = {}
+    for item in items or ():
+        if "=" not in item:
+            raise DataError(f"--{what} {item!r}: expected QUANTITY=VALUE, e.g. displacement=disp_mm")
+        k, v = item.split("=", 1)
+        k, v = k.strip(), v.strip()
+        if number:
+            try:
+                v = float(v)
+            except ValueError:
+                raise DataError(f"--{what} {item!r}: {v!r} is not a number") from None
+        out[k] = v
+    return out

@@ -13,25 +13,9 @@ import numpy as np
 from ..errors import DataError
 from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
-from .common import OUT_HELP, out_dir
+from .common import OUT_HELP, add_column_arguments, out_dir, quantity_pairs
 
 __all__ = ["add_parser", "run", "direct_summary"]
-
-
-def _pairs(items, what: str, number: bool) -> dict:
-    out = {}
-    for item in items or ():
-        if "=" not in item:
-            raise DataError(f"--{what} {item!r}: expected QUANTITY=VALUE, e.g. displacement=disp_mm")
-        k, v = item.split("=", 1)
-        k, v = k.strip(), v.strip()
-        if number:
-            try:
-                v = float(v)
-            except ValueError:
-                raise DataError(f"--{what} {item!r}: {v!r} is not a number") from None
-        out[k] = v
-    return out
 
 
 def add_parser(sub) -> None:
@@ -60,10 +44,7 @@ def add_parser(sub) -> None:
     p.add_argument("--diameter", type=float, default=0.0254, metavar="M", help="elastomer diameter, m (default 0.0254)")
     p.add_argument("--poisson-ratio", type=float, default=0.49, help="elastomer Poisson ratio (default 0.49)")
     p.add_argument("--static-lines", type=int, default=2, metavar="N", help="lowest lines for the static G, E (default 2)")
-    p.add_argument("--column", action="append", metavar="QUANTITY=NAME",
-                   help="CSV column of a quantity (frequency, time, displacement, force); repeatable")
-    p.add_argument("--scale", action="append", metavar="QUANTITY=FACTOR",
-                   help="factor from the file's unit to SI for a quantity, e.g. displacement=1e-3 for mm; repeatable")
+    add_column_arguments(p)
     p.add_argument("--density", type=float, default=None, metavar="KG_M3",
                    help="known elastomer density, kg/m^3: held, only E and the loss factor are fitted")
     p.add_argument("--zener", action="store_true", help="also fit a fractional-derivative Zener model to E*(f)")
@@ -129,7 +110,8 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     from ..methods.direct.material_fit import complex_modulus_per_line, fit_material, fit_zener, static_estimate
     from ..measurement.stepsine import process_stepsine, read_stepsine_csv
 
-    blocks = read_stepsine_csv(args.data, columns=_pairs(args.column, "column", False), scale=_pairs(args.scale, "scale", True))
+    blocks = read_stepsine_csv(args.data, columns=quantity_pairs(args.column, "column", False),
+                               scale=quantity_pairs(args.scale, "scale", True))
     try:
         result = process_stepsine(blocks, parallel_joints=args.parallel_joints, commanded_amplitude_m=args.amplitude,
                                   tolerance=args.tolerance)
