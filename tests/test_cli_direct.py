@@ -105,6 +105,9 @@ def _block_rows(f, cycles=5.3, spc=40):
     [
         ("missing_column", "missing column 'force_n'"),
         ("short", "block at 100 Hz: only 1.5 cycles"),
+        ("truncated", "the file ends inside the block at 100 Hz (1.47 cycles, every other block 5.27 or more): the file is "
+                      "cut short; copy the whole file again"),
+        ("cut_line", "line 637, the last one, is incomplete (2 of 4 values): the file is cut short; copy the whole file again"),
         ("zero", "block at 100 Hz: the displacement is zero"),
         ("nan", "block at 100 Hz: displacement_m has 1 NaN"),
         ("unsorted", "block at 100 Hz: time is not strictly increasing"),
@@ -118,8 +121,12 @@ def test_bad_input_one_line_nonzero_exit_no_output(tmp_path, main, capsys, case,
         header = header[:3]
         bad = [r[:3] for r in bad]
         good = [r[:3] for r in good]
-    elif case == "short":
+    elif case == "short":  # a short block first: the block's own check (last in the file it reads as a truncation)
+        good, bad = bad[:60], good
+    elif case == "truncated":
         bad = bad[:60]
+    elif case == "cut_line":
+        bad[-1] = bad[-1][:2]
     elif case == "zero":
         bad = [[r[0], r[1], 0.0, r[3]] for r in bad]
     elif case == "nan":

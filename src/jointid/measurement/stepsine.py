@@ -63,13 +63,9 @@ Processing (:func:`process_stepsine`), per block
 
 from __future__ import annotations
 
-import csv
-import io
 import math
-import os
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -86,15 +82,6 @@ __all__ = [
     "write_stepsine_csv",
     "DEFAULT_COLUMNS",
 ]
-
-#: Logical quantity -> default CSV column name.
-DEFAULT_COLUMNS: Mapping[str, str] = {
-    "frequency": "frequency_hz",
-    "time": "time_s",
-    "displacement": "displacement_m",
-    "force": "force_n",
-}
-
 
 def _fhz(f: float) -> str:
     return f"{f:g} Hz"
@@ -490,110 +477,5 @@ def process_stepsine(
     )
 
 
-# ---------------------------------------------------------------- CSV
-def _mapping(columns: Mapping[str, str] | None, scale: Mapping[str, float] | None):
-    cols = dict(DEFAULT_COLUMNS)
-    for k, v in (columns or {}).items():
-        if k not in DEFAULT_COLUMNS:
-            raise DataError(f"columns: unknown quantity {k!r}; expected one of {', '.join(DEFAULT_COLUMNS)}")
-        cols[k] = str(v)
-    sc = {k: 1.0 for k in DEFAULT_COLUMNS}
-    for k, v in (scale or {}).items():
-        if k not in DEFAULT_COLUMNS:
-            raise DataError(f"scale: unknown quantity {k!r}; expected one of {', '.join(DEFAULT_COLUMNS)}")
-        try:
-            sc[k] = float(v)
-        except (TypeError, ValueError):
-            raise DataError(f"scale[{k!r}] must be a number, got {v!r}") from None
-        if not (math.isfinite(sc[k]) and sc[k] != 0):
-            raise DataError(f"scale[{k!r}] must be finite and non-zero, got {v!r}")
-    return cols, sc
-
-
-def _to_float(values: list[str], name: str, path) -> np.ndarray:
-    vals = ["nan" if v == "" else v for v in values]
-    try:
-        return np.array(vals, dtype=float)
-    except ValueError:
-        for i, v in enumerate(vals):
-            try:
-                float(v)
-            except ValueError:
-                raise DataError(f"{path}: column {name!r}, data line {i + 1}: {v!r} is not a number") from None
-        raise
-
-
-def read_stepsine_csv(
-    path: str | os.PathLike,
-    columns: Mapping[str, str] | None = None,
-    scale: Mapping[str, float] | None = None,
-) -> tuple[StepSineBlock, ...]:
-    """Read step-sine time histories in the CSV long format (see the module docstring).
-
-    Parameters
-    ----------
-    path : path-like
-        CSV file.
-    columns : mapping, optional
-        Logical quantity (``frequency``, ``time``, ``displacement``, ``force``) ->
-        column name in the file.
-    scale : mapping, optional
-        Logical quantity -> factor converting the file's values to SI (Hz, s, m, N).
-
-    Returns
-    -------
-    tuple of StepSineBlock
-        In ascending test frequency.
-
-    Raises
-    ------
-    DataError
-        Not UTF-8 or not comma-separated, missing column (naming it and the
-        columns present), a value that is not a number, or a bad block (naming
-        its frequency).
-    """
-    from ..io.text import check_separator, read_utf8
-
-    cols, sc = _mapping(columns, scale)
-    rows = list(csv.reader(io.StringIO(read_utf8(path, "step-sine CSV file"), newline="")))
-    if not rows:
-        raise DataError(f"{path}: empty file; expected a header row with {', '.join(DEFAULT_COLUMNS.values())}")
-    header = [h.strip() for h in rows[0]]
-    check_separator(path, header)
-    missing = [c for c in cols.values() if c not in header]
-    if missing:
-        raise DataError(
-            f"{path}: missing column {missing[0]!r} (columns present: {', '.join(header)}); "
-            "rename it or map it with columns={...} / --column QUANTITY=NAME"
-        )
-    body = [r for r in rows[1:] if r and any(c.strip() for c in r)]
-    if not body:
-        raise DataError(f"{path}: no data rows after the header")
-    data = {}
-    for key, name in cols.items():
-        j = header.index(name)
-        data[key] = _to_float([r[j].strip() if j < len(r) else "" for r in body], name, path) * sc[key]
-    fcol = data["frequency"]
-    if np.any(~np.isfinite(fcol)):
-        i = int(np.argmax(~np.isfinite(fcol)))
-        raise DataError(f"{path}: data line {i + 1}: missing or non-finite {cols['frequency']!r}; every row needs its block's test frequency")
-    blocks = []
-    for f in np.unique(fcol):
-        m = fcol == f
-        try:
-            blocks.append(StepSineBlock(float(f), data["time"][m], data["displacement"][m], data["force"][m]))
-        except DataError as exc:  # a block's own check: name the file too
-            raise DataError(f"{path}: {exc}") from None
-    return tuple(blocks)
-
-
-def write_stepsine_csv(path: str | os.PathLike, blocks: Sequence[StepSineBlock]) -> Path:
-    """Write blocks in the default CSV long format (SI units), atomically; returns the path."""
-    from ..io.atomic import atomic_write_text
-
-    buf = io.StringIO()
-    buf.write(",".join(DEFAULT_COLUMNS.values()) + "\n")
-    for b in blocks:
-        arr = np.column_stack([np.full(b.time_s.size, b.frequency_hz), b.time_s, b.displacement_m, b.force_n])
-        np.savetxt(buf, arr, delimiter=",", fmt="%.10g")
-    return atomic_write_text(path, buf.getvalue())
+# the CSV long format (re-exported: ``from jointid.measurement.stepsine import read_stepsine_csv`` as before)
+from .stepsine_files import DEFAULT_COLUMNS, read_stepsine_csv, write_stepsine_csv  # noqa: E402

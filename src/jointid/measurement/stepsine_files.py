@@ -1,0 +1,167 @@
+"""Step-sine time histories in the CSV long format: reading (with column names and units mapped) and writing.
+
+One row per sample: ``frequency_hz, time_s, displacement_m, force_n`` (the block's test frequency, Hz; time, s;
+imposed displacement, m; transmitted force, N), blocks one after the other (:mod:`jointid.measurement.stepsine`
+processes them). A file cut short -- its last line incomplete, or its last block with fewer cycles than every
+other block -- is refused naming the line or the block: a truncated copy would silently lose its later blocks.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ..errors import DataError
+
+__all__ = ["read_stepsine_csv", "write_stepsine_csv", "DEFAULT_COLUMNS", "TRUNCATED_CYCLES"]
+
+#: Logical quantity -> default CSV column name.
+DEFAULT_COLUMNS: Mapping[str, str] = {
+    "frequency": "frequency_hz",
+    "time": "time_s",
+    "displacement": "displacement_m",
+    "force": "force_n",
+}
+#: The file's last block is taken as cut short when it holds fewer than this fraction of the cycles of the block that
+#: holds fewest among the others (which agree within the same fraction).
+TRUNCATED_CYCLES = 0.9
+
+
+def _mapping(columns: Mapping[str, str] | None, scale: Mapping[str, float] | None):
+    cols = dict(DEFAULT_COLUMNS)
+    for k, v in (columns or {}).items():
+        if k not in DEFAULT_COLUMNS:
+            raise DataError(f"columns: unknown quantity {k!r}; expected one of {', '.join(DEFAULT_COLUMNS)}")
+        cols[k] = str(v)
+    sc = {k: 1.0 for k in DEFAULT_COLUMNS}
+    for k, v in (scale or {}).items():
+        if k not in DEFAULT_COLUMNS:
+            raise DataError(f"scale: unknown quantity {k!r}; expected one of {', '.join(DEFAULT_COLUMNS)}")
+        try:
+            sc[k] = float(v)
+        except (TypeError, ValueError):
+            raise DataError(f"scale[{k!r}] must be a number, got {v!r}") from None
+        if not (math.isfinite(sc[k]) and sc[k] != 0):
+            raise DataError(f"scale[{k!r}] must be finite and non-zero, got {v!r}")
+    return cols, sc
+
+
+def _to_float(values: list[str], name: str, path) -> np.ndarray:
+    vals = ["nan" if v == "" else v for v in values]
+    try:
+        return np.array(vals, dtype=float)
+    except ValueError:
+        for i, v in enumerate(vals):
+            try:
+                float(v)
+            except ValueError:
+                raise DataError(f"{path}: column {name!r}, data line {i + 1}: {v!r} is not a number") from None
+        raise
+
+
+def read_stepsine_csv(
+    path: str | os.PathLike,
+    columns: Mapping[str, str] | None = None,
+    scale: Mapping[str, float] | None = None,
+) -> tuple:
+    """Read step-sine time histories in the CSV long format (see the module docstring).
+
+    Parameters
+    ----------
+    path : path-like
+        CSV file.
+    columns : mapping, optional
+        Logical quantity (``frequency``, ``time``, ``displacement``, ``force``) ->
+        column name in the file.
+    scale : mapping, optional
+        Logical quantity -> factor converting the file's values to SI (Hz, s, m, N).
+
+    Returns
+    -------
+    tuple of StepSineBlock
+        In ascending test frequency.
+
+    Raises
+    ------
+    DataError
+        Not UTF-8 or not comma-separated, missing column (naming it and the
+        columns present), a value that is not a number, or a bad block (naming
+        its frequency).
+    """
+    from ..io.text import check_separator, read_utf8
+    from .stepsine import StepSineBlock  # here: stepsine re-exports this module's functions
+
+    cols, sc = _mapping(columns, scale)
+    rows = list(csv.reader(io.StringIO(read_utf8(path, "step-sine CSV file"), newline="")))
+    if not rows:
+        raise DataError(f"{path}: empty file; expected a header row with {', '.join(DEFAULT_COLUMNS.values())}")
+    header = [h.strip() for h in rows[0]]
+    check_separator(path, header)
+    missing = [c for c in cols.values() if c not in header]
+    if missing:
+        raise DataError(
+            f"{path}: missing column {missing[0]!r} (columns present: {', '.join(header)}); "
+            "rename it or map it with columns={...} / --column QUANTITY=NAME"
+        )
+    numbered = [(n, r) for n, r in enumerate(rows[1:], start=2) if r and any(c.strip() for c in r)]
+    if not numbered:
+        raise DataError(f"{path}: no data rows after the header")
+    last_line, last = numbered[-1]
+    if len(last) < len(header) or not last[-1].strip():
+        raise DataError(f"{path}: line {last_line}, the last one, is incomplete ({sum(bool(c.strip()) for c in last)} of "
+                        f"{len(header)} values): the file is cut short; copy the whole file again")
+    body = [r for _, r in numbered]
+    data = {}
+    for key, name in cols.items():
+        j = header.index(name)
+        data[key] = _to_float([r[j].strip() if j < len(r) else "" for r in body], name, path) * sc[key]
+    fcol = data["frequency"]
+    if np.any(~np.isfinite(fcol)):
+        i = int(np.argmax(~np.isfinite(fcol)))
+        raise DataError(f"{path}: data line {i + 1}: missing or non-finite {cols['frequency']!r}; every row needs its block's test frequency")
+    _check_last_block(path, fcol, data["time"])
+    blocks = []
+    for f in np.unique(fcol):
+        m = fcol == f
+        try:
+            blocks.append(StepSineBlock(float(f), data["time"][m], data["displacement"][m], data["force"][m]))
+        except DataError as exc:  # a block's own check: name the file too
+            raise DataError(f"{path}: {exc}") from None
+    return tuple(blocks)
+
+
+def _check_last_block(path, frequency: np.ndarray, time: np.ndarray) -> None:
+    """Refuse a file whose last block (in file order) holds fewer cycles than every other one (module docstring)."""
+    order = list(dict.fromkeys(frequency.tolist()))  # blocks in file order
+    if len(order) < 3:
+        return
+    cycles = {}
+    for f in order:
+        t = time[frequency == f]
+        if t.size < 2 or not np.all(np.isfinite(t)):
+            return  # the block's own check names it
+        cycles[f] = (t.max() - t.min()) * f
+    others = np.array([cycles[f] for f in order[:-1]])
+    if others.min() < TRUNCATED_CYCLES * others.max():
+        return  # the blocks hold different numbers of cycles by design: no pattern to miss
+    if cycles[order[-1]] < TRUNCATED_CYCLES * others.min():
+        raise DataError(f"{path}: the file ends inside the block at {order[-1]:g} Hz ({cycles[order[-1]]:.3g} cycles, every "
+                        f"other block {others.min():.3g} or more): the file is cut short; copy the whole file again")
+
+
+def write_stepsine_csv(path: str | os.PathLike, blocks: Sequence) -> Path:
+    """Write blocks in the default CSV long format (SI units), atomically; returns the path."""
+    from ..io.atomic import atomic_write_text
+
+    buf = io.StringIO()
+    buf.write(",".join(DEFAULT_COLUMNS.values()) + "\n")
+    for b in blocks:
+        arr = np.column_stack([np.full(b.time_s.size, b.frequency_hz), b.time_s, b.displacement_m, b.force_n])
+        np.savetxt(buf, arr, delimiter=",", fmt="%.10g")
+    return atomic_write_text(path, buf.getvalue())
