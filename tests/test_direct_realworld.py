@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 
 import numpy as np
@@ -92,3 +93,28 @@ def test_a_campaign_leaves_a_reversed_test_out_of_the_master_curve(tmp_path, cap
 
     master = json.loads((out / "master_curve.json").read_text())["specimens"]["S1"]
     assert sorted(s["temperature_c"] for s in master["shift_factors"]) == [10.0, 20.0, 30.0]
+
+
+def _block(f=1.0, drift=0.0, cycles=12, spc=32, noise=0.005, seed=0):
+    from jointid.measurement.stepsine import StepSineBlock
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(cycles * spc) / (spc * f)
+    x = 5e-5 * np.cos(2 * np.pi * f * t)
+    F = 2 * 5e5 * 5e-5 * np.cos(2 * np.pi * f * t + 0.2) * (1 + drift * t)
+    return StepSineBlock(f, t, x + noise * 5e-5 * rng.standard_normal(t.size), F + noise * 50 * rng.standard_normal(t.size))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_stiffness_drifting_along_the_block_is_flagged_and_noise_alone_is_not(seed):
+    """A black-box finding: a force drifting 0.5 %/s (a specimen heating) passed the settling check; K21, the block's
+    time average, was 4 % off with nothing said. 0.5 %/s over 12 s: flagged; no drift, 0.5 % noise: not flagged."""
+    from jointid.measurement.stepsine import process_block
+    from jointid.measurement.stepsine_checks import drift_problem
+
+    drifting = process_block(_block(drift=0.005, seed=seed))
+    # (the settling check takes the first cycles, which differ most from the last ones, for the transient)
+    assert re.fullmatch(r"block at 1 Hz: stiffness drifting \+[0-9.]+ % over the \d+ settled cycles \(the specimen heating "
+                        r"or the machine drifting: not stationary\)", drifting["distortion"]), drifting["distortion"]
+    assert process_block(_block(seed=seed))["distortion"] == ""
+    assert drift_problem(np.full(12, 1e6 + 0j), 1.0) == ""  # exactly stationary

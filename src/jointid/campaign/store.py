@@ -43,8 +43,9 @@ __all__ = ["ResultStore", "task_key", "CACHE_DIR", "STORE_FORMAT"]
 
 #: The cache directory under ``DIR`` (reserved ``.jointid`` name).
 CACHE_DIR = ".jointid-cache/campaign"
-#: Format tag of an entry; a change of the entry layout changes it (old entries are then recomputed).
-STORE_FORMAT = "jointid-campaign-result-1"
+#: Format tag of an entry; a change of the entry layout or of what the processing gives changes it (old entries are
+#: then recomputed; 2: step-sine lines whose stiffness drifts along the block are flagged).
+STORE_FORMAT = "jointid-campaign-result-2"
 
 
 def task_key(kind: str, file_sha256: str, options: ProcessingOptions, *, parallel_joints: int, amplitude_m: float,

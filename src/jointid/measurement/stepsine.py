@@ -71,7 +71,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..frequency import Frequency
-from .stepsine_checks import distortion_problems
+from .stepsine_checks import distortion_problems, drift_problem
 
 __all__ = [
     "StepSineBlock",
@@ -379,6 +379,9 @@ def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: fl
     thd = float(np.sqrt(np.sum(np.abs(ph_all[1:, 1]) ** 2)) / abs(F)) if F != 0 else float("nan")
     thd_x = float(np.sqrt(np.sum(np.abs(ph_all[1:, 0]) ** 2)) / abs(X))
     problems = distortion_problems(yy[1], thd, yy[0], thd_x)
+    drift = drift_problem(P[1, k0:ncyc] / P[0, k0:ncyc], f)
+    if drift:
+        problems.append(drift)
     return {
         "distortion": f"block at {_fhz(f)}: " + ", ".join(problems) if problems else "",
         "displacement_thd": thd_x,

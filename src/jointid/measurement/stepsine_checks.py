@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_THD", "MAX_FLAT_SHARE", "flat_top_share", "distortion_problems"]
+__all__ = ["MAX_THD", "MAX_FLAT_SHARE", "MAX_DRIFT", "flat_top_share", "distortion_problems", "drift_problem"]
 
 #: Total harmonic distortion (harmonics 2..H over the fundamental) of either channel above which a block
 #: is flagged distorted. Smooth distortion does not bias the fundamental (the harmonics are fitted with it:
@@ -24,6 +24,12 @@ MAX_THD = 0.25
 #: Share of a channel's samples on flat tops (runs of >= 3 equal samples at its maximum or minimum) above
 #: which the channel is flagged clipped (a saturated load cell, amplifier or actuator).
 MAX_FLAT_SHARE = 0.01
+
+
+#: Change of ``|F1 / X1|`` over a block's settled cycles (a straight line through the per-cycle values, relative)
+#: above which the block is flagged not stationary (a specimen heating, the machine drifting): its K21 is a time
+#: average that the bands of the fits do not know of (0.5 %/s over a 12-cycle block at 1 Hz: 4 % off).
+MAX_DRIFT = 0.01
 
 
 def flat_top_share(y: np.ndarray) -> float:
@@ -73,3 +79,36 @@ def distortion_problems(force: np.ndarray, force_thd: float, displacement: np.nd
         elif d > MAX_THD:
             problems.append(f"{name} distorted (harmonic distortion {d:.0%})")
     return problems
+
+
+def drift_problem(ratio: np.ndarray, frequency_hz: float) -> str:
+    """``"stiffness drifting 3.2 % over the 10 settled cycles (...)"`` when ``|F1 / X1|`` changes along the block, else "".
+
+    The per-cycle ratios ``r_c`` (one per settled cycle, at ``t_c = (c + 1/2) / f``) are fitted by a straight line
+    ``|r_c| / mean|r| = a + b t_c``; the change over the block is ``b n / f``, its standard error ``s n / (f sqrt(Sxx))``
+    from the line's residual ``s``. Flagged when the change exceeds :data:`MAX_DRIFT` and four standard errors
+    (noise alone does not flag it). Fewer than 4 cycles: no test.
+
+    Parameters
+    ----------
+    ratio : ndarray, shape (n,), complex
+        ``F1 / X1`` of each settled cycle, N/m.
+    frequency_hz : float
+        The block's test frequency, Hz.
+    """
+    q = np.abs(np.asarray(ratio, complex))
+    n = q.size
+    if n < 4 or not np.all(np.isfinite(q)) or q.mean() <= 0:
+        return ""
+    t = (np.arange(n) + 0.5) / frequency_hz
+    y = q / q.mean()
+    tc = t - t.mean()
+    sxx = float(np.dot(tc, tc))
+    b = float(np.dot(tc, y - y.mean()) / sxx)
+    resid = y - y.mean() - b * tc
+    s = float(np.sqrt(np.dot(resid, resid) / (n - 2)))
+    change, se = b * n / frequency_hz, s * n / (frequency_hz * np.sqrt(sxx))
+    if abs(change) > MAX_DRIFT and abs(change) > 4.0 * se:
+        return (f"stiffness drifting {100 * change:+.2g} % over the {n} settled cycles (the specimen heating or the machine "
+                "drifting: not stationary)")
+    return ""
