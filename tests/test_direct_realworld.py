@@ -118,3 +118,26 @@ def test_a_stiffness_drifting_along_the_block_is_flagged_and_noise_alone_is_not(
                         r"or the machine drifting: not stationary\)", drifting["distortion"]), drifting["distortion"]
     assert process_block(_block(seed=seed))["distortion"] == ""
     assert drift_problem(np.full(12, 1e6 + 0j), 1.0) == ""  # exactly stationary
+
+
+def test_a_campaign_names_the_lines_it_did_not_use_and_why(tmp_path, capsys):
+    """A black-box finding: a clipped block was flagged (amplitude_ok 0) but why was nowhere in a campaign: not on the
+    terminal, not in the tests table, not in the report."""
+    import pyarrow.parquet as pq
+
+    manifest = small_campaign(tmp_path / "data", temperatures=(10.0, 20.0), amplitudes=(2e-5,), extra=False)
+    path = tmp_path / "data" / "S1_T20C_A20um_P0N.csv"
+    rows = list(csv.reader(path.open(newline="")))
+    first = [r for r in rows[1:] if r[0] == rows[1][0]]
+    limit = 0.6 * max(abs(float(r[3])) for r in first)
+    for r in first:  # the first block's force clipped at 60 % of its peak (a saturated load cell)
+        r[3] = repr(float(np.clip(float(r[3]), -limit, limit)))
+    with path.open("w", newline="") as fh:
+        csv.writer(fh, lineterminator="\n").writerows(rows)
+    out = tmp_path / "o"
+    assert main(["campaign", str(manifest), "--out", str(out), "--workers", "1", "--no-plots"]) == 0
+    said = f"specimen S1: row 2 (20 C): lines not used: block at {float(rows[1][0]):g} Hz: force clipped (flat tops on "
+    assert f"jointid campaign: note: {said}" in capsys.readouterr().err
+    tests = pq.read_table(out / "tests.parquet").to_pandas()
+    assert list(tests["lines_not_used"] == "") == [True, False]
+    assert (out / "report.html").read_text().count("force clipped (flat tops on") >= 1

@@ -198,6 +198,8 @@ def _direct(task: TestTask) -> tuple[dict, dict]:
         "max_force_residual": float(np.max(r.force_residual)),
         "max_displacement_residual": float(np.max(r.displacement_residual)),
         "max_settled_time_s": float(np.max(r.settled_time_s)),
+        # the lines the processing flagged and why (clipped, distorted, drifting): named in the tests table and findings
+        "lines_not_used": "; ".join(r.distortion),
     }
     return lines, params
 
