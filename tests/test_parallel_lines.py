@@ -128,7 +128,7 @@ def test_the_receptance_kernels_are_functions_of_independent_lines(blocks, monke
     from jointid.methods.receptance.coupling_lines import _line_design
     from jointid.methods.receptance.column_calibration import _calibration_lines
     from jointid.methods.receptance.force_noise import _split_lines
-    from jointid.methods.receptance.model_check import _residual_lines
+    from jointid.methods.receptance.model_check import design_residual
 
     Ymn, Yne, Yme, H, var = blocks
     F, m, _ = Ymn.shape
@@ -141,7 +141,7 @@ def test_the_receptance_kernels_are_functions_of_independent_lines(blocks, monke
         sw, cs, Q, R = _line_design(Ymn, Yne, var, True)
         change = Yme - H
         return ((sw, cs, Q, R) + map_lines(_split_lines, change, H, sw, Q) + map_lines(_calibration_lines, change, H, sw, Q)
-                + (map_lines(_residual_lines, change, sw, Q),))
+                + (map_lines(design_residual, change, sw, Q),))
 
     monkeypatch.setattr(parallel, "worker_count", lambda tasks: 3)  # chunked on any machine (one core too)
     chunked = every(False)

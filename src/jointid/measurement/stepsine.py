@@ -72,6 +72,8 @@ import numpy as np
 from ..errors import DataError
 from ..frequency import Frequency
 from .stepsine_checks import distortion_problems, drift_problem
+# the block and the CSV long format (re-exported: ``from jointid.measurement.stepsine import ...`` as before)
+from .stepsine_files import DEFAULT_COLUMNS, StepSineBlock, hz_text, read_stepsine_csv, write_stepsine_csv
 
 __all__ = [
     "StepSineBlock",
@@ -82,96 +84,6 @@ __all__ = [
     "write_stepsine_csv",
     "DEFAULT_COLUMNS",
 ]
-
-def _fhz(f: float) -> str:
-    return f"{f:g} Hz"
-
-
-@dataclass(frozen=True, eq=False)
-class StepSineBlock:
-    """Time histories recorded at one test frequency.
-
-    Parameters
-    ----------
-    frequency_hz : float
-        Test frequency, Hz.
-    time_s : ndarray, shape (n,)
-        Sample times, s, strictly increasing.
-    displacement_m : ndarray, shape (n,)
-        Imposed displacement, m.
-    force_n : ndarray, shape (n,)
-        Transmitted force, N (all joints in parallel).
-
-    Raises
-    ------
-    DataError
-        Naming the block's frequency: NaN/inf, unsorted time, fewer than 2
-        whole cycles or 4 samples per cycle, constant displacement.
-    """
-
-    frequency_hz: float
-    time_s: np.ndarray
-    displacement_m: np.ndarray
-    force_n: np.ndarray
-
-    def __post_init__(self) -> None:
-        f = float(self.frequency_hz)
-        if not (math.isfinite(f) and f > 0):
-            raise DataError(f"step-sine block: test frequency must be a positive number in Hz, got {self.frequency_hz!r}")
-        object.__setattr__(self, "frequency_hz", f)
-        arrays = {}
-        for name in ("time_s", "displacement_m", "force_n"):
-            a = np.array(getattr(self, name), dtype=float).reshape(-1)
-            a.setflags(write=False)
-            arrays[name] = a
-            object.__setattr__(self, name, a)
-        n = {a.size for a in arrays.values()}
-        if len(n) != 1:
-            raise DataError(
-                f"block at {_fhz(f)}: time, displacement and force have different lengths "
-                f"({', '.join(f'{k} {v.size}' for k, v in arrays.items())})"
-            )
-        for name, a in arrays.items():
-            bad = ~np.isfinite(a)
-            if bad.any():
-                raise DataError(
-                    f"block at {_fhz(f)}: {name} has {int(bad.sum())} NaN/missing/infinite value(s) "
-                    f"(first at sample {int(np.argmax(bad))}); remove or repair those samples"
-                )
-        t = arrays["time_s"]
-        if t.size < 2:
-            raise DataError(f"block at {_fhz(f)}: only {t.size} sample(s); record at least 2 whole cycles")
-        dt = np.diff(t)
-        if np.any(dt <= 0):
-            i = int(np.argmax(dt <= 0))
-            raise DataError(
-                f"block at {_fhz(f)}: time is not strictly increasing (sample {i + 1}: {float(t[i + 1])!r} s after {float(t[i])!r} s); "
-                "sort the samples by time and remove duplicates"
-            )
-        spc = 1.0 / (f * float(np.median(dt)))
-        if spc < 4:
-            raise DataError(
-                f"block at {_fhz(f)}: {spc:.2g} samples per cycle; the sample rate must be at least 4x the test frequency"
-            )
-        cycles = self.recorded_cycles
-        if cycles < 2:
-            raise DataError(
-                f"block at {_fhz(f)}: only {cycles:.3g} cycles recorded; record at least 2 whole cycles "
-                "(plus the settling transient)"
-            )
-        if np.ptp(arrays["displacement_m"]) == 0:
-            raise DataError(f"block at {_fhz(f)}: the displacement is zero (constant); check the displacement channel")
-
-    @property
-    def sample_interval_s(self) -> float:
-        """Median sample interval, s."""
-        return float(np.median(np.diff(self.time_s)))
-
-    @property
-    def recorded_cycles(self) -> float:
-        """Number of cycles covered by the samples (each sample covering one interval), possibly non-integer."""
-        return (float(self.time_s[-1] - self.time_s[0]) + self.sample_interval_s) * self.frequency_hz
-
 
 @dataclass(frozen=True, eq=False)
 class StepSineResult:
@@ -317,7 +229,7 @@ def _settled_start(P: np.ndarray, rel_se: np.ndarray, settle_tolerance: float, f
         drift = abs(np.mean(qt[:h]) - np.mean(qt[h:])) / abs(ref)
         if drift > max(settle_tolerance, 4.0 * sigma * math.sqrt(1.0 / h + 1.0 / (ntail - h))):
             raise DataError(
-                f"block at {_fhz(frequency_hz)}: not settled: the {label} still changes by {drift:.1%} over the last "
+                f"block at {hz_text(frequency_hz)}: not settled: the {label} still changes by {drift:.1%} over the last "
                 f"{ntail} of {ncyc} cycles; record more cycles after the transient"
             )
         dev = np.abs(q[: ncyc // 2] / ref - 1.0)
@@ -357,7 +269,7 @@ def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: fl
     k0 = _settled_start(P, rel_se, settle_tolerance, f)
     if ncyc - k0 < min_cycles:
         raise DataError(
-            f"block at {_fhz(f)}: only {ncyc - k0} whole cycle(s) left after dropping {k0} settling cycle(s); "
+            f"block at {hz_text(f)}: only {ncyc - k0} whole cycle(s) left after dropping {k0} settling cycle(s); "
             f"record at least {min_cycles} settled cycles"
         )
     t0, t1 = k0 / f, ncyc / f
@@ -373,7 +285,7 @@ def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: fl
     resid = yy.T - A @ coef
     X, F = ph_all[0, 0], ph_all[0, 1]
     if abs(X) <= 1e-12 * max(np.max(np.abs(block.displacement_m)), 1e-300):
-        raise DataError(f"block at {_fhz(f)}: no displacement at the test frequency; check the displacement channel")
+        raise DataError(f"block at {hz_text(f)}: no displacement at the test frequency; check the displacement channel")
     rms1 = np.abs(ph_all[0]) / math.sqrt(2.0)
     rres = np.sqrt(np.mean(resid**2, axis=0)) / np.where(rms1 > 0, rms1, np.inf)
     thd = float(np.sqrt(np.sum(np.abs(ph_all[1:, 1]) ** 2)) / abs(F)) if F != 0 else float("nan")
@@ -383,7 +295,7 @@ def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: fl
     if drift:
         problems.append(drift)
     return {
-        "distortion": f"block at {_fhz(f)}: " + ", ".join(problems) if problems else "",
+        "distortion": f"block at {hz_text(f)}: " + ", ".join(problems) if problems else "",
         "displacement_thd": thd_x,
         "X": complex(X),
         "F": complex(F),
@@ -434,7 +346,7 @@ def process_stepsine(
     freq = np.array([b.frequency_hz for b in blocks])
     uniq, counts = np.unique(freq, return_counts=True)
     if np.any(counts > 1):
-        raise DataError(f"block at {_fhz(uniq[np.argmax(counts > 1)])}: given {counts.max()} times; merge or drop the duplicates")
+        raise DataError(f"block at {hz_text(uniq[np.argmax(counts > 1)])}: given {counts.max()} times; merge or drop the duplicates")
     rows = [process_block(b, harmonics, settle_tolerance, min_cycles) for b in blocks]
     X = np.array([r["X"] for r in rows])
     F = np.array([r["F"] for r in rows])
@@ -478,7 +390,3 @@ def process_stepsine(
         distorted=distorted[order],
         distortion=notes,
     )
-
-
-# the CSV long format (re-exported: ``from jointid.measurement.stepsine import read_stepsine_csv`` as before)
-from .stepsine_files import DEFAULT_COLUMNS, read_stepsine_csv, write_stepsine_csv  # noqa: E402

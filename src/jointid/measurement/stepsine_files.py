@@ -12,6 +12,7 @@ import csv
 import io
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -19,7 +20,7 @@ import numpy as np
 
 from ..errors import DataError
 
-__all__ = ["read_stepsine_csv", "write_stepsine_csv", "DEFAULT_COLUMNS", "TRUNCATED_CYCLES"]
+__all__ = ["StepSineBlock", "read_stepsine_csv", "write_stepsine_csv", "hz_text", "DEFAULT_COLUMNS", "TRUNCATED_CYCLES"]
 
 #: Logical quantity -> default CSV column name.
 DEFAULT_COLUMNS: Mapping[str, str] = {
@@ -31,6 +32,97 @@ DEFAULT_COLUMNS: Mapping[str, str] = {
 #: The file's last block is taken as cut short when it holds fewer than this fraction of the cycles of the block that
 #: holds fewest among the others (which agree within the same fraction).
 TRUNCATED_CYCLES = 0.9
+
+
+def hz_text(f: float) -> str:
+    """A test frequency as messages name it: ``"12.9155 Hz"``."""
+    return f"{f:g} Hz"
+
+
+@dataclass(frozen=True, eq=False)
+class StepSineBlock:
+    """Time histories recorded at one test frequency.
+
+    Parameters
+    ----------
+    frequency_hz : float
+        Test frequency, Hz.
+    time_s : ndarray, shape (n,)
+        Sample times, s, strictly increasing.
+    displacement_m : ndarray, shape (n,)
+        Imposed displacement, m.
+    force_n : ndarray, shape (n,)
+        Transmitted force, N (all joints in parallel).
+
+    Raises
+    ------
+    DataError
+        Naming the block's frequency: NaN/inf, unsorted time, fewer than 2
+        whole cycles or 4 samples per cycle, constant displacement.
+    """
+
+    frequency_hz: float
+    time_s: np.ndarray
+    displacement_m: np.ndarray
+    force_n: np.ndarray
+
+    def __post_init__(self) -> None:
+        f = float(self.frequency_hz)
+        if not (math.isfinite(f) and f > 0):
+            raise DataError(f"step-sine block: test frequency must be a positive number in Hz, got {self.frequency_hz!r}")
+        object.__setattr__(self, "frequency_hz", f)
+        arrays = {}
+        for name in ("time_s", "displacement_m", "force_n"):
+            a = np.array(getattr(self, name), dtype=float).reshape(-1)
+            a.setflags(write=False)
+            arrays[name] = a
+            object.__setattr__(self, name, a)
+        n = {a.size for a in arrays.values()}
+        if len(n) != 1:
+            raise DataError(
+                f"block at {hz_text(f)}: time, displacement and force have different lengths "
+                f"({', '.join(f'{k} {v.size}' for k, v in arrays.items())})"
+            )
+        for name, a in arrays.items():
+            bad = ~np.isfinite(a)
+            if bad.any():
+                raise DataError(
+                    f"block at {hz_text(f)}: {name} has {int(bad.sum())} NaN/missing/infinite value(s) "
+                    f"(first at sample {int(np.argmax(bad))}); remove or repair those samples"
+                )
+        t = arrays["time_s"]
+        if t.size < 2:
+            raise DataError(f"block at {hz_text(f)}: only {t.size} sample(s); record at least 2 whole cycles")
+        dt = np.diff(t)
+        if np.any(dt <= 0):
+            i = int(np.argmax(dt <= 0))
+            raise DataError(
+                f"block at {hz_text(f)}: time is not strictly increasing (sample {i + 1}: {float(t[i + 1])!r} s after {float(t[i])!r} s); "
+                "sort the samples by time and remove duplicates"
+            )
+        spc = 1.0 / (f * float(np.median(dt)))
+        if spc < 4:
+            raise DataError(
+                f"block at {hz_text(f)}: {spc:.2g} samples per cycle; the sample rate must be at least 4x the test frequency"
+            )
+        cycles = self.recorded_cycles
+        if cycles < 2:
+            raise DataError(
+                f"block at {hz_text(f)}: only {cycles:.3g} cycles recorded; record at least 2 whole cycles "
+                "(plus the settling transient)"
+            )
+        if np.ptp(arrays["displacement_m"]) == 0:
+            raise DataError(f"block at {hz_text(f)}: the displacement is zero (constant); check the displacement channel")
+
+    @property
+    def sample_interval_s(self) -> float:
+        """Median sample interval, s."""
+        return float(np.median(np.diff(self.time_s)))
+
+    @property
+    def recorded_cycles(self) -> float:
+        """Number of cycles covered by the samples (each sample covering one interval), possibly non-integer."""
+        return (float(self.time_s[-1] - self.time_s[0]) + self.sample_interval_s) * self.frequency_hz
 
 
 def _mapping(columns: Mapping[str, str] | None, scale: Mapping[str, float] | None):
@@ -69,7 +161,7 @@ def read_stepsine_csv(
     path: str | os.PathLike,
     columns: Mapping[str, str] | None = None,
     scale: Mapping[str, float] | None = None,
-) -> tuple:
+) -> tuple[StepSineBlock, ...]:
     """Read step-sine time histories in the CSV long format (see the module docstring).
 
     Parameters
@@ -95,7 +187,6 @@ def read_stepsine_csv(
         its frequency).
     """
     from ..io.text import check_separator, read_utf8
-    from .stepsine import StepSineBlock  # here: stepsine re-exports this module's functions
 
     cols, sc = _mapping(columns, scale)
     rows = list(csv.reader(io.StringIO(read_utf8(path, "step-sine CSV file"), newline="")))
@@ -155,7 +246,7 @@ def _check_last_block(path, frequency: np.ndarray, time: np.ndarray) -> None:
                         f"other block {others.min():.3g} or more): the file is cut short; copy the whole file again")
 
 
-def write_stepsine_csv(path: str | os.PathLike, blocks: Sequence) -> Path:
+def write_stepsine_csv(path: str | os.PathLike, blocks: Sequence[StepSineBlock]) -> Path:
     """Write blocks in the default CSV long format (SI units), atomically; returns the path."""
     from ..io.atomic import atomic_write_text
 
