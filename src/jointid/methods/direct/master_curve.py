@@ -458,7 +458,12 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
     # shift laws
     wlf = arr = None
     free_offset = not measured_ref
-    for name, fn in (("WLF", fit_wlf), ("Arrhenius", fit_arrhenius)):
+    # a warmer curve shifted to higher frequencies (found above) is a temperature typed wrong, or a material that
+    # does not superpose: no law through such shift factors is the material's, nor are shifts moved by one
+    backwards = any(e[2] > 0 for e in edges)
+    if backwards:
+        findings.append("shift laws not fitted: the shift factors do not fall as the temperature rises (above)")
+    for name, fn in (() if backwards else (("WLF", fit_wlf), ("Arrhenius", fit_arrhenius))):
         try:
             law = fn(T, s, tref, cov, free_offset=free_offset)
         except DataError as exc:
@@ -488,7 +493,8 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
             findings.append(f"WLF c1 = {wlf.c1:.3g} +- {wlf.c1_std:.2g}, c2 = {wlf.c2:.3g} +- {wlf.c2_std:.2g} K: not determined "
                             "by these temperatures (relative std > 50 %): not used; use the shift factors or the Arrhenius law")
     if pref is None and not measured_ref:
-        findings.append(f"no shift law fitted: the shift factors stay relative to {temps[anchor]:g} deg C, not {tref:g} deg C")
+        findings.append(f"no shift law fitted: the shift factors and the fitted modulus stay relative to {temps[anchor]:g} deg C, "
+                        f"not {tref:g} deg C" + ("" if vertical_shift else f" (reference_temperature_c {temps[anchor]:g})"))
     sf = s - offset
     sd = np.sqrt(np.maximum(np.diag(cov) + offset_var, 0.0))
     shift_factors = tuple((float(t), float(v), float(e)) for t, v, e in zip(T, sf, sd))
@@ -521,6 +527,9 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
         findings.append(f"fractional Zener fit failed: {exc}")
     curves_out = tuple(TemperatureCurve(t, f, np.exp(y) * ((t + KELVIN) / (tref + KELVIN) if vertical_shift else 1.0))
                        for t, f, y, _ in data)
-    return MasterCurve(tref, bool(vertical_shift), shift_factors, wlf, arr, pref, zener,
+    # without a law the shifts (and the Zener fit on them) stay at the anchor: labelled so (the vertical factor was
+    # taken at tref, so there the label stays tref and the finding says what holds)
+    label = temps[anchor] if pref is None and not measured_ref and not vertical_shift else tref
+    return MasterCurve(label, bool(vertical_shift), shift_factors, wlf, arr, pref, zener,
                        (float(fr_all.min()), float(fr_all.max())), tuple(coverage), tuple(not_overlapping),
                        tuple(findings), tuple(pairs), curves_out, zcov)
