@@ -17,8 +17,10 @@ extrapolate to it).
 ``tests``: one row per test: ``manifest_row``, the manifest's columns, ``status``
 (``ok``/``failed``), ``reason``, ``file_sha256``, the per-test parameters of the
 processing (lines, band, achieved amplitude, median storage and loss factor, force
-distortion and fit residuals; for ``identify``: method, reliable fraction) and
-``log10_shift``.
+distortion and fit residuals; for ``identify``: method, reliable fraction),
+``log10_shift`` and ``warning``: why the test's numbers are not a material's, null when
+nothing is wrong (a direct test whose loss factor is negative on most lines: a reversed phase
+sign, :mod:`jointid.methods.direct.phase_sign`; such a test is left out of the master curve).
 
 ``amplitude`` / ``preload``: one row per Kraus / preload fit (specimen, temperature,
 preload or amplitude, frequency) with the fit's parameters and their ``_std``; the
@@ -36,7 +38,7 @@ import math
 
 import numpy as np
 
-__all__ = ["results_table", "tests_table", "fit_table", "table_csv", "table_parquet", "STANDARD_LINE_COLUMNS",
+__all__ = ["results_table", "tests_table", "test_warning", "fit_table", "table_csv", "table_parquet", "STANDARD_LINE_COLUMNS",
            "COMPUTED_COLUMNS"]
 
 #: Line columns of the results table, in order (absent from a method: null).
@@ -48,7 +50,7 @@ _BOOL = {"amplitude_ok", "reliable"}
 #: Columns jointid computes into the results and tests tables besides the line columns and each test's parameters
 #: (a manifest's own free column must not be named like one of them).
 COMPUTED_COLUMNS = ("manifest_row", "status", "reason", "file_sha256", "log10_shift", "reduced_frequency_hz",
-                    *STANDARD_LINE_COLUMNS)
+                    "warning", *STANDARD_LINE_COLUMNS)
 
 
 def _meta_columns(manifest) -> list[tuple[str, str]]:
@@ -92,6 +94,23 @@ def _log10_shift(analysis, test) -> float | None:
     except JointIdError:  # no shift law fitted and the temperature is not on the master curve
         return None
     return x if math.isfinite(x) else None
+
+
+def test_warning(test, outcome) -> str | None:
+    """Why a processed test's numbers are not a material's (the ``warning`` column), None when nothing is wrong.
+
+    A direct test whose loss factor ``Im K21 / Re K21`` is negative on most of its lines at the
+    commanded amplitude has its phase sign reversed (:func:`~jointid.methods.direct.phase_sign.reversed_phase`).
+    """
+    from ..methods.direct.phase_sign import reversed_phase
+
+    if not outcome.ok or test.kind != "direct":
+        return None
+    lines = outcome.lines
+    ok = np.asarray(lines.get("amplitude_ok", np.ones(len(lines["frequency_hz"]), bool)), dtype=bool)
+    k = np.asarray(lines["stiffness_real"], float)[ok] + 1j * np.asarray(lines["stiffness_imag"], float)[ok]
+    why = reversed_phase(k)
+    return None if why is None else f"{why}; left out of the master curve"
 
 
 def results_table(manifest, outcomes, analysis=None):
@@ -183,6 +202,7 @@ def tests_table(manifest, outcomes, analysis=None, sha256=None):
     cols: dict[str, list] = {"manifest_row": [], **{m: [] for m, _ in meta}, "status": [], "reason": [], "file_sha256": []}
     cols.update({p: [] for p in names})
     cols["log10_shift"] = []
+    cols["warning"] = []
     for t in manifest.tests:
         o = outcomes[t.row]
         cols["manifest_row"].append(t.row)
@@ -195,6 +215,7 @@ def tests_table(manifest, outcomes, analysis=None, sha256=None):
             v = o.parameters.get(p)
             cols[p].append(v)
         cols["log10_shift"].append(_log10_shift(analysis, t) if o.ok else None)
+        cols["warning"].append(test_warning(t, o))
     types = dict(meta)
     out = {}
     for name, values in cols.items():

@@ -15,7 +15,7 @@ from ..io.json_files import json_text
 from ..io.output_dir import OutputSet
 from .common import OUT_HELP, add_column_arguments, out_dir, quantity_pairs
 
-__all__ = ["add_parser", "run", "direct_summary"]
+__all__ = ["add_parser", "run", "direct_summary", "zener_line", "material_warnings"]
 
 
 def add_parser(sub) -> None:
@@ -78,7 +78,7 @@ def direct_summary(args, result, static, fit, modulus, zener=None) -> dict:
             "density": "kg/m^3",
             "amplitude": "m, peak",
         },
-        "warnings": list(fit.warnings) + (list(zener.warnings) if zener is not None else []),
+        "warnings": list(material_warnings(fit, zener)),
         "notes": "fit and E*(f) use the lines that reached the commanded amplitude; static G = k L / A "
         "under-reads G for L = d (guided Timoshenko stiffness ~ guided_ratio GA/L); the corrected value divides by it; "
         "a parameter's value is given only when its status is 'identified' (held values are assumptions, under held_value); "
@@ -130,7 +130,8 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
                                  poisson_ratio=args.poisson_ratio)
     except DataError as exc:  # about the lines of this file (e.g. a negative storage stiffness): name it
         raise DataError(f"{args.data}: {exc}") from None
-    fit = fit_material(f, k, joint=template, density_kg_m3=args.density)
+    noise = float(np.median(result.force_residual[ok]))  # the sine fits' residual over the fundamental, for scale
+    fit = fit_material(f, k, joint=template, density_kg_m3=args.density, signal_noise=noise)
     modulus = complex_modulus_per_line(f, k, fit.density_kg_m3, joint=template)
     zener = None
     if args.zener:
@@ -160,6 +161,8 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     from ..report.command_reports import direct_report
 
     lines = [line]
+    if zener is not None:
+        lines.append(zener_line(zener))
     if result.distortion:
         lines.append(f"{len(result.distortion)} of {ok.size} lines not used: clipped or distorted ({result.distortion[0]})")
     figures = [] if png is None else [("direct_stiffness.png", png, "|K21| per joint, loss factor or phase: measured and fitted")]
@@ -167,9 +170,30 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     print(f"{line}; wrote {out.directory}")
     for extra in lines[1:]:
         print(f"jointid direct: {extra}")
-    for w in fit.warnings + (zener.warnings if zener is not None else ()):
+    for w in material_warnings(fit, zener):
         print(f"jointid direct: warning: {w}", file=sys.stderr)
     return 0
+
+
+def zener_line(zener) -> str:
+    """The terminal line of ``--zener``: E0, Einf (MPa), tau (ms), alpha with standard errors, and the residual."""
+    E0, Einf, tau, alpha = zener.parameters
+    return (f"zener: {E0.describe(1e6, 'MPa')}, {Einf.describe(1e6, 'MPa')}, {tau.describe(1e-3, 'ms')}, "
+            f"{alpha.describe()}, residual {zener.residual_rms:.2%}")
+
+
+def material_warnings(fit, zener=None) -> tuple[str, ...]:
+    """The warnings of the constant-modulus fit, then the Zener fit's; with ``--zener`` the misfit's advice
+    (:data:`~jointid.methods.direct.material_fit.MISFIT_REMEDY`) points to the Zener fit instead."""
+    from ..methods.direct.material_fit import MATERIAL_MISFIT_RMS, MISFIT_REMEDY
+
+    if zener is None:
+        return tuple(fit.warnings)
+    if zener.identified and zener.residual_rms <= MATERIAL_MISFIT_RMS:
+        instead = f"the fractional Zener fit describes them (residual {zener.residual_rms:.1%}; the zener: line)"
+    else:
+        instead = f"the fractional Zener fit is not identified either (residual {zener.residual_rms:.0%})"
+    return tuple(w.replace(MISFIT_REMEDY, instead) for w in fit.warnings) + tuple(zener.warnings)
 
 
 def _write_example(args) -> int:

@@ -70,6 +70,9 @@ __all__ = [
     "PHYSICAL_BOUNDS",
     "DEFAULT_DENSITY",
     "MIN_INERTIA_FRACTION",
+    "MATERIAL_MISFIT_RMS",
+    "MISFIT_REMEDY",
+    "misfit_message",
 ]
 
 
@@ -164,13 +167,18 @@ class MaterialFit:
     @property
     def warnings(self) -> tuple[str, ...]:
         """One line per parameter that is not a result of the data (held or not identified), with the reason."""
-        out = []
+        out: dict[tuple, list] = {}  # parameters not reported for one reason share one line ("E and loss factor ...")
         for p in self.parameters:
             if p.identified:
                 continue
-            held = f"; held at {p.value:g} {p.unit}" if p.held else "; its value is not reported"
-            out.append(f"{p.title} {p.status.replace('_', ' ')}: {p.reason}{held}")
-        return tuple(out)
+            key = (p.status, p.reason) if not p.held else (p.status, p.reason, p.name)
+            out.setdefault(key, []).append(p)
+        lines = []
+        for (status, reason, *_), ps in out.items():
+            held = f"; held at {ps[0].value:g} {ps[0].unit}" if ps[0].held else (
+                "; their values are not reported" if len(ps) > 1 else "; its value is not reported")
+            lines.append(f"{' and '.join(p.title for p in ps)} {status.replace('_', ' ')}: {reason}{held}")
+        return tuple(lines)
 
     def to_dict(self) -> dict:
         """JSON-ready dict: every parameter with standard error and status (value null unless identified)."""
@@ -254,6 +262,24 @@ def _fit(tpl: ElastomerJoint, f: np.ndarray, k: np.ndarray, x0: np.ndarray, dens
 #: A constant-modulus fit whose relative rms residual exceeds this does not describe the data: E and eta are not
 #: identified (a frequency-dependent modulus over the band: the Zener fit is the model; measured K21 scatter is ~1 %).
 MATERIAL_MISFIT_RMS = 0.1
+#: What the misfit message advises (the command line's option; ``jointid direct --zener`` replaces it by its fit).
+MISFIT_REMEDY = "use --zener"
+
+
+def misfit_message(residual: float, signal_noise: float | None = None) -> str:
+    """The line saying that the constant-modulus model does not fit (``residual > MATERIAL_MISFIT_RMS``).
+
+    Parameters
+    ----------
+    residual : float
+        rms relative complex residual ``|K_model - K| / |K|`` of the constant-modulus fit.
+    signal_noise : float, optional
+        The test's noise: rms residual of the sine fits over the rms fundamental (median over the
+        lines, :attr:`~jointid.measurement.stepsine.StepSineResult.force_residual`); shown for scale.
+    """
+    noise = "" if signal_noise is None or not math.isfinite(signal_noise) else f", noise ~{signal_noise:.1%}"
+    return (f"the constant-modulus model does not fit these data (residual {residual:.0%}{noise}): "
+            f"the modulus depends on frequency; {MISFIT_REMEDY}")
 
 
 def fit_material(
@@ -270,6 +296,7 @@ def fit_material(
     bounds: dict | None = None,
     max_relative_std: float = MAX_RELATIVE_STD,
     min_inertia_fraction: float = MIN_INERTIA_FRACTION,
+    signal_noise: float | None = None,
 ) -> MaterialFit:
     """Fit constant E', eta and rho so the FE joint model reproduces K21 (per joint), with standard errors.
 
@@ -312,6 +339,11 @@ def fit_material(
         Largest relative standard error of an identified parameter.
     min_inertia_fraction : float
         Smallest inertia share of K21 in the band for the density to be identified.
+    signal_noise : float, optional
+        The test's relative noise (sine-fit residual over the fundamental), quoted when the
+        constant-modulus model does not fit (:func:`misfit_message`): E' and eta are then
+        ``not_identified`` (residual above :data:`MATERIAL_MISFIT_RMS`), as they are for a
+        reversed phase (:mod:`.phase_sign`).
 
     Returns
     -------
@@ -365,10 +397,7 @@ def fit_material(
     kf = -S[:, 2, 0]
     residual = float(np.sqrt(np.mean(np.abs((kf - k) / k) ** 2)))
     # a material fitted to a reversed phase (:mod:`.phase_sign`) or that misses the data is not the data's material
-    why = reversed_phase(k) or (
-        f"the constant-modulus model misses K21 by {residual:.0%} rms (more than {MATERIAL_MISFIT_RMS:.0%}): the modulus "
-        "depends on frequency over the band (fit the fractional Zener law: --zener) or the data are wrong"
-        if residual > MATERIAL_MISFIT_RMS else None)
+    why = reversed_phase(k) or (misfit_message(residual, signal_noise) if residual > MATERIAL_MISFIT_RMS else None)
     if why is not None:
         params = tuple(replace(p, status=NOT_IDENTIFIED, reason=why) for p in params[:2]) + params[2:]  # E, eta; rho as it is
     frac = inertia_fraction(tpl, f, E, eta, rho)

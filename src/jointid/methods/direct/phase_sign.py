@@ -21,13 +21,18 @@ __all__ = ["reversed_phase", "REVERSED_FRACTION"]
 REVERSED_FRACTION = 0.5
 
 
-def reversed_phase(stiffness: np.ndarray) -> str | None:
+def reversed_phase(stiffness: np.ndarray, quantity: str = "K21") -> str | None:
     """One line when the force lags the displacement on most lines (module docstring), else None.
+
+    The loss factor per line is ``eta = Im K / Re K``; the test is reversed when
+    ``eta < 0`` on more than :data:`REVERSED_FRACTION` of its lines.
 
     Parameters
     ----------
     stiffness : ndarray, shape (F,), complex
-        K21 per line, N/m.
+        K21 per line, N/m (or a complex modulus E*(f), Pa: any complex quantity whose phase is the loss angle).
+    quantity : str
+        Its name in the message (``"K21"``, ``"E*"``).
     """
     k = np.asarray(stiffness, complex)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -36,6 +41,6 @@ def reversed_phase(stiffness: np.ndarray) -> str | None:
     if k.size == 0 or not negative.mean() > REVERSED_FRACTION:
         return None
     median = float(np.median(eta))
-    return (f"the force lags the displacement (loss factor Im K21 / Re K21 < 0, median {median:.2g}) on "
+    return (f"the force lags the displacement (loss factor Im {quantity} / Re {quantity} < 0, median {median:.2g}) on "
             f"{int(negative.sum())} of {k.size} lines, which a passive elastomer cannot do: a reversed phase sign convention (which channel "
             "leads, exp(+jwt) or exp(-jwt))? fix the export or the phase sign")

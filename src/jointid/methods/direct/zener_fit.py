@@ -13,7 +13,8 @@ modulus), the optimizer runs to a limit: ``tau -> 0`` with ``Einf -> inf``
 (the model degenerates to a power law ``E0 + c (j w)^alpha``), or the
 relaxation frequency ``1/(2 pi tau)`` leaves the band, or ``alpha`` reaches 0
 or 1. Such parameters get the status ``at_bound`` and :attr:`ZenerFit.warnings`
-says so; their values must not be used.
+says so; their values must not be used. A modulus whose loss factor ``Im E* / Re E*`` is
+negative on most lines (a reversed phase sign, :mod:`.phase_sign`) identifies no parameter.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from ..fit_statistics import (
     jacobian_covariance,
     propagate_covariance,
 )
+from .phase_sign import reversed_phase
 
 __all__ = ["ZenerFit", "fit_zener", "zener_modulus", "ZENER_LIMITS"]
 
@@ -89,8 +91,12 @@ class ZenerFit:
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        """One line per parameter that is not identified (run to a bound, or undetermined)."""
-        return tuple(f"Zener {p.title} {p.status.replace('_', ' ')}: {p.reason}" for p in self.parameters if not p.identified)
+        """One line per reason a parameter is not identified (run to a bound, undetermined, a reversed phase)."""
+        out: dict[tuple, list] = {}
+        for p in self.parameters:
+            if not p.identified:
+                out.setdefault((p.status, p.reason), []).append(p.title)
+        return tuple(f"Zener {', '.join(t)} {status.replace('_', ' ')}: {reason}" for (status, reason), t in out.items())
 
     def modulus(self, f_hz) -> np.ndarray:
         """E*(f), Pa, complex, shape (F,) (usable as ``ElastomerJoint(modulus=...)``)."""
@@ -213,4 +219,7 @@ def fit_zener(frequency_hz, modulus_pa, initial: tuple[float, float, float, floa
             p = ParameterEstimate(name, unit, value, float(s), NOT_IDENTIFIED,
                                   "another Zener parameter ran to a bound; the model is degenerate on this band", label)
         params.append(p)
+    why = reversed_phase(E, "E*")  # a force lagging the displacement: no material (module phase_sign)
+    if why is not None:
+        params = [ParameterEstimate(p.name, p.unit, p.value, p.std_error, NOT_IDENTIFIED, why, p.label) for p in params]
     return ZenerFit(E0, Einf, tau, a, float(np.sqrt(np.mean(rr**2))), tuple(params), correlation_matrix(cov))
