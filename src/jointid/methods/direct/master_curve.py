@@ -52,7 +52,7 @@ import numpy as np
 from ...errors import DataError
 from .master_zener import fit_zener_fast, zener_covariance, zener_jacobian
 from .shift_estimation import PairShift, curve_noise, estimate_pair_shift
-from .shift_laws import KELVIN, ArrheniusFit, WLFFit, fit_arrhenius, fit_wlf, preferred_law
+from .shift_laws import KELVIN, ArrheniusFit, WLFFit, fit_arrhenius, fit_wlf, moved_shift_covariance, preferred_law
 from .zener_fit import ZenerFit, zener_modulus
 
 __all__ = ["TemperatureCurve", "MasterCurve", "build_master_curve"]
@@ -496,7 +496,10 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
         findings.append(f"no shift law fitted: the shift factors and the fitted modulus stay relative to {temps[anchor]:g} deg C, "
                         f"not {tref:g} deg C" + ("" if vertical_shift else f" (reference_temperature_c {temps[anchor]:g})"))
     sf = s - offset
-    sd = np.sqrt(np.maximum(np.diag(cov) + offset_var, 0.0))
+    if offset_var > 0:  # moved to an unmeasured reference: the law's offset is common to every shift (and tau)
+        fit_law = fit_wlf if pref == "wlf" else fit_arrhenius
+        cov = moved_shift_covariance(fit_law, T, s, tref, cov, offset_var)
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     shift_factors = tuple((float(t), float(v), float(e)) for t, v, e in zip(T, sf, sd))
     # shifted data and the Zener fit
     fr_all, K_all, node_all, coverage = [], [], [], []

@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 from ...errors import DataError
 from ..fit_statistics import jacobian_covariance
 
-__all__ = ["WLFFit", "ArrheniusFit", "fit_wlf", "fit_arrhenius", "preferred_law", "wlf_log10_shift",
+__all__ = ["WLFFit", "ArrheniusFit", "fit_wlf", "fit_arrhenius", "preferred_law", "moved_shift_covariance", "wlf_log10_shift",
            "arrhenius_log10_shift", "GAS_CONSTANT", "KELVIN"]
 
 #: Molar gas constant, J/(mol K).
@@ -352,3 +352,53 @@ def preferred_law(wlf: WLFFit | None, arrhenius: ArrheniusFit | None) -> str | N
     if not (math.isfinite(aw) or math.isfinite(aa)):
         return None
     return "wlf" if aw < aa else "arrhenius"
+
+
+def moved_shift_covariance(fit, temperature_c, log10_shift, reference_temperature_c: float, covariance,
+                           offset_variance: float, step: float = 1e-6) -> np.ndarray:
+    """Covariance of the shift factors moved to an unmeasured reference, ``s - o 1``, decades^2.
+
+    When the reference temperature was not measured, the shifts ``s`` (anchored at a measured
+    temperature) are moved by the law's offset ``o(s)`` (``log10 aT`` of the anchor relative to the
+    reference). With ``h = do/ds`` (central differences of ``fit``, step ``step`` decades) and
+    ``M = I - 1 h^T``::
+
+        cov(s - o 1) = M C M^T + (var_o - h^T C h) 1 1^T
+
+    the last term (when positive) being the law's Birge inflation of ``var_o``. The common term moves
+    every reduced frequency together: it is the relaxation time's share of the extrapolation's error.
+
+    Parameters
+    ----------
+    fit : callable
+        :func:`fit_wlf` or :func:`fit_arrhenius` (called with ``free_offset=True``).
+    temperature_c, log10_shift : ndarray, shape (N,)
+        The master curve's temperatures, deg C, and shifts relative to the anchor, decades.
+    reference_temperature_c : float
+        The (unmeasured) reference, deg C.
+    covariance : ndarray, shape (N, N)
+        Covariance ``C`` of ``log10_shift`` (the anchor's row and column zero), decades^2.
+    offset_variance : float
+        ``var_o``, the law's variance of the offset, decades^2.
+    step : float
+        Difference step, decades.
+
+    Returns
+    -------
+    ndarray, shape (N, N)
+    """
+    s = np.asarray(log10_shift, dtype=float)
+    C = np.asarray(covariance, dtype=float)
+    h = np.zeros(s.size)
+    for k in range(s.size):
+        if not C[k, k] > 0:  # the anchor: fixed at 0, the law is fitted without it
+            continue
+        e = np.zeros(s.size)
+        e[k] = step
+        up = fit(temperature_c, s + e, reference_temperature_c, C, free_offset=True).offset
+        down = fit(temperature_c, s - e, reference_temperature_c, C, free_offset=True).offset
+        h[k] = (up - down) / (2.0 * step)
+    one = np.ones(s.size)
+    M = np.eye(s.size) - np.outer(one, h)
+    extra = max(float(offset_variance) - float(h @ C @ h), 0.0)
+    return M @ C @ M.T + extra * np.outer(one, one)
