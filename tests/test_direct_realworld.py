@@ -232,3 +232,47 @@ def test_tau_at_an_extrapolated_reference_carries_the_shift_laws_error():
         assert tau["std"] >= math.log(10.0) * anchor_std * tau["value"] * (1 - 1e-6)
         z.append((tau["value"] - tau_100) / tau["std"])
     assert np.max(np.abs(z)) < 4.0 and np.sqrt(np.mean(np.square(z))) < 2.0, z
+
+
+def test_a_temperature_typed_in_kelvin_is_flagged_in_its_row_and_the_shifts_name_their_reference(tmp_path):
+    """A black-box finding: with 30 C typed as 303.15, the tables gave plain shift numbers relative to a temperature
+    other than the requested reference, and nothing in the rows said so."""
+    import pyarrow.parquet as pq
+
+    manifest = small_campaign(tmp_path / "data", temperatures=(10.0, 20.0, 30.0, 40.0), amplitudes=(2e-5,), extra=False)
+    rows = list(csv.reader(manifest.open(newline="")))
+    col = rows[0].index("temperature_c")
+    assert float(rows[3][col]) == 30.0
+    rows[3][col] = "303.15"
+    with manifest.open("w", newline="") as fh:
+        csv.writer(fh, lineterminator="\n").writerows(rows)
+    out = tmp_path / "o"
+    assert main(["campaign", str(manifest), "--out", str(out), "--workers", "1", "--no-plots",
+                 "--reference-temperature", "30"]) == 0
+    tests = pq.read_table(out / "tests.parquet").to_pandas().sort_values("temperature_c")
+    assert tests["temperature_c"].tolist() == [10.0, 20.0, 40.0, 303.15]
+    assert tests["shift_reference_c"].tolist() == [20.0] * 4  # 30 C not measured, no law: the nearest (first of 20, 40)
+    s20, s40, s303 = tests["log10_shift"].tolist()[1:]
+    assert s20 == 0.0 and s40 < s303 < 0  # 303.15 "C" is the 30 C curve: between 20 and 40 C on the frequency axis
+    said = (f"the shift factor rises with the temperature from 40 to 303.15 deg C ({s40:+.3f} -> {s303:+.3f} decades): "
+            "one of the two temperatures is wrong (typed in K?); no shift law was fitted")
+    assert tests["warning"].isna().tolist() == [True, True, False, False]
+    assert tests["warning"].tolist()[2:] == [said, said]
+    results = pq.read_table(out / "results.parquet").to_pandas()
+    assert (results["shift_reference_c"] == 20.0).all()
+
+
+def test_a_shift_law_through_every_shift_factor_exactly_is_said_to_be_untested():
+    """A black-box finding: an Arrhenius law through the one shift factor left (the others did not overlap) was
+    'preferred' with nothing said; it missed the 5 C shift by 0.3 decades."""
+    from jointid.measurement.campaign_synth import CampaignTruth
+    from jointid.methods.direct.master_curve import TemperatureCurve, build_master_curve
+
+    truth = CampaignTruth()
+    f = np.geomspace(1.0, 100.0, 10)
+    m = build_master_curve([TemperatureCurve(t, f, truth.stiffness(f, t, 0.0)) for t in (20.0, 30.0)], 20.0)
+    assert m.preferred_shift_law == "arrhenius"
+    assert ("shift law: Arrhenius has as many constants as shift factors (1) and passes through them exactly: the data "
+            "do not test it; its shifts between and beyond the temperatures are the law's, not the data's") in m.findings
+    m3 = build_master_curve([TemperatureCurve(t, f, truth.stiffness(f, t, 0.0)) for t in (10.0, 20.0, 30.0, 40.0)], 20.0)
+    assert not any("passes through them exactly" in x for x in m3.findings)

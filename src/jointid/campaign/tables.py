@@ -12,13 +12,15 @@ test: the blocked transfer stiffness per joint), ``frequency_hz``, ``stiffness_r
 curve at the test's temperature from its preferred law (WLF or Arrhenius; the measured
 shift when no law was fitted), null without a master curve and for a temperature left out
 of it (a curve that does not overlap the others: a law fitted without it would only
-extrapolate to it).
+extrapolate to it); ``shift_reference_c``: the temperature these shifts are relative to, deg C (the
+master curve's: the requested reference, or the measured temperature nearest it when no shift law
+could move the shifts there), null with the shift.
 
 ``tests``: one row per test: ``manifest_row``, the manifest's columns, ``status``
 (``ok``/``failed``), ``reason``, ``file_sha256``, the per-test parameters of the
 processing (lines, band, achieved amplitude, median storage and loss factor, force
 distortion and fit residuals; for ``identify``: method, reliable fraction),
-``log10_shift`` and ``warning``: why the test's numbers are not a material's, null when
+``log10_shift``, ``shift_reference_c`` and ``warning``: why the test's numbers are not a material's, null when
 nothing is wrong (a direct test whose loss factor is negative on most lines: a reversed phase
 sign, :mod:`jointid.methods.direct.phase_sign`; such a test is left out of the master curve).
 
@@ -50,7 +52,7 @@ _BOOL = {"amplitude_ok", "reliable"}
 #: Columns jointid computes into the results and tests tables besides the line columns and each test's parameters
 #: (a manifest's own free column must not be named like one of them).
 COMPUTED_COLUMNS = ("manifest_row", "status", "reason", "file_sha256", "log10_shift", "reduced_frequency_hz",
-                    "warning", *STANDARD_LINE_COLUMNS)
+                    "shift_reference_c", "warning", *STANDARD_LINE_COLUMNS)
 
 
 def _meta_columns(manifest) -> list[tuple[str, str]]:
@@ -80,6 +82,13 @@ def _array(values, typename: str):
     return pa.array(values, type=getattr(pa, typename)())
 
 
+def _shift_reference(analysis, test) -> float | None:
+    """The temperature the test's ``log10_shift`` is relative to, deg C; None when it has no shift."""
+    if _log10_shift(analysis, test) is None:
+        return None
+    return float(analysis[test.specimen].master_curve.reference_temperature_c)
+
+
 def _log10_shift(analysis, test) -> float | None:
     """The test's log10 aT from its specimen's master curve (preferred law), None without one."""
     from ..errors import JointIdError
@@ -96,11 +105,15 @@ def _log10_shift(analysis, test) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def test_warning(test, outcome) -> str | None:
+def test_warning(test, outcome, analysis=None) -> str | None:
     """Why a processed test's numbers are not a material's (the ``warning`` column), None when nothing is wrong.
 
-    A direct test whose loss factor ``Im K21 / Re K21`` is negative on most of its lines at the
-    commanded amplitude has its phase sign reversed (:func:`~jointid.methods.direct.phase_sign.reversed_phase`).
+    * A direct test whose loss factor ``Im K21 / Re K21`` is negative on most of its lines at the
+      commanded amplitude has its phase sign reversed
+      (:func:`~jointid.methods.direct.phase_sign.reversed_phase`).
+    * A test whose measured shift factor does not fall as the temperature rises from its
+      neighbour's on the master curve (``log10 aT(T_j) > log10 aT(T_i)`` with ``T_j > T_i``): one of
+      the two temperatures is wrong, and no shift law was fitted.
     """
     from ..methods.direct.phase_sign import reversed_phase
 
@@ -110,7 +123,17 @@ def test_warning(test, outcome) -> str | None:
     ok = np.asarray(lines.get("amplitude_ok", np.ones(len(lines["frequency_hz"]), bool)), dtype=bool)
     k = np.asarray(lines["stiffness_real"], float)[ok] + 1j * np.asarray(lines["stiffness_imag"], float)[ok]
     why = reversed_phase(k)
-    return None if why is None else f"{why}; left out of the master curve"
+    if why is not None:
+        return f"{why}; left out of the master curve"
+    a = (analysis or {}).get(test.specimen)
+    if a is None or a.master_curve is None:
+        return None
+    shifts = sorted(a.master_curve.measured_shift.items())
+    for (ti, si), (tj, sj) in zip(shifts, shifts[1:]):
+        if sj > si and any(abs(t - test.temperature_c) <= 1e-9 for t in (ti, tj)):
+            return (f"the shift factor rises with the temperature from {ti:g} to {tj:g} deg C ({si:+.3f} -> {sj:+.3f} "
+                    "decades): one of the two temperatures is wrong (typed in K?); no shift law was fitted")
+    return None
 
 
 def results_table(manifest, outcomes, analysis=None):
@@ -131,7 +154,7 @@ def results_table(manifest, outcomes, analysis=None):
     parts = {name: [] for name, _ in meta}
     lines = {name: [] for name in STANDARD_LINE_COLUMNS}
     masks = {name: [] for name in STANDARD_LINE_COLUMNS}
-    rows, shift, reduced = [], [], []
+    rows, shift, reduced, refs = [], [], [], []
     for t in manifest.tests:
         o = outcomes[t.row]
         if not o.ok:
@@ -151,9 +174,11 @@ def results_table(manifest, outcomes, analysis=None):
         if s is None:
             shift.append(np.full(n, np.nan))
             reduced.append(np.full(n, np.nan))
+            refs.append(np.full(n, np.nan))
         else:
             shift.append(np.full(n, s))
             reduced.append(np.asarray(o.lines["frequency_hz"], dtype=float) * 10.0**s)
+            refs.append(np.full(n, _shift_reference(analysis, t)))
     cols = {"manifest_row": pa.array(np.concatenate(rows) if rows else np.zeros(0, np.int64))}
     for name, typ in meta:
         cols[name] = _array(parts[name], typ)
@@ -167,7 +192,7 @@ def results_table(manifest, outcomes, analysis=None):
             cols[name] = pa.array(values.astype(str).tolist(), type=pa.string())
         else:
             cols[name] = pa.array(values, mask=mask if mask.any() else None)
-    for name, vals in (("log10_shift", shift), ("reduced_frequency_hz", reduced)):
+    for name, vals in (("log10_shift", shift), ("reduced_frequency_hz", reduced), ("shift_reference_c", refs)):
         v = np.concatenate(vals) if vals else np.zeros(0)
         cols[name] = pa.array(v, mask=np.isnan(v) if np.isnan(v).any() else None)
     return pa.table(cols)
@@ -202,6 +227,7 @@ def tests_table(manifest, outcomes, analysis=None, sha256=None):
     cols: dict[str, list] = {"manifest_row": [], **{m: [] for m, _ in meta}, "status": [], "reason": [], "file_sha256": []}
     cols.update({p: [] for p in names})
     cols["log10_shift"] = []
+    cols["shift_reference_c"] = []
     cols["warning"] = []
     for t in manifest.tests:
         o = outcomes[t.row]
@@ -215,7 +241,8 @@ def tests_table(manifest, outcomes, analysis=None, sha256=None):
             v = o.parameters.get(p)
             cols[p].append(v)
         cols["log10_shift"].append(_log10_shift(analysis, t) if o.ok else None)
-        cols["warning"].append(test_warning(t, o))
+        cols["shift_reference_c"].append(_shift_reference(analysis, t) if o.ok else None)
+        cols["warning"].append(test_warning(t, o, analysis))
     types = dict(meta)
     out = {}
     for name, values in cols.items():

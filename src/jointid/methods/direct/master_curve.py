@@ -485,6 +485,10 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
         other = arr if pref == "wlf" else wlf
         findings.append(f"shift law: {pref.upper() if pref == 'wlf' else 'Arrhenius'} preferred (AIC {chosen.aic:.3g}"
                         + (f" vs {other.aic:.3g}" if other is not None else "") + ")")
+        if chosen.n_points <= 1:  # one shift factor (the anchor fixes the offset): the law passes through it exactly
+            findings.append(f"shift law: {'WLF' if pref == 'wlf' else 'Arrhenius'} has as many constants as shift factors "
+                            f"({chosen.n_points}) and passes through them exactly: the data do not test it; its shifts "
+                            "between and beyond the temperatures are the law's, not the data's")
     if wlf is not None:
         x = T - tref
         if np.any(wlf.c2 + x <= 0) or wlf.c2 <= 0:
