@@ -217,9 +217,12 @@ def analyze_specimens(tests, outcomes, *, reference_temperature_c: float | None 
             by_specimen[t.specimen].append(t)
     result = {}
     for specimen, group in by_specimen.items():
-        findings: list[str] = [f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C): lines not used: "
-                               f"{outcomes[t.row].parameters['lines_not_used']}"
-                               for t in group if outcomes[t.row].parameters.get("lines_not_used")]
+        findings: list[str] = [f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C): columns converted to SI: "
+                               f"{outcomes[t.row].parameters['columns_converted']}"
+                               for t in group if outcomes[t.row].parameters.get("columns_converted")]
+        findings += [f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C): lines not used: "
+                     f"{outcomes[t.row].parameters['lines_not_used']}"
+                     for t in group if outcomes[t.row].parameters.get("lines_not_used")]
         amp, pre, mc = _master_curve(specimen, group, outcomes, reference_temperature_c, vertical_shift, findings)
         if mc is not None:  # what the master curve found (temperatures left out, laws not determined, ...) is the campaign's
             findings.extend(f"specimen {specimen}: master curve: {f}" for f in mc.findings)

@@ -31,7 +31,8 @@ import numpy as np
 
 from ..errors import JointIdError
 
-__all__ = ["ProcessingOptions", "TestTask", "TestOutcome", "run_test", "run_tasks", "sha256_file"]
+__all__ = ["ProcessingOptions", "TestTask", "TestOutcome", "run_test", "run_tasks", "sha256_file", "campaign_columns",
+           "unit_column", "UNIT_SUFFIXES"]
 
 
 @dataclass(frozen=True)
@@ -173,11 +174,104 @@ def _stiffness_lines(term, f, k, std_real=None, std_imag=None) -> dict:
     return out
 
 
+#: Unit suffixes of a step-sine file's column names that a campaign converts exactly to SI, per quantity
+#: (``force_kN``, ``displacement_mm``, ``time_ms``; also ``force [kN]`` and ``force (kN)``): suffix -> factor to SI.
+UNIT_SUFFIXES = {
+    "frequency": {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3},
+    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "\u00b5s": 1e-6, "\u03bcs": 1e-6},
+    "displacement": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "\u00b5m": 1e-6, "\u03bcm": 1e-6, "nm": 1e-9, "in": 0.0254},
+    "force": {"N": 1.0, "n": 1.0, "kN": 1e3, "kn": 1e3, "mN": 1e-3, "lbf": 4.4482216152605},
+}
+_SI_UNIT = {"frequency": "Hz", "time": "s", "displacement": "m", "force": "N"}
+
+
+def unit_column(quantity: str, name: str) -> float | None:
+    """The factor to SI of a column named ``name`` for ``quantity`` with a unit suffix, or None.
+
+    Parameters
+    ----------
+    quantity : str
+        ``frequency``, ``time``, ``displacement`` or ``force``.
+    name : str
+        A column name: ``<quantity>_<unit>``, ``<quantity> [<unit>]`` or ``<quantity> (<unit>)`` with a unit of
+        :data:`UNIT_SUFFIXES` (case as written: ``mN`` is milli-newton).
+
+    Returns
+    -------
+    float or None
+        The exact factor from the unit to SI (Hz, s, m, N), e.g. 1e-3 for ``displacement_mm``.
+    """
+    import re
+
+    m = re.fullmatch(rf"{quantity}(?:_(\S+)|\s*\[\s*(\S+)\s*\]|\s*\(\s*(\S+)\s*\))", name.strip(), flags=re.IGNORECASE)
+    if m is None:
+        return None
+    return UNIT_SUFFIXES.get(quantity, {}).get(next(g for g in m.groups() if g is not None))
+
+
+def campaign_columns(path: str | Path, columns: tuple = (), scale: tuple = ()) -> tuple[dict, dict, str]:
+    """How a campaign reads one step-sine file: the column mapping, the factors to SI and what it converted.
+
+    A quantity the options do not map (``--column``/``--scale``) whose default column (``force_n``, ...) the file
+    lacks is read from the one column named with a unit suffix (:func:`unit_column`), converted exactly to SI.
+
+    Parameters
+    ----------
+    path : path-like
+        The step-sine CSV file (its header row is read).
+    columns, scale : tuple of (str, str) and of (str, float)
+        The campaign's ``--column``/``--scale`` options (they apply to every file and win).
+
+    Returns
+    -------
+    columns : dict of str to str
+    scale : dict of str to float
+    converted : str
+        ``"displacement_mm x 0.001 (to m), force_kN x 1000 (to N)"``, or ``""``.
+
+    Raises
+    ------
+    DataError
+        A column the file lacks and no unit-suffixed column stands for: naming it, the columns present and how to
+        map it in a campaign.
+    """
+    import csv
+
+    from ..errors import DataError
+    from ..measurement.stepsine import DEFAULT_COLUMNS
+
+    cols, sc = {**DEFAULT_COLUMNS, **dict(columns)}, dict(scale)
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as fh:
+            header = [h.strip() for h in next(csv.reader([fh.readline()]), [])]
+    except (OSError, UnicodeDecodeError):
+        return dict(columns), sc, ""  # the reader says what is wrong with the file
+    if len(header) < 2:
+        return dict(columns), sc, ""  # not comma-separated, or empty: the reader's message
+    converted = []
+    mapped = dict(columns)
+    for q, name in cols.items():
+        if name in header:
+            continue
+        found = [(h, f) for h in header for f in [unit_column(q, h)] if f is not None]
+        if len(found) == 1 and q not in mapped and q not in sc:
+            (h, f), = found
+            cols[q], sc[q] = h, f
+            converted.append(f"{h} x {f:g} (to {_SI_UNIT[q]})")
+            continue
+        which = f" ({len(found)} columns could be it: {', '.join(h for h, _ in found)})" if len(found) > 1 else ""
+        raise DataError(f"{path}: missing column {name!r}{which} (columns present: {', '.join(header)}); name it {name} or "
+                        f"{q}_UNIT (a unit jointid converts: {', '.join(UNIT_SUFFIXES[q])}), or map it for every file "
+                        f"of the campaign with --column {q}=NAME --scale {q}=FACTOR_TO_SI")
+    return cols, sc, ", ".join(converted)
+
+
 def _direct(task: TestTask) -> tuple[dict, dict]:
     from ..measurement.stepsine import process_stepsine, read_stepsine_csv
 
     o = task.options
-    blocks = read_stepsine_csv(task.file, columns=dict(o.columns) or None, scale=dict(o.scale) or None)
+    columns, scale, converted = campaign_columns(task.file, o.columns, o.scale)
+    blocks = read_stepsine_csv(task.file, columns=columns or None, scale=scale or None)
     r = process_stepsine(blocks, parallel_joints=task.parallel_joints, commanded_amplitude_m=task.amplitude_m,
                          tolerance=o.tolerance, harmonics=o.harmonics, settle_tolerance=o.settle_tolerance,
                          min_cycles=o.min_cycles)
@@ -200,6 +294,8 @@ def _direct(task: TestTask) -> tuple[dict, dict]:
         "max_settled_time_s": float(np.max(r.settled_time_s)),
         # the lines the processing flagged and why (clipped, distorted, drifting): named in the tests table and findings
         "lines_not_used": "; ".join(r.distortion),
+        # the columns read from unit-suffixed names and converted to SI (campaign_columns): named in the findings
+        "columns_converted": converted,
     }
     return lines, params
 

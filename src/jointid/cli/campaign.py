@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .common import OUT_HELP, add_column_arguments, out_dir, quantity_pairs
 
-__all__ = ["add_parser", "run", "MAX_PRINTED_NOTES"]
+__all__ = ["add_parser", "run", "MAX_PRINTED_NOTES", "master_curve_coverage"]
 
 #: Most findings printed on the terminal (all are in ``campaign.json`` and the report).
 MAX_PRINTED_NOTES = 20
@@ -83,6 +83,32 @@ def run(args: argparse.Namespace) -> int:
     for f in s["failed"]:
         print(f"jointid campaign: test failed: {args.manifest}: row {f['row']} ({f['file']}): {f['reason']}", file=sys.stderr)
     curves = sum(a.master_curve is not None for a in result.analysis.values())
+    partial = master_curve_coverage(result)
     print(f"campaign: {s['tests']} tests ({s['computed']} computed, {s['reused']} reused, {len(s['failed'])} failed), "
-          f"{curves} master curve(s); wrote {args.out}/results.parquet, tests.parquet, master_curve.json, campaign.json, report.html")
+          f"{curves} master curve(s){f' ({partial}; see the notes)' if partial else ''}; wrote {args.out}/results.parquet, tests.parquet, master_curve.json, campaign.json, report.html")
     return 1 if s["failed"] else 0
+
+
+def master_curve_coverage(result) -> str:
+    """The specimens whose master curve superposes fewer temperatures than were tested, for the summary line.
+
+    Parameters
+    ----------
+    result : jointid.campaign.CampaignResult
+
+    Returns
+    -------
+    str
+        ``"specimen A: 1 of 4 temperatures superposed"`` (``, `` between specimens), or ``""`` when every master
+        curve holds every temperature tested at its reference amplitude and preload.
+    """
+    parts = []
+    for specimen, a in result.analysis.items():
+        if a.master_curve is None:
+            continue
+        tested = {t.temperature_c for t in result.manifest.tests if t.kind == "direct" and t.specimen == specimen
+                  and (t.amplitude_m, t.preload_n) == (a.reference_amplitude_m, a.reference_preload_n)}
+        used = len(a.master_curve.shift_factors)
+        if used < len(tested):
+            parts.append(f"specimen {specimen}: {used} of {len(tested)} temperatures superposed")
+    return ", ".join(parts)
