@@ -45,20 +45,26 @@ Processing (:func:`process_stepsine`), per block
    Everything up to and including the last unsettled cycle is dropped; at
    least ``min_cycles`` whole cycles must remain. Records under 4 whole
    cycles are fitted as they are.
-3. **Fit** over the remaining whole cycles: least squares of DC + harmonics
-   ``1..harmonics`` (cos, sin) at the test frequency, both channels (harmonics
+3. **Fit** over the remaining whole cycles (:mod:`.stepsine_fit`): least squares of
+   DC + harmonics ``1..harmonics`` (cos, sin) at the test frequency + linear
+   trends of the DC and of the fundamental's phasor, both channels (harmonics
    at or above the Nyquist frequency are left out). Fitting the harmonics
-   keeps a distorted force (3rd harmonic) from biasing the fundamental.
-4. **Results**: ``K21 = F1 / X1`` (fundamental phasors, ``Re{P e^{j w t}}``),
+   keeps a distorted force (3rd harmonic) from biasing the fundamental; the
+   trends keep a slow drift (a specimen heating, ``F(t) = F_0 (1 + r t)``)
+   from biasing it: the phasors are those at the block's first sample.
+4. **Results**: ``K21 = F1 / X1`` (fundamental phasors at the block's first sample, ``Re{P e^{j w t}}``),
    divided by ``parallel_joints`` (2 in double shear); the displacement
    amplitude |X1| over the commanded amplitude (``commanded_amplitude_m``;
    default: the median achieved amplitude), lines off by more than
    ``tolerance`` flagged ``amplitude_ok = False``; the force's total harmonic
    distortion ``sqrt(sum_{h>=2} |F_h|^2) / |F_1|``; the rms residual of each
    channel's fit relative to the rms of its fundamental.
-5. **Clipping and distortion** (:mod:`.stepsine_checks`): a block with a clipped
-   (flat-top) or heavily distorted channel is flagged ``distorted`` and is not
-   usable (``amplitude_ok`` False: never fitted); too few usable lines: refused.
+5. **Clipping, distortion and drift** (:mod:`.stepsine_checks`): a block with a clipped
+   (flat tops; or flat peaks under noise added after the clip: the samples near the
+   extremes no longer follow the fundamental) or heavily distorted channel, or whose
+   ``|F1/X1|`` drifts by more than 1 % over its settled cycles, is flagged
+   ``distorted`` and is not usable (``amplitude_ok`` False: never fitted); too few
+   usable lines: refused.
 """
 
 from __future__ import annotations
@@ -71,7 +77,8 @@ import numpy as np
 
 from ..errors import DataError
 from ..frequency import Frequency
-from .stepsine_checks import distortion_problems, drift_problem
+from .stepsine_checks import distortion_problems, drift_problem, peak_slope
+from .stepsine_fit import fit_harmonics_with_trend
 # the block and the CSV long format (re-exported: ``from jointid.measurement.stepsine import ...`` as before)
 from .stepsine_files import DEFAULT_COLUMNS, StepSineBlock, hz_text, read_stepsine_csv, write_stepsine_csv
 
@@ -80,10 +87,17 @@ __all__ = [
     "StepSineResult",
     "process_block",
     "process_stepsine",
+    "pooled_drift",
+    "DRIFT_CHI2",
     "read_stepsine_csv",
     "write_stepsine_csv",
     "DEFAULT_COLUMNS",
 ]
+
+#: ``chi2`` (two degrees of freedom) of a test's mean drift rate above which its lines are taken at each block's first
+#: sample with a linear trend fitted (:func:`pooled_drift`; :mod:`.stepsine_fit`): ``P(chi2_2 > 25) = e^-12.5``.
+DRIFT_CHI2 = 25.0
+
 
 @dataclass(frozen=True, eq=False)
 class StepSineResult:
@@ -94,7 +108,8 @@ class StepSineResult:
     frequency_hz : ndarray, shape (F,)
         Test frequencies, Hz (ascending).
     stiffness : ndarray, shape (F,), complex
-        K21 = F1 / X1 divided by ``parallel_joints``, N/m.
+        K21 = F1 / X1 divided by ``parallel_joints``, N/m (phasors at each block's first sample: a linear drift
+        along the block is fitted, :mod:`.stepsine_fit`).
     displacement_amplitude_m : ndarray, shape (F,)
         Achieved fundamental displacement amplitude |X1| (peak), m.
     force_amplitude_n : ndarray, shape (F,)
@@ -121,6 +136,10 @@ class StepSineResult:
         Force or displacement clipped (flat tops) or harmonically distorted (:mod:`.stepsine_checks`).
     distortion : tuple of str
         One line per distorted block: its frequency and what is wrong.
+    drift_rate_per_s : ndarray, shape (F,), optional
+        Relative drift of ``|K21|`` along each block, ``Re d ln(F1/X1) / dt``, 1/s (from the trend fit).
+    notes : tuple of str
+        Test-level notes on usable lines (a drift, :func:`pooled_drift`); never a reason to drop a line.
     """
 
     frequency_hz: np.ndarray
@@ -139,6 +158,8 @@ class StepSineResult:
     tolerance: float = 0.05
     distorted: np.ndarray | None = None
     distortion: tuple[str, ...] = ()
+    drift_rate_per_s: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
 
     @property
     def frequency(self) -> Frequency:
@@ -256,7 +277,10 @@ def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: fl
     Returns
     -------
     dict
-        ``X`` (complex, m), ``F`` (complex, N), ``thd``, ``force_residual``,
+        ``X`` (complex, m), ``F`` (complex, N) (the average over the analysed cycles), ``X0``, ``F0`` (at the
+        block's first sample, a linear trend fitted: :mod:`.stepsine_fit`), ``drift_rate`` (``d ln(F1/X1) / dt``,
+        complex, 1/s: its real part is the relative drift of ``|K21|``) and ``drift_rate_std`` (the standard error
+        of its real and of its imaginary part, 1/s), ``thd``, ``force_residual``,
         ``displacement_residual``, ``settled_time_s``, ``cycles_used``, ``displacement_thd`` and
         ``distortion`` (``""``, or ``"block at 10 Hz: force clipped (flat tops on 33 % of the samples)"``).
     """
@@ -277,20 +301,24 @@ def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: fl
     tt, yy = t[m], y[:, m]
     spc = 1.0 / (f * dt)
     H = max(1, min(int(harmonics), int(math.ceil(spc / 2.0)) - 1))
-    h = np.arange(1, H + 1)
-    ph = 2.0 * np.pi * f * tt[:, None] * h[None, :]
-    A = np.concatenate([np.ones((tt.size, 1)), np.cos(ph), np.sin(ph)], axis=1)
-    coef, *_ = np.linalg.lstsq(A, yy.T, rcond=None)
-    ph_all = coef[1 : H + 1] - 1j * coef[H + 1 :]  # (H, 2)
-    resid = yy.T - A @ coef
+    fit = fit_harmonics_with_trend(tt, yy, f, H)
+    ph_all, resid = fit.plain_phasors, fit.plain_residual  # (H, 2), (n, 2): the average over the analysed cycles
     X, F = ph_all[0, 0], ph_all[0, 1]
+    X0, F0 = fit.phasors[0]  # at the block's first sample (t = 0), a linear trend fitted
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rate = complex((fit.fundamental_slope[1] / F0 - fit.fundamental_slope[0] / X0) * f)  # d ln K / dt, 1/s
+        # (floored at 1e-9 per cycle, a round-off's: noise-free records do not "drift" by 1e-17)
+        rate_std = float(max(math.hypot(fit.slope_std[1] / abs(F0), fit.slope_std[0] / abs(X0)), 1e-9) * f)
     if abs(X) <= 1e-12 * max(np.max(np.abs(block.displacement_m)), 1e-300):
         raise DataError(f"block at {hz_text(f)}: no displacement at the test frequency; check the displacement channel")
     rms1 = np.abs(ph_all[0]) / math.sqrt(2.0)
     rres = np.sqrt(np.mean(resid**2, axis=0)) / np.where(rms1 > 0, rms1, np.inf)
     thd = float(np.sqrt(np.sum(np.abs(ph_all[1:, 1]) ** 2)) / abs(F)) if F != 0 else float("nan")
     thd_x = float(np.sqrt(np.sum(np.abs(ph_all[1:, 0]) ** 2)) / abs(X))
-    problems = distortion_problems(yy[1], thd, yy[0], thd_x)
+    envelope = np.abs(fit.phasors[0][None, :] + (f * tt)[:, None] * fit.fundamental_slope[None, :])
+    detrended = yy.T - fit.offset
+    peaks = [peak_slope(detrended[:, i], fit.fundamental[:, i], envelope[:, i]) for i in (0, 1)]
+    problems = distortion_problems(yy[1], thd, yy[0], thd_x, force_peak=peaks[1], displacement_peak=peaks[0])
     drift = drift_problem(P[1, k0:ncyc] / P[0, k0:ncyc], f)
     if drift:
         problems.append(drift)
@@ -299,6 +327,10 @@ def process_block(block: StepSineBlock, harmonics: int = 5, settle_tolerance: fl
         "displacement_thd": thd_x,
         "X": complex(X),
         "F": complex(F),
+        "X0": complex(X0),
+        "F0": complex(F0),
+        "drift_rate": rate,
+        "drift_rate_std": rate_std,
         "thd": thd,
         "displacement_residual": float(rres[0]),
         "force_residual": float(rres[1]),
@@ -357,6 +389,10 @@ def process_stepsine(
         cmd = np.broadcast_to(np.asarray(commanded_amplitude_m, dtype=float), freq.shape).copy()
         if not np.all(np.isfinite(cmd) & (cmd > 0)):
             raise DataError(f"commanded amplitude must be positive (m, peak), got {commanded_amplitude_m!r}")
+    drift_note = pooled_drift(np.array([r["drift_rate"] for r in rows]), np.array([r["drift_rate_std"] for r in rows]))
+    if drift_note:  # the test drifts: every line at its block's first sample, the trend fitted (exact for a linear drift)
+        X = np.array([r["X0"] for r in rows])
+        F = np.array([r["F0"] for r in rows])
     order = np.argsort(freq)
     ratio = amp / cmd
     distorted = np.array([bool(r["distortion"]) for r in rows])
@@ -389,4 +425,43 @@ def process_stepsine(
         tolerance=float(tolerance),
         distorted=distorted[order],
         distortion=notes,
+        drift_rate_per_s=np.array([r["drift_rate"].real for r in rows])[order],
+        notes=(drift_note,) if drift_note else (),
     )
+
+
+def pooled_drift(rate: np.ndarray, rate_std: np.ndarray) -> str:
+    """One line when a test's blocks drift, else ``""``: the weighted mean of the blocks' drift rates against its error.
+
+    Each block's trend fit gives ``rho_b = d ln(F1/X1) / dt`` (complex, 1/s) with standard error ``s_b`` of its real
+    and of its imaginary part. Their weighted mean ``rho = sum(rho_b / s_b^2) / sum(1 / s_b^2)`` has standard error
+    ``s = sum(1 / s_b^2)^(-1/2)``; the test drifts when ``chi2 = |rho|^2 / s^2 >`` :data:`DRIFT_CHI2` (two degrees of
+    freedom: a false alarm once in 270 000 clean tests). Pooling matters: one block alone cannot see a drift that biases
+    its average by one standard error (the slope's lever arm, ``sqrt(12)``, is against it), a test's low-frequency
+    blocks together can.
+
+    Parameters
+    ----------
+    rate : ndarray, shape (B,), complex
+        ``rho_b``, 1/s.
+    rate_std : ndarray, shape (B,)
+        ``s_b``, 1/s (blocks with a non-finite or zero one are left out).
+
+    Returns
+    -------
+    str
+        e.g. ``"the stiffness drifts along the blocks (|K21| +0.2 %/s, 14 standard errors): the specimen heating or the
+        machine drifting; K21 is taken at each block's first sample (a linear trend fitted per block)"``.
+    """
+    rate, rate_std = np.asarray(rate, complex), np.asarray(rate_std, float)
+    ok = np.isfinite(rate) & np.isfinite(rate_std) & (rate_std > 0)
+    if not ok.any():
+        return ""
+    w = 1.0 / rate_std[ok] ** 2
+    mean = complex(np.sum(w * rate[ok]) / np.sum(w))
+    chi2 = abs(mean) ** 2 * float(np.sum(w))
+    if chi2 <= DRIFT_CHI2:
+        return ""
+    return (f"the stiffness drifts along the blocks (|K21| {100 * mean.real:+.2g} %/s, {math.sqrt(chi2):.0f} standard "
+            "errors): the specimen heating or the machine drifting; K21 is taken at each block's first sample (a "
+            "linear trend fitted per block)")

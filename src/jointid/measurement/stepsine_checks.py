@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_THD", "MAX_FLAT_SHARE", "MAX_DRIFT", "flat_top_share", "distortion_problems", "drift_problem"]
+__all__ = ["MAX_THD", "MAX_FLAT_SHARE", "MAX_DRIFT", "MAX_PEAK_SLOPE", "PEAK_WINDOW", "flat_top_share", "peak_slope",
+           "distortion_problems", "drift_problem"]
 
 #: Total harmonic distortion (harmonics 2..H over the fundamental) of either channel above which a block
 #: is flagged distorted. Smooth distortion does not bias the fundamental (the harmonics are fitted with it:
@@ -25,6 +26,15 @@ MAX_THD = 0.25
 #: which the channel is flagged clipped (a saturated load cell, amplifier or actuator).
 MAX_FLAT_SHARE = 0.01
 
+#: A channel is flagged clipped when the slope of its samples against its fundamental near either extreme (where
+#: ``|cos(w t + phi)| >`` :data:`PEAK_WINDOW`) is, by four standard errors, below this share of a sine's (1):
+#: a clipped peak is flat (slope 0) whatever noise is added after the clip, which hides it from the flat-top
+#: test. A smooth third harmonic ``a_3`` changes the slope to about ``1 + 9 a_3 cos(phi_3)`` (2 %: 0.82 to 1.18);
+#: only a harmonic of over 5.5 % that flattens the peaks comes near 0.5.
+MAX_PEAK_SLOPE = 0.5
+#: ``|cos|`` of the fundamental's phase above which a sample is near an extreme (within 26 degrees; 14 % of the
+#: samples at each extreme; a sine clipped at 90 % of its peak or lower is flat over all of it).
+PEAK_WINDOW = 0.9
 
 #: Change of ``|F1 / X1|`` over a block's settled cycles (a straight line through the per-cycle values, relative)
 #: above which the block is flagged not stationary (a specimen heating, the machine drifting): its K21 is a time
@@ -61,7 +71,52 @@ def flat_top_share(y: np.ndarray) -> float:
     return total / y.size
 
 
-def distortion_problems(force: np.ndarray, force_thd: float, displacement: np.ndarray, displacement_thd: float) -> list[str]:
+def peak_slope(y: np.ndarray, fundamental: np.ndarray, envelope: np.ndarray) -> tuple[float, float]:
+    """Slope of a channel against its fundamental near its extremes, and its standard error (the flatter extreme).
+
+    At each extreme (samples where ``c = u / e`` is above :data:`PEAK_WINDOW`, or below its negative; ``u`` the
+    fitted fundamental, ``e`` its amplitude) the samples are fitted by a straight line ``y = a + b u`` (least squares);
+    ``se_b = s / sqrt(sum (u - mean u)^2)`` from the line's residual ``s``. A sine gives ``b = 1``, a clipped peak
+    ``b = 0`` (its samples sit at the clip level plus noise).
+
+    Parameters
+    ----------
+    y : ndarray, shape (n,)
+        The channel's samples less its fitted offset (channel units).
+    fundamental : ndarray, shape (n,)
+        ``u``: the fitted fundamental at the samples (same units).
+    envelope : ndarray, shape (n,)
+        ``e > 0``: the fundamental's amplitude at the samples (same units).
+
+    Returns
+    -------
+    (float, float)
+        ``(b, se_b)`` of the extreme with the smallest ``b + 4 se_b``; ``(nan, nan)`` with fewer than 6 samples at
+        an extreme.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.asarray(fundamental, float) / np.asarray(envelope, float)
+    best = (float("nan"), float("nan"))
+    for at in (c > PEAK_WINDOW, c < -PEAK_WINDOW):
+        n = int(at.sum())
+        if n < 6:
+            return float("nan"), float("nan")
+        u, v = fundamental[at], y[at]
+        uc = u - u.mean()
+        sxx = float(np.dot(uc, uc))
+        if sxx <= 0:
+            return float("nan"), float("nan")
+        b = float(np.dot(uc, v - v.mean()) / sxx)
+        r = v - v.mean() - b * uc
+        se = float(np.sqrt(np.dot(r, r) / (n - 2) / sxx))
+        if not np.isfinite(best[0]) or b + 4.0 * se < best[0] + 4.0 * best[1]:
+            best = (b, se)
+    return best
+
+
+def distortion_problems(force: np.ndarray, force_thd: float, displacement: np.ndarray, displacement_thd: float,
+                        force_peak: tuple[float, float] | None = None,
+                        displacement_peak: tuple[float, float] | None = None) -> list[str]:
     """What is wrong with a block's channels: ``["force clipped (flat tops on 33% of the samples)"]``, or ``[]``.
 
     Parameters
@@ -70,12 +125,19 @@ def distortion_problems(force: np.ndarray, force_thd: float, displacement: np.nd
         The samples the fit used (N, m).
     force_thd, displacement_thd : float
         Their total harmonic distortion ``sqrt(sum_{h>=2} |P_h|^2) / |P_1|``.
+    force_peak, displacement_peak : (float, float), optional
+        :func:`peak_slope` of each channel: flagged ``"force clipped (flat peaks under the noise: slope 2 % of a
+        sine's near them)"`` when ``b + 4 se_b <`` :data:`MAX_PEAK_SLOPE`.
     """
     problems = []
-    for name, y, d in (("force", force, force_thd), ("displacement", displacement, displacement_thd)):
+    for name, y, d, pk in (("force", force, force_thd, force_peak),
+                           ("displacement", displacement, displacement_thd, displacement_peak)):
         flat = flat_top_share(y)
+        b, se = pk if pk is not None else (float("nan"), float("nan"))
         if flat > MAX_FLAT_SHARE:
             problems.append(f"{name} clipped (flat tops on {flat:.0%} of the samples)")
+        elif np.isfinite(b) and b + 4.0 * se < MAX_PEAK_SLOPE:
+            problems.append(f"{name} clipped (flat peaks under the noise: slope {b:.0%} of a sine's near them)")
         elif d > MAX_THD:
             problems.append(f"{name} distorted (harmonic distortion {d:.0%})")
     return problems
