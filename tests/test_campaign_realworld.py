@@ -12,7 +12,7 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from campaign_data import manifest_rows, small_campaign
-from jointid.campaign.tasks import unit_column
+from jointid.measurement.stepsine_files import unit_column
 from jointid.cli import campaign as campaign_cli
 from jointid.cli.main import main
 

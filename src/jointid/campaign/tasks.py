@@ -31,8 +31,7 @@ import numpy as np
 
 from ..errors import JointIdError
 
-__all__ = ["ProcessingOptions", "TestTask", "TestOutcome", "run_test", "run_tasks", "sha256_file", "campaign_columns",
-           "unit_column", "UNIT_SUFFIXES"]
+__all__ = ["ProcessingOptions", "TestTask", "TestOutcome", "run_test", "run_tasks", "sha256_file", "campaign_columns"]
 
 
 @dataclass(frozen=True)
@@ -174,46 +173,12 @@ def _stiffness_lines(term, f, k, std_real=None, std_imag=None) -> dict:
     return out
 
 
-#: Unit suffixes of a step-sine file's column names that a campaign converts exactly to SI, per quantity
-#: (``force_kN``, ``displacement_mm``, ``time_ms``; also ``force [kN]`` and ``force (kN)``): suffix -> factor to SI.
-UNIT_SUFFIXES = {
-    "frequency": {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3},
-    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "\u00b5s": 1e-6, "\u03bcs": 1e-6},
-    "displacement": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "\u00b5m": 1e-6, "\u03bcm": 1e-6, "nm": 1e-9, "in": 0.0254},
-    "force": {"N": 1.0, "n": 1.0, "kN": 1e3, "kn": 1e3, "mN": 1e-3, "lbf": 4.4482216152605},
-}
-_SI_UNIT = {"frequency": "Hz", "time": "s", "displacement": "m", "force": "N"}
-
-
-def unit_column(quantity: str, name: str) -> float | None:
-    """The factor to SI of a column named ``name`` for ``quantity`` with a unit suffix, or None.
-
-    Parameters
-    ----------
-    quantity : str
-        ``frequency``, ``time``, ``displacement`` or ``force``.
-    name : str
-        A column name: ``<quantity>_<unit>``, ``<quantity> [<unit>]`` or ``<quantity> (<unit>)`` with a unit of
-        :data:`UNIT_SUFFIXES` (case as written: ``mN`` is milli-newton).
-
-    Returns
-    -------
-    float or None
-        The exact factor from the unit to SI (Hz, s, m, N), e.g. 1e-3 for ``displacement_mm``.
-    """
-    import re
-
-    m = re.fullmatch(rf"{quantity}(?:_(\S+)|\s*\[\s*(\S+)\s*\]|\s*\(\s*(\S+)\s*\))", name.strip(), flags=re.IGNORECASE)
-    if m is None:
-        return None
-    return UNIT_SUFFIXES.get(quantity, {}).get(next(g for g in m.groups() if g is not None))
-
-
 def campaign_columns(path: str | Path, columns: tuple = (), scale: tuple = ()) -> tuple[dict, dict, str]:
     """How a campaign reads one step-sine file: the column mapping, the factors to SI and what it converted.
 
     A quantity the options do not map (``--column``/``--scale``) whose default column (``force_n``, ...) the file
-    lacks is read from the one column named with a unit suffix (:func:`unit_column`), converted exactly to SI.
+    lacks is read from the one column named with a unit suffix
+    (:func:`~jointid.measurement.stepsine_files.unit_column`), converted exactly to SI.
 
     Parameters
     ----------
@@ -238,7 +203,7 @@ def campaign_columns(path: str | Path, columns: tuple = (), scale: tuple = ()) -
     import csv
 
     from ..errors import DataError
-    from ..measurement.stepsine import DEFAULT_COLUMNS
+    from ..measurement.stepsine_files import DEFAULT_COLUMNS, SI_UNITS, UNIT_SUFFIXES, unit_column
 
     cols, sc = {**DEFAULT_COLUMNS, **dict(columns)}, dict(scale)
     try:
@@ -257,7 +222,7 @@ def campaign_columns(path: str | Path, columns: tuple = (), scale: tuple = ()) -
         if len(found) == 1 and q not in mapped and q not in sc:
             (h, f), = found
             cols[q], sc[q] = h, f
-            converted.append(f"{h} x {f:g} (to {_SI_UNIT[q]})")
+            converted.append(f"{h} x {f:g} (to {SI_UNITS[q]})")
             continue
         which = f" ({len(found)} columns could be it: {', '.join(h for h, _ in found)})" if len(found) > 1 else ""
         raise DataError(f"{path}: missing column {name!r}{which} (columns present: {', '.join(header)}); name it {name} or "

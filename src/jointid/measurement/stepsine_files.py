@@ -20,7 +20,8 @@ import numpy as np
 
 from ..errors import DataError
 
-__all__ = ["StepSineBlock", "read_stepsine_csv", "write_stepsine_csv", "hz_text", "DEFAULT_COLUMNS", "TRUNCATED_CYCLES"]
+__all__ = ["StepSineBlock", "read_stepsine_csv", "write_stepsine_csv", "hz_text", "unit_column", "DEFAULT_COLUMNS",
+           "TRUNCATED_CYCLES", "UNIT_SUFFIXES", "SI_UNITS"]
 
 #: Logical quantity -> default CSV column name.
 DEFAULT_COLUMNS: Mapping[str, str] = {
@@ -32,6 +33,42 @@ DEFAULT_COLUMNS: Mapping[str, str] = {
 #: The file's last block is taken as cut short when it holds fewer than this fraction of the cycles of the block that
 #: holds fewest among the others (which agree within the same fraction).
 TRUNCATED_CYCLES = 0.9
+
+
+#: Unit suffixes of a step-sine file's column names that a campaign converts exactly to SI, per quantity
+#: (``force_kN``, ``displacement_mm``, ``time_ms``; also ``force [kN]`` and ``force (kN)``): suffix -> factor to SI.
+UNIT_SUFFIXES = {
+    "frequency": {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3},
+    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "\u00b5s": 1e-6, "\u03bcs": 1e-6},
+    "displacement": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "\u00b5m": 1e-6, "\u03bcm": 1e-6, "nm": 1e-9, "in": 0.0254},
+    "force": {"N": 1.0, "n": 1.0, "kN": 1e3, "kn": 1e3, "mN": 1e-3, "lbf": 4.4482216152605},
+}
+#: The SI unit each quantity is converted to.
+SI_UNITS = {"frequency": "Hz", "time": "s", "displacement": "m", "force": "N"}
+
+
+def unit_column(quantity: str, name: str) -> float | None:
+    """The factor to SI of a column named ``name`` for ``quantity`` with a unit suffix, or None.
+
+    Parameters
+    ----------
+    quantity : str
+        ``frequency``, ``time``, ``displacement`` or ``force``.
+    name : str
+        A column name: ``<quantity>_<unit>``, ``<quantity> [<unit>]`` or ``<quantity> (<unit>)`` with a unit of
+        :data:`UNIT_SUFFIXES` (case as written: ``mN`` is milli-newton).
+
+    Returns
+    -------
+    float or None
+        The exact factor from the unit to SI (Hz, s, m, N), e.g. 1e-3 for ``displacement_mm``.
+    """
+    import re
+
+    m = re.fullmatch(rf"{quantity}(?:_(\S+)|\s*\[\s*(\S+)\s*\]|\s*\(\s*(\S+)\s*\))", name.strip(), flags=re.IGNORECASE)
+    if m is None:
+        return None
+    return UNIT_SUFFIXES.get(quantity, {}).get(next(g for g in m.groups() if g is not None))
 
 
 def hz_text(f: float) -> str:
