@@ -49,7 +49,10 @@ def test_end_to_end_tables_counts_and_master_curve(campaign):
     assert rc == 0
     rows = manifest_rows(manifest)
     n = len(rows)
-    assert _json(out / "campaign.json") == {"tests": n, "computed": n, "reused": 0, "failed": [], "manifest": str(manifest)}
+    summary = _json(out / "campaign.json")
+    assert {k: v for k, v in summary.items() if k != "findings"} == {"tests": n, "computed": n, "reused": 0, "failed": [],
+                                                                     "manifest": str(manifest)}
+    assert summary["findings"] == _json(out / "master_curve.json")["findings"]  # every finding the terminal prints
     results = pq.read_table(out / "results.parquet")
     assert results.num_rows == n * len(FREQUENCIES_HZ)
     for col in ("manifest_row", "file", "specimen", "temperature_c", "amplitude_m", "preload_n", "batch", "frequency_hz",

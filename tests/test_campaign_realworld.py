@@ -114,7 +114,8 @@ def test_a_master_curve_that_leaves_temperatures_out_says_so_in_its_last_line_an
     assert len(findings) >= 2 and findings[0].startswith("specimen S1: master curve: -40 deg C: its curve does not overlap")
     assert captured.err.strip().splitlines() == [
         f"jointid campaign: note: {findings[0]}",
-        f"jointid campaign: note: ... and {len(findings) - 1} more in {out}/master_curve.json (findings) and report.html"]
+        f"jointid campaign: note: ... and {len(findings) - 1} more in {out}/campaign.json (findings) and report.html"]
+    assert json.loads((out / "campaign.json").read_text())["findings"] == findings  # every one, the terminal's text
     assert captured.out.strip().splitlines()[-1].startswith(
         "campaign: 4 tests (4 computed, 0 reused, 0 failed), 1 master curve(s) (specimen S1: 3 of 4 temperatures "
         "superposed; see the notes); wrote ")

@@ -223,6 +223,8 @@ def analyze_specimens(tests, outcomes, *, reference_temperature_c: float | None 
         findings += [f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C): lines not used: "
                      f"{outcomes[t.row].parameters['lines_not_used']}"
                      for t in group if outcomes[t.row].parameters.get("lines_not_used")]
+        findings += [f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C): {outcomes[t.row].parameters['notes']}"
+                     for t in group if outcomes[t.row].parameters.get("notes")]
         amp, pre, mc = _master_curve(specimen, group, outcomes, reference_temperature_c, vertical_shift, findings)
         if mc is not None:  # what the master curve found (temperatures left out, laws not determined, ...) is the campaign's
             findings.extend(f"specimen {specimen}: master curve: {f}" for f in mc.findings)

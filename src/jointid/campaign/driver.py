@@ -32,7 +32,7 @@ from .runner import execute_tasks
 from .store import ResultStore, task_key
 from .tasks import ProcessingOptions, TestTask, sha256_file
 
-__all__ = ["CampaignOptions", "CampaignResult", "run_campaign", "plan_tasks", "campaign_summary"]
+__all__ = ["CampaignOptions", "CampaignResult", "run_campaign", "plan_tasks", "campaign_summary", "campaign_findings"]
 
 
 @dataclass(frozen=True)
@@ -126,8 +126,29 @@ def plan_tasks(manifest: Manifest, processing: ProcessingOptions) -> tuple[dict[
     return tasks, sha
 
 
-def campaign_summary(manifest: Manifest, outcomes: dict, computed_rows: set) -> dict:
-    """``campaign.json``: ``{"tests", "computed", "reused", "failed": [{"row", "file", "reason"}]}``."""
+def campaign_findings(analysis: dict) -> list[str]:
+    """The campaign's findings, one line each, in the order ``jointid campaign`` prints them (every specimen's).
+
+    Parameters
+    ----------
+    analysis : dict of str to SpecimenAnalysis
+        By specimen.
+
+    Returns
+    -------
+    list of str
+        ``"specimen A: master curve: ..."``, the same text as the terminal's notes, ``master_curve.json`` and
+        ``campaign.json`` (``findings``).
+    """
+    return [f for a in analysis.values() for f in a.findings]
+
+
+def campaign_summary(manifest: Manifest, outcomes: dict, computed_rows: set, analysis: dict | None = None) -> dict:
+    """``campaign.json``: ``{"tests", "computed", "reused", "failed": [{"row", "file", "reason"}], "manifest", "findings"}``.
+
+    ``findings`` (:func:`campaign_findings`) holds every finding the terminal prints, same text (``[]`` without
+    ``analysis``).
+    """
     return {
         "tests": len(manifest.tests),
         "computed": sum(t.row in computed_rows for t in manifest.tests),
@@ -135,6 +156,7 @@ def campaign_summary(manifest: Manifest, outcomes: dict, computed_rows: set) -> 
         "failed": [{"row": t.row, "file": t.value("file"), "reason": outcomes[t.row].reason}
                    for t in manifest.tests if not outcomes[t.row].ok],
         "manifest": str(manifest.path),
+        "findings": campaign_findings(analysis or {}),
     }
 
 
@@ -203,7 +225,7 @@ def run_campaign(
         computed_rows = {row for row, task in tasks.items() if task.key in counts.computed}
         analysis = analyze_specimens(manifest.tests, outcomes, reference_temperature_c=options.reference_temperature_c,
                                      vertical_shift=options.vertical_shift)
-        summary = campaign_summary(manifest, outcomes, computed_rows)
+        summary = campaign_summary(manifest, outcomes, computed_rows, analysis)
         _write_outputs(o, manifest, outcomes, analysis, summary, sha, options)
     return CampaignResult(manifest, outcomes, analysis, summary, Path(out))
 
@@ -233,7 +255,7 @@ def _write_outputs(o: OutputSet, manifest, outcomes, analysis, summary, sha, opt
         "specimens": {s: {"reference_amplitude_m": a.reference_amplitude_m, "reference_preload_n": a.reference_preload_n,
                           **(a.master_curve.to_dict() if a.master_curve is not None else {"master_curve": None})}
                       for s, a in analysis.items()},
-        "findings": [f for a in analysis.values() for f in a.findings],
+        "findings": summary["findings"],
     }
     o.write_text("master_curve.json", _json(master))
     o.write_text("campaign.json", _json(summary))

@@ -45,8 +45,9 @@ __all__ = ["ResultStore", "task_key", "CACHE_DIR", "STORE_FORMAT"]
 CACHE_DIR = ".jointid-cache/campaign"
 #: Format tag of an entry; a change of the entry layout or of what the processing gives changes it (old entries are
 #: then recomputed; 2: step-sine lines whose stiffness drifts along the block are flagged; 3: unit-suffixed column names
-#: such as force_kN are read and converted, which a stored "missing column" failure must not hide).
-STORE_FORMAT = "jointid-campaign-result-3"
+#: such as force_kN are read and converted, which a stored "missing column" failure must not hide; 4: the processing's
+#: test-level notes, a drift, in the parameters ``notes``).
+STORE_FORMAT = "jointid-campaign-result-4"
 
 
 def task_key(kind: str, file_sha256: str, options: ProcessingOptions, *, parallel_joints: int, amplitude_m: float,

@@ -111,6 +111,8 @@ def test_warning(test, outcome, analysis=None) -> str | None:
     * A direct test whose loss factor ``Im K21 / Re K21`` is negative on most of its lines at the
       commanded amplitude has its phase sign reversed
       (:func:`~jointid.methods.direct.phase_sign.reversed_phase`).
+    * A direct test with a test-level note of its processing (a drift along the blocks:
+      :attr:`~jointid.measurement.stepsine.StepSineResult.notes`): the note, after anything above or below.
     * A test whose measured shift factor does not fall as the temperature rises from its
       neighbour's on the master curve (``log10 aT(T_j) > log10 aT(T_i)`` with ``T_j > T_i``): one of
       the two temperatures is wrong, and no shift law was fitted.
@@ -123,17 +125,19 @@ def test_warning(test, outcome, analysis=None) -> str | None:
     ok = np.asarray(lines.get("amplitude_ok", np.ones(len(lines["frequency_hz"]), bool)), dtype=bool)
     k = np.asarray(lines["stiffness_real"], float)[ok] + 1j * np.asarray(lines["stiffness_imag"], float)[ok]
     why = reversed_phase(k)
+    note = outcome.parameters.get("notes") or None
     if why is not None:
-        return f"{why}; left out of the master curve"
+        return "; ".join(w for w in (f"{why}; left out of the master curve", note) if w)
     a = (analysis or {}).get(test.specimen)
     if a is None or a.master_curve is None:
-        return None
+        return note
     shifts = sorted(a.master_curve.measured_shift.items())
     for (ti, si), (tj, sj) in zip(shifts, shifts[1:]):
         if sj > si and any(abs(t - test.temperature_c) <= 1e-9 for t in (ti, tj)):
-            return (f"the shift factor rises with the temperature from {ti:g} to {tj:g} deg C ({si:+.3f} -> {sj:+.3f} "
-                    "decades): one of the two temperatures is wrong (typed in K?); no shift law was fitted")
-    return None
+            return "; ".join(w for w in (f"the shift factor rises with the temperature from {ti:g} to {tj:g} deg C ({si:+.3f} -> "
+                                         f"{sj:+.3f} decades): one of the two temperatures is wrong (typed in K?); no shift "
+                                         "law was fitted", note) if w)
+    return note
 
 
 def results_table(manifest, outcomes, analysis=None):

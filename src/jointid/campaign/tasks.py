@@ -259,6 +259,8 @@ def _direct(task: TestTask) -> tuple[dict, dict]:
         "max_settled_time_s": float(np.max(r.settled_time_s)),
         # the lines the processing flagged and why (clipped, distorted, drifting): named in the tests table and findings
         "lines_not_used": "; ".join(r.distortion),
+        # the test-level notes of the processing (a drift: StepSineResult.notes): named in the findings and the warning
+        "notes": "; ".join(r.notes),
         # the columns read from unit-suffixed names and converted to SI (campaign_columns): named in the findings
         "columns_converted": converted,
     }

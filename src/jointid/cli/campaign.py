@@ -30,7 +30,7 @@ def add_parser(sub) -> None:
         "on every core (or a Dask cluster with --scheduler) and write DIR/results.parquet and .csv (one row per test "
         "and frequency line), DIR/tests.parquet and .csv (one row per test), master_curve.json (time-temperature "
         "superposition per specimen: shift factors, WLF, Arrhenius, fitted modulus), amplitude/preload fits, "
-        "campaign.json ({tests, computed, reused, failed}) and report.html. Resumable: each test's result is stored "
+        "campaign.json ({tests, computed, reused, failed, findings}) and report.html. Resumable: each test's result is stored "
         "under DIR/.jointid-cache as it finishes; a re-run computes only what is missing or changed. Exit code 1 when "
         "some tests failed (the others are written), 2 on bad input.",
     )
@@ -74,11 +74,11 @@ def run(args: argparse.Namespace) -> int:
                               vertical_shift=args.vertical_shift, plots=not args.no_plots)
     result = run_campaign(args.manifest, args.out, options, workers=args.workers, scheduler=args.scheduler)
     s = result.summary
-    notes = [f for a in result.analysis.values() for f in a.findings]
+    notes = s["findings"]  # campaign.json's, same text
     for finding in notes[:MAX_PRINTED_NOTES]:
         print(f"jointid campaign: note: {finding}", file=sys.stderr)
     if len(notes) > MAX_PRINTED_NOTES:
-        print(f"jointid campaign: note: ... and {len(notes) - MAX_PRINTED_NOTES} more in {args.out}/master_curve.json (findings) "
+        print(f"jointid campaign: note: ... and {len(notes) - MAX_PRINTED_NOTES} more in {args.out}/campaign.json (findings) "
               "and report.html", file=sys.stderr)
     for f in s["failed"]:
         print(f"jointid campaign: test failed: {args.manifest}: row {f['row']} ({f['file']}): {f['reason']}", file=sys.stderr)

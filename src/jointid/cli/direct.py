@@ -66,6 +66,7 @@ def direct_summary(args, result, static, fit, modulus, zener=None) -> dict:
         "flagged_lines_hz": [float(x) for x in flagged],
         "distorted_lines_hz": [] if result.distorted is None else [float(x) for x in result.frequency_hz[result.distorted]],
         "distortion": list(result.distortion),
+        "test_notes": list(result.notes),
         "max_force_thd": float(np.max(result.force_thd)),
         "max_force_residual": float(np.max(result.force_residual)),
         "static": static.to_dict(),
@@ -165,6 +166,7 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
         lines.append(zener_line(zener))
     if result.distortion:
         lines.append(f"{len(result.distortion)} of {ok.size} lines not used: clipped or distorted ({result.distortion[0]})")
+    lines.extend(f"note: {n}" for n in result.notes)  # test-level (a drift along the blocks), one line each
     figures = [] if png is None else [("direct_stiffness.png", png, "|K21| per joint, loss factor or phase: measured and fitted")]
     out.write_text("report.html", direct_report(json.loads(text), lines, figures))
     print(f"{line}; wrote {out.directory}")

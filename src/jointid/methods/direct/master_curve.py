@@ -52,7 +52,8 @@ import numpy as np
 from ...errors import DataError
 from .master_zener import fit_zener_fast, zener_covariance, zener_jacobian
 from .shift_estimation import PairShift, curve_noise, estimate_pair_shift
-from .shift_laws import KELVIN, ArrheniusFit, WLFFit, fit_arrhenius, fit_wlf, moved_shift_covariance, preferred_law
+from .shift_laws import (KELVIN, ArrheniusFit, WLFFit, fit_arrhenius, fit_wlf, moved_shift_covariance, preferred_law,
+                         wlf_undetermined)
 from .zener_fit import ZenerFit, zener_modulus
 
 __all__ = ["TemperatureCurve", "MasterCurve", "build_master_curve"]
@@ -475,8 +476,13 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
             arr = law
     # a WLF law whose pole lies in the measured range or whose constants the temperatures do not determine is shown
     # (findings below) but never preferred: its shifts between and beyond the temperatures are not the data's
-    wlf_usable = wlf is not None and wlf.c2 > 0 and np.all(wlf.c2 + (T - tref) > 0) and (
-        wlf.c1_std <= 0.5 * abs(wlf.c1) and wlf.c2_std <= 0.5 * abs(wlf.c2))
+    # (c1, c2) determined: the curvature of log aT seen (profile likelihood; the linearized std of c1, c2 is not to be
+    # trusted near a straight line) and, with no degree of freedom, a span of at least a quarter of c2 (shift_laws)
+    wlf_pole = wlf is not None and not (wlf.c2 > 0 and np.all(wlf.c2 + (T - tref) > 0))
+    wlf_why = "" if wlf is None or wlf_pole else wlf_undetermined(wlf, T, s, tref, cov, free_offset=free_offset)
+    if wlf is not None and not wlf_pole and not wlf_why and not (wlf.c1_std <= 0.5 * abs(wlf.c1) and wlf.c2_std <= 0.5 * abs(wlf.c2)):
+        wlf_why = "relative std > 50 %"
+    wlf_usable = wlf is not None and not wlf_pole and not wlf_why
     pref = preferred_law(wlf if wlf_usable else None, arr)
     offset = offset_var = 0.0
     if pref is not None:
@@ -493,9 +499,9 @@ def build_master_curve(curves: Sequence[TemperatureCurve], reference_temperature
         x = T - tref
         if np.any(wlf.c2 + x <= 0) or wlf.c2 <= 0:
             findings.append(f"WLF c2 = {wlf.c2:.3g} K puts the law's pole inside or below the measured temperatures: not physical, not used")
-        if not (wlf.c1_std <= 0.5 * abs(wlf.c1) and wlf.c2_std <= 0.5 * abs(wlf.c2)):
+        if wlf_why:
             findings.append(f"WLF c1 = {wlf.c1:.3g} +- {wlf.c1_std:.2g}, c2 = {wlf.c2:.3g} +- {wlf.c2_std:.2g} K: not determined "
-                            "by these temperatures (relative std > 50 %): not used; use the shift factors or the Arrhenius law")
+                            f"by these temperatures ({wlf_why}): not used; use the shift factors or the Arrhenius law")
     if pref is None and not measured_ref:
         findings.append(f"no shift law fitted: the shift factors and the fitted modulus stay relative to {temps[anchor]:g} deg C, "
                         f"not {tref:g} deg C" + ("" if vertical_shift else f" (reference_temperature_c {temps[anchor]:g})"))

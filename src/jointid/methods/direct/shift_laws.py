@@ -42,12 +42,27 @@ from ...errors import DataError
 from ..fit_statistics import jacobian_covariance
 
 __all__ = ["WLFFit", "ArrheniusFit", "fit_wlf", "fit_arrhenius", "preferred_law", "moved_shift_covariance", "wlf_log10_shift",
-           "arrhenius_log10_shift", "GAS_CONSTANT", "KELVIN"]
+           "arrhenius_log10_shift", "wlf_undetermined", "GAS_CONSTANT", "KELVIN", "WLF_CURVATURE_Z", "WLF_CURVATURE_Z_EXACT",
+           "WLF_SPAN_OF_C2",
+           "TYPICAL_WLF_C2_K"]
 
 #: Molar gas constant, J/(mol K).
 GAS_CONSTANT = 8.314462618
 #: 0 deg C in K.
 KELVIN = 273.15
+#: Standard errors at which the shift factors must see the curvature of ``log10 aT`` over ``T`` (the one thing that
+#: sets c2; a straight line is WLF's c2 -> infinity) for a WLF law to be taken as determined.
+WLF_CURVATURE_Z = 3.0
+#: A WLF law with as many constants as shift factors passes through them exactly: no residual tests the shift factors'
+#: stated errors (first-order estimates of chained shifts), so its curvature must be seen at this many standard errors
+#: (a fluke of 5 is one in 1.7 million even when the errors are understated by half).
+WLF_CURVATURE_Z_EXACT = 5.0
+#: The span of temperatures advised is at least this fraction of :data:`TYPICAL_WLF_C2_K`: the slope of
+#: ``log10 aT`` then changes by 50 % or more across them, a curvature no small error of a shift factor fakes.
+WLF_SPAN_OF_C2 = 0.25
+#: c2 (K) for the advice on the temperature span to measure: the order of elastomers' c2 near room temperature
+#: (c2 = 51.6 K + Tref - Tg with Tg around -50 deg C).
+TYPICAL_WLF_C2_K = 100.0
 
 
 def _f(x) -> float | None:
@@ -402,3 +417,69 @@ def moved_shift_covariance(fit, temperature_c, log10_shift, reference_temperatur
     M = np.eye(s.size) - np.outer(one, h)
     extra = max(float(offset_variance) - float(h @ C @ h), 0.0)
     return M @ C @ M.T + extra * np.outer(one, one)
+
+
+def wlf_undetermined(wlf: WLFFit, temperature_c, log10_shift, reference_temperature_c: float, covariance=None, *,
+                     free_offset: bool = False) -> str:
+    """Why the shift factors do not determine a fitted WLF law, with what to measure; ``""`` when they do.
+
+    The linearized covariance of (c1, c2) is not to be trusted when the temperatures are close: c1 = s / b and
+    c2 = 1 / b with ``b`` the curvature parameter (``log10 aT = -s x / (1 + b x)``, ``x = T - Tref``), so a ``b``
+    near 0 within its error gives any c1, c2 with a small-looking linearized std. The test is on ``b`` instead:
+
+    * **profile likelihood**: the straight line (``b = 0``, c2 infinite) is fitted with the same weights; the law is
+      determined only when it beats the line by ``chi2_line - chi2_wlf >= WLF_CURVATURE_Z**2`` (divided by the WLF
+      fit's Birge ratio ``chi2 / dof`` when above 1), i.e. the curvature is seen at :data:`WLF_CURVATURE_Z` standard
+      errors;
+    * **no degree of freedom** (as many constants as shift factors): at :data:`WLF_CURVATURE_Z_EXACT` standard errors
+      (nothing tests the stated errors of the shift factors).
+
+    The span to measure is the larger of ``WLF_SPAN_OF_C2 * TYPICAL_WLF_C2_K`` and the span at which the curvature
+    of a law with c2 = :data:`TYPICAL_WLF_C2_K` would be seen at the needed standard errors (the curvature's std falls
+    as the span squared for the same temperatures' pattern and errors).
+
+    Parameters
+    ----------
+    wlf : WLFFit
+        The law fitted to these shift factors (:func:`fit_wlf`, same arguments).
+    temperature_c, log10_shift, reference_temperature_c, covariance, free_offset
+        As for :func:`fit_wlf` (deg C, decades).
+
+    Returns
+    -------
+    str
+        e.g. ``"the curvature of log aT over T, which sets c2, is seen at 0.9 standard errors (3 needed): a straight
+        line (c2 infinite) is not excluded; measure temperatures spread over at least 25 C (now 2 C)"``, or ``""``.
+    """
+    t_all = np.asarray(temperature_c, dtype=float).reshape(-1)
+    t, s, W, anchor = _prepare(temperature_c, log10_shift, covariance, reference_temperature_c, free_offset)
+    fit_offset = free_offset and anchor is None
+    k = 3 if fit_offset else 2
+    x = t - reference_temperature_c
+    xa = (anchor - reference_temperature_c) if anchor is not None else 0.0
+    Wm = np.eye(t.size) if W is None else W
+    extra = [np.ones_like(x)] if fit_offset else []
+    line = Wm @ np.column_stack([x - xa, *extra])
+    coef, *_ = np.linalg.lstsq(line, Wm @ s, rcond=None)
+    chi2_line = float(np.sum((Wm @ s - line @ coef) ** 2))
+    dof = t.size - k
+    birge = max(1.0, wlf.chi2 / dof) if dof > 0 else 1.0
+    z = math.sqrt(max(chi2_line - wlf.chi2, 0.0) / birge)
+    span = float(np.ptp(t_all))
+    quad = Wm @ np.column_stack([x - xa, x**2 - xa**2, *extra])
+    q, *_ = np.linalg.lstsq(quad, Wm @ s, rcond=None)
+    try:
+        sd_a2 = math.sqrt(float(np.linalg.inv(quad.T @ quad)[1, 1]) * birge)
+    except np.linalg.LinAlgError:
+        sd_a2 = math.inf
+    # log10 aT ~ a1 x + a2 x^2 with a2 = -a1 / c2: seen at z = |a1| / (c2 sd_a2), which grows as the span squared
+    z_needed = WLF_CURVATURE_Z if dof > 0 else WLF_CURVATURE_Z_EXACT
+    scale = math.sqrt(z_needed * TYPICAL_WLF_C2_K * sd_a2 / abs(q[0])) if q[0] != 0 and math.isfinite(sd_a2) else math.inf
+    need = max(WLF_SPAN_OF_C2 * TYPICAL_WLF_C2_K, span * scale)
+    need_text = f"{5 * math.ceil(need / 5):g}" if math.isfinite(need) else "far more than"
+    if z >= z_needed:
+        return ""
+    exact = "" if dof > 0 else f", the law passing exactly through the {t.size} shift factors"
+    return (f"the curvature of log aT over T, which sets c2, is seen at {z:.2g} standard errors ({z_needed:g} needed{exact}): "
+            f"a straight line (c2 infinite) is not excluded; measure temperatures spread over at least {need_text} C "
+            f"(now {span:g} C)")
