@@ -106,3 +106,33 @@ def test_campaign_names_the_drift_in_findings_warning_and_campaign_json(tmp_path
     with open(out / "tests.csv", newline="") as fh:
         warnings = {int(r["manifest_row"]): r["warning"] for r in csv.DictReader(fh)}
     assert re.fullmatch(DRIFT_NOTE, warnings[2]) and not warnings[1] and not warnings[3]
+
+
+# ---------------------------------------------------------------- 4. jointid direct reads unit-suffixed columns
+def test_direct_reads_unit_suffixed_columns_as_the_campaign_does(tmp_path, capsys):
+    """force_kN, 'displacement [mm]', time_ms: converted exactly (the same stiffness as the SI file within the
+    rounding of one multiplication, 1e-12), one line saying so; a unit it does not know is refused naming the file."""
+    si = _drifting_file(tmp_path / "si.csv", 20.0, 0.0)
+    rows = list(csv.reader(si.open(newline="")))
+    assert rows[0] == ["frequency_hz", "time_s", "displacement_m", "force_n"]
+    scaled = [["frequency_hz", "time_ms", "displacement [mm]", "force_kN"]]
+    scaled += [[r[0], repr(float(r[1]) * 1e3), repr(float(r[2]) * 1e3), repr(float(r[3]) / 1e3)] for r in rows[1:]]
+    units = tmp_path / "units.csv"
+    with units.open("w", newline="") as fh:
+        csv.writer(fh, lineterminator="\n").writerows(scaled)
+    assert main(["direct", str(si), "--out", str(tmp_path / "o_si"), "--no-plots"]) == 0
+    capsys.readouterr()
+    assert main(["direct", str(units), "--out", str(tmp_path / "o_u"), "--no-plots"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert "jointid direct: columns converted to SI: time_ms x 0.001 (to s), displacement [mm] x 0.001 (to m), force_kN x 1000 (to N)" in out
+    a = np.genfromtxt(tmp_path / "o_si" / "direct_stiffness.csv", delimiter=",", names=True)
+    b = np.genfromtxt(tmp_path / "o_u" / "direct_stiffness.csv", delimiter=",", names=True)
+    for name in a.dtype.names:
+        np.testing.assert_allclose(b[name], a[name], rtol=1e-12, atol=0)
+    bad = tmp_path / "bad.csv"
+    bad.write_text(units.read_text().replace("force_kN", "force_kgf", 1))
+    assert main(["direct", str(bad), "--out", str(tmp_path / "o_bad"), "--no-plots"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"jointid direct: error: {bad}: missing column 'force_n' (columns present: frequency_hz, time_ms, displacement [mm], "
+        "force_kgf); name it force_n or force_UNIT (a unit jointid converts: N, n, kN, kn, mN, lbf), or map it with "
+        "--column force=NAME --scale force=FACTOR_TO_SI")

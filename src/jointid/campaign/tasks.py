@@ -174,18 +174,8 @@ def _stiffness_lines(term, f, k, std_real=None, std_imag=None) -> dict:
 
 
 def campaign_columns(path: str | Path, columns: tuple = (), scale: tuple = ()) -> tuple[dict, dict, str]:
-    """How a campaign reads one step-sine file: the column mapping, the factors to SI and what it converted.
-
-    A quantity the options do not map (``--column``/``--scale``) whose default column (``force_n``, ...) the file
-    lacks is read from the one column named with a unit suffix
-    (:func:`~jointid.measurement.stepsine_files.unit_column`), converted exactly to SI.
-
-    Parameters
-    ----------
-    path : path-like
-        The step-sine CSV file (its header row is read).
-    columns, scale : tuple of (str, str) and of (str, float)
-        The campaign's ``--column``/``--scale`` options (they apply to every file and win).
+    """How a campaign reads one step-sine file: :func:`~jointid.measurement.stepsine_files.resolve_columns` with the
+    campaign's ``--column``/``--scale`` (they apply to every file and win) and its advice for a column it cannot find.
 
     Returns
     -------
@@ -193,42 +183,10 @@ def campaign_columns(path: str | Path, columns: tuple = (), scale: tuple = ()) -
     scale : dict of str to float
     converted : str
         ``"displacement_mm x 0.001 (to m), force_kN x 1000 (to N)"``, or ``""``.
-
-    Raises
-    ------
-    DataError
-        A column the file lacks and no unit-suffixed column stands for: naming it, the columns present and how to
-        map it in a campaign.
     """
-    import csv
+    from ..measurement.stepsine_files import resolve_columns
 
-    from ..errors import DataError
-    from ..measurement.stepsine_files import DEFAULT_COLUMNS, SI_UNITS, UNIT_SUFFIXES, unit_column
-
-    cols, sc = {**DEFAULT_COLUMNS, **dict(columns)}, dict(scale)
-    try:
-        with open(path, encoding="utf-8-sig", newline="") as fh:
-            header = [h.strip() for h in next(csv.reader([fh.readline()]), [])]
-    except (OSError, UnicodeDecodeError):
-        return dict(columns), sc, ""  # the reader says what is wrong with the file
-    if len(header) < 2:
-        return dict(columns), sc, ""  # not comma-separated, or empty: the reader's message
-    converted = []
-    mapped = dict(columns)
-    for q, name in cols.items():
-        if name in header:
-            continue
-        found = [(h, f) for h in header for f in [unit_column(q, h)] if f is not None]
-        if len(found) == 1 and q not in mapped and q not in sc:
-            (h, f), = found
-            cols[q], sc[q] = h, f
-            converted.append(f"{h} x {f:g} (to {SI_UNITS[q]})")
-            continue
-        which = f" ({len(found)} columns could be it: {', '.join(h for h, _ in found)})" if len(found) > 1 else ""
-        raise DataError(f"{path}: missing column {name!r}{which} (columns present: {', '.join(header)}); name it {name} or "
-                        f"{q}_UNIT (a unit jointid converts: {', '.join(UNIT_SUFFIXES[q])}), or map it for every file "
-                        f"of the campaign with --column {q}=NAME --scale {q}=FACTOR_TO_SI")
-    return cols, sc, ", ".join(converted)
+    return resolve_columns(path, dict(columns), dict(scale), remedy="map it for every file of the campaign with")
 
 
 def _direct(task: TestTask) -> tuple[dict, dict]:

@@ -52,11 +52,12 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def direct_summary(args, result, static, fit, modulus, zener=None) -> dict:
+def direct_summary(args, result, static, fit, modulus, zener=None, converted: str = "") -> dict:
     """JSON-ready summary of a direct identification (values only for identified parameters; see ``fit.parameters``)."""
     flagged = result.frequency_hz[~result.amplitude_ok]
     return {
         "data_file": str(args.data),
+        "columns_converted": converted,
         "parallel_joints": result.parallel_joints,
         "commanded_amplitude_m": float(result.commanded_amplitude_m[0]),
         "commanded_amplitude_source": "--amplitude" if args.amplitude is not None else "median achieved amplitude",
@@ -111,8 +112,12 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     from ..methods.direct.material_fit import complex_modulus_per_line, fit_material, fit_zener, static_estimate
     from ..measurement.stepsine import process_stepsine, read_stepsine_csv
 
-    blocks = read_stepsine_csv(args.data, columns=quantity_pairs(args.column, "column", False),
-                               scale=quantity_pairs(args.scale, "scale", True))
+    from ..measurement.stepsine_files import resolve_columns
+
+    # unit-suffixed columns (force_kN, 'displacement [mm]') read and converted exactly to SI, as a campaign reads them
+    columns, scale, converted = resolve_columns(args.data, quantity_pairs(args.column, "column", False),
+                                                quantity_pairs(args.scale, "scale", True))
+    blocks = read_stepsine_csv(args.data, columns=columns, scale=scale)
     try:
         result = process_stepsine(blocks, parallel_joints=args.parallel_joints, commanded_amplitude_m=args.amplitude,
                                   tolerance=args.tolerance)
@@ -142,7 +147,7 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
         zener = fit_zener(f[c], modulus.modulus_pa[c])
 
     csv_columns = result.columns()
-    text = json_text(direct_summary(args, result, static, fit, modulus, zener))
+    text = json_text(direct_summary(args, result, static, fit, modulus, zener, converted))
     png = None
     if not args.no_plots:
         from ..plots.direct import plot_direct_stiffness
@@ -162,6 +167,8 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     from ..report.command_reports import direct_report
 
     lines = [line]
+    if converted:
+        lines.append(f"columns converted to SI: {converted}")
     if zener is not None:
         lines.append(zener_line(zener))
     if result.distortion:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import DataError
 
-__all__ = ["StepSineBlock", "read_stepsine_csv", "write_stepsine_csv", "hz_text", "unit_column", "DEFAULT_COLUMNS",
+__all__ = ["StepSineBlock", "read_stepsine_csv", "write_stepsine_csv", "hz_text", "unit_column", "resolve_columns", "DEFAULT_COLUMNS",
            "TRUNCATED_CYCLES", "UNIT_SUFFIXES", "SI_UNITS"]
 
 #: Logical quantity -> default CSV column name.
@@ -69,6 +69,66 @@ def unit_column(quantity: str, name: str) -> float | None:
     if m is None:
         return None
     return UNIT_SUFFIXES.get(quantity, {}).get(next(g for g in m.groups() if g is not None))
+
+
+def resolve_columns(path: str | os.PathLike, columns: Mapping[str, str] | None = None,
+                    scale: Mapping[str, float] | None = None, *, remedy: str = "map it with") -> tuple[dict, dict, str]:
+    """How to read one step-sine file: the column mapping, the factors to SI and what was converted (``jointid direct``
+    and every file of ``jointid campaign``).
+
+    A quantity that ``columns``/``scale`` do not map, whose default column (``force_n``, ...) the file lacks, is read
+    from the one column named with a unit suffix (:func:`unit_column`: ``force_kN``, ``displacement [mm]``), converted
+    exactly to SI.
+
+    Parameters
+    ----------
+    path : path-like
+        The step-sine CSV file (its header row is read).
+    columns, scale : mapping, optional
+        The user's mapping (``--column``/``--scale``): quantity -> column name, and -> factor to SI; they win.
+    remedy : str
+        How the message of a column neither present nor recognisable goes on: ``"... or <remedy> --column Q=NAME
+        --scale Q=FACTOR_TO_SI"``.
+
+    Returns
+    -------
+    columns : dict of str to str
+        For :func:`read_stepsine_csv`.
+    scale : dict of str to float
+        Factors to SI (Hz, s, m, N) per quantity.
+    converted : str
+        ``"displacement_mm x 0.001 (to m), force_kN x 1000 (to N)"``, or ``""``.
+
+    Raises
+    ------
+    DataError
+        A column the file lacks and no unit-suffixed column stands for (or several could): naming it, the columns
+        present and how to map it.
+    """
+    mapped, sc = dict(columns or {}), dict(scale or {})
+    cols = {**DEFAULT_COLUMNS, **mapped}
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as fh:
+            header = [h.strip() for h in next(csv.reader([fh.readline()]), [])]
+    except (OSError, UnicodeDecodeError):
+        return mapped, sc, ""  # the reader says what is wrong with the file
+    if len(header) < 2:
+        return mapped, sc, ""  # not comma-separated, or empty: the reader's message
+    converted = []
+    for q, name in cols.items():
+        if name in header:
+            continue
+        found = [(h, f) for h in header for f in [unit_column(q, h)] if f is not None]
+        if len(found) == 1 and q not in mapped and q not in sc:
+            (h, f), = found
+            cols[q], sc[q] = h, f
+            converted.append(f"{h} x {f:g} (to {SI_UNITS[q]})")
+            continue
+        which = f" ({len(found)} columns could be it: {', '.join(h for h, _ in found)})" if len(found) > 1 else ""
+        raise DataError(f"{path}: missing column {name!r}{which} (columns present: {', '.join(header)}); name it {name} or "
+                        f"{q}_UNIT (a unit jointid converts: {', '.join(UNIT_SUFFIXES[q])}), or {remedy} "
+                        f"--column {q}=NAME --scale {q}=FACTOR_TO_SI")
+    return cols, sc, ", ".join(converted)
 
 
 def hz_text(f: float) -> str:
