@@ -24,6 +24,7 @@ never forced.
 
 from __future__ import annotations
 
+import math
 import statistics
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -89,8 +90,9 @@ def _master_curve(specimen, tests, outcomes, reference_temperature_c, vertical_s
 
     amp, pre = reference_condition(tests)
     curves = []
+    slipped = _unit_slips(specimen, [t for t in tests if (t.amplitude_m, t.preload_n) == (amp, pre)], outcomes, findings)
     for t in tests:
-        if (t.amplitude_m, t.preload_n) != (amp, pre):
+        if (t.amplitude_m, t.preload_n) != (amp, pre) or t.row in slipped:
             continue
         lines = outcomes[t.row].lines
         ok = np.asarray(lines["amplitude_ok"], dtype=bool)
@@ -117,6 +119,34 @@ def _master_curve(specimen, tests, outcomes, reference_temperature_c, vertical_s
     except JointIdError as exc:
         findings.append(f"specimen {specimen}: no master curve: {' '.join(str(exc).split())}")
         return amp, pre, None
+
+
+def _unit_slips(specimen, tests, outcomes, findings) -> set:
+    """Rows of the tests whose stiffness is a unit factor off the others' (:mod:`jointid.methods.direct.unit_slip`),
+    each named in one finding with the factor, the probable cause and the fix; they are left out of the master curve."""
+    from ..methods.direct.unit_slip import find_unit_slips
+
+    levels = []
+    for t in tests:
+        lines = outcomes[t.row].lines
+        ok = np.asarray(lines["amplitude_ok"], dtype=bool)
+        k = np.hypot(lines["stiffness_real"], lines["stiffness_imag"])[ok if ok.sum() >= 3 else slice(None)]
+        k = k[np.isfinite(k) & (k > 0)]
+        levels.append(float(np.median(np.log(k))) if k.size else math.nan)
+    rows = set()
+    for slip in find_unit_slips([t.temperature_c for t in tests], levels):
+        t = tests[slip.index]
+        amp = float(np.median(outcomes[t.row].lines["amplitude_ratio"]))
+        seen = (f"; its achieved amplitude is {amp:.4g} x the commanded, so it is the displacement"
+                if abs(math.log(amp * slip.factor)) <= math.log(slip.tolerance) and abs(math.log(amp)) > math.log(slip.tolerance)
+                else "")
+        findings.append(f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C, {t.value('file')}): its stiffness is "
+                        f"{slip.ratio:.4g} x what the other tests give at {t.temperature_c:g} C, the unit factor {slip.factor:.6g} "
+                        f"(within their scatter, x/ {slip.tolerance:.3g}): probably {slip.cause}{seen}; left out of the master "
+                        f"curve; name that file's columns with their units (force_kN, displacement_mm: converted exactly) or "
+                        f"convert it (--column/--scale apply to every file of the campaign)")
+        rows.add(t.row)
+    return rows
 
 
 def _storage_by_line(t, outcome, achieved: bool):
