@@ -79,3 +79,6 @@ def test_campaign_names_the_file_in_kn_and_superposes_the_others(tmp_path, capsy
     master = json.loads((out / "master_curve.json").read_text())["specimens"]["S1"]
     assert [s["temperature_c"] for s in master["shift_factors"]] == [10.0, 20.0, 25.0]  # only that test left out
     assert "3 of 4 temperatures superposed" in capsys.readouterr().out
+    with open(out / "tests.csv", newline="") as fh:
+        warnings = {int(r["manifest_row"]): r["warning"] for r in csv.DictReader(fh)}
+    assert warnings == {1: "", 2: slip[0].removeprefix(f"specimen S1: row 2 (15 C, {name}): "), 3: "", 4: ""}

@@ -61,6 +61,9 @@ class SpecimenAnalysis:
         ``frequency_hz``, ``preload_n`` (P,), ``storage_n_m`` (P,), ``fit`` (PreloadFit).
     findings : list of str
         One line per thing that could not be done, and why.
+    unit_slips : dict of int to str
+        By manifest row, the tests whose stiffness is a unit factor off the others' and left out of the master curve:
+        the factor, the probable cause and the fix (also in ``findings``; the tests table's ``warning``).
     """
 
     specimen: str
@@ -70,6 +73,7 @@ class SpecimenAnalysis:
     kraus: list = field(default_factory=list)
     preload: list = field(default_factory=list)
     findings: list = field(default_factory=list)
+    unit_slips: dict = field(default_factory=dict)
 
 
 def _fkey(f: float) -> float:
@@ -84,15 +88,15 @@ def reference_condition(tests) -> tuple[float, float]:
     return min(temps, key=lambda c: (-len(temps[c]), c[0], c[1]))
 
 
-def _master_curve(specimen, tests, outcomes, reference_temperature_c, vertical_shift, findings):
+def _master_curve(specimen, tests, outcomes, reference_temperature_c, vertical_shift, findings, slips):
     from ..methods.direct.master_curve import TemperatureCurve, build_master_curve
     from ..methods.direct.phase_sign import reversed_phase
 
     amp, pre = reference_condition(tests)
     curves = []
-    slipped = _unit_slips(specimen, [t for t in tests if (t.amplitude_m, t.preload_n) == (amp, pre)], outcomes, findings)
+    slips.update(_unit_slips(specimen, [t for t in tests if (t.amplitude_m, t.preload_n) == (amp, pre)], outcomes, findings))
     for t in tests:
-        if (t.amplitude_m, t.preload_n) != (amp, pre) or t.row in slipped:
+        if (t.amplitude_m, t.preload_n) != (amp, pre) or t.row in slips:
             continue
         lines = outcomes[t.row].lines
         ok = np.asarray(lines["amplitude_ok"], dtype=bool)
@@ -121,9 +125,10 @@ def _master_curve(specimen, tests, outcomes, reference_temperature_c, vertical_s
         return amp, pre, None
 
 
-def _unit_slips(specimen, tests, outcomes, findings) -> set:
-    """Rows of the tests whose stiffness is a unit factor off the others' (:mod:`jointid.methods.direct.unit_slip`),
-    each named in one finding with the factor, the probable cause and the fix; they are left out of the master curve."""
+def _unit_slips(specimen, tests, outcomes, findings) -> dict:
+    """The tests whose stiffness is a unit factor off the others' (:mod:`jointid.methods.direct.unit_slip`), by row:
+    what is wrong (the factor, the probable cause and the fix), also one finding each; they are left out of the master
+    curve."""
     from ..methods.direct.unit_slip import find_unit_slips
 
     levels = []
@@ -133,19 +138,19 @@ def _unit_slips(specimen, tests, outcomes, findings) -> set:
         k = np.hypot(lines["stiffness_real"], lines["stiffness_imag"])[ok if ok.sum() >= 3 else slice(None)]
         k = k[np.isfinite(k) & (k > 0)]
         levels.append(float(np.median(np.log(k))) if k.size else math.nan)
-    rows = set()
+    rows = {}
     for slip in find_unit_slips([t.temperature_c for t in tests], levels):
         t = tests[slip.index]
         amp = float(np.median(outcomes[t.row].lines["amplitude_ratio"]))
         seen = (f"; its achieved amplitude is {amp:.4g} x the commanded, so it is the displacement"
                 if abs(math.log(amp * slip.factor)) <= math.log(slip.tolerance) and abs(math.log(amp)) > math.log(slip.tolerance)
                 else "")
-        findings.append(f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C, {t.value('file')}): its stiffness is "
-                        f"{slip.ratio:.4g} x what the other tests give at {t.temperature_c:g} C, the unit factor {slip.factor:.6g} "
-                        f"(within their scatter, x/ {slip.tolerance:.3g}): probably {slip.cause}{seen}; left out of the master "
-                        f"curve; name that file's columns with their units (force_kN, displacement_mm: converted exactly) or "
-                        f"convert it (--column/--scale apply to every file of the campaign)")
-        rows.add(t.row)
+        why = (f"its stiffness is {slip.ratio:.4g} x what the other tests give at {t.temperature_c:g} C, the unit factor "
+               f"{slip.factor:.6g} (within their scatter, x/ {slip.tolerance:.3g}): probably {slip.cause}{seen}; left out of "
+               "the master curve; name that file's columns with their units (force_kN, displacement_mm: converted "
+               "exactly) or convert it (--column/--scale apply to every file of the campaign)")
+        findings.append(f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C, {t.value('file')}): {why}")
+        rows[t.row] = why
     return rows
 
 
@@ -255,10 +260,11 @@ def analyze_specimens(tests, outcomes, *, reference_temperature_c: float | None 
                      for t in group if outcomes[t.row].parameters.get("lines_not_used")]
         findings += [f"specimen {specimen}: row {t.row} ({t.temperature_c:g} C): {outcomes[t.row].parameters['notes']}"
                      for t in group if outcomes[t.row].parameters.get("notes")]
-        amp, pre, mc = _master_curve(specimen, group, outcomes, reference_temperature_c, vertical_shift, findings)
+        slips: dict = {}
+        amp, pre, mc = _master_curve(specimen, group, outcomes, reference_temperature_c, vertical_shift, findings, slips)
         if mc is not None:  # what the master curve found (temperatures left out, laws not determined, ...) is the campaign's
             findings.extend(f"specimen {specimen}: master curve: {f}" for f in mc.findings)
         kraus = _kraus(specimen, group, outcomes, findings)
         preload = _preload(specimen, group, outcomes, findings)
-        result[specimen] = SpecimenAnalysis(specimen, amp, pre, mc, kraus, preload, findings)
+        result[specimen] = SpecimenAnalysis(specimen, amp, pre, mc, kraus, preload, findings, slips)
     return result

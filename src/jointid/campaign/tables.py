@@ -111,6 +111,8 @@ def test_warning(test, outcome, analysis=None) -> str | None:
     * A direct test whose loss factor ``Im K21 / Re K21`` is negative on most of its lines at the
       commanded amplitude has its phase sign reversed
       (:func:`~jointid.methods.direct.phase_sign.reversed_phase`).
+    * A direct test whose stiffness is a unit factor off the other tests' at its temperature (``unit_slips`` of the
+      specimen's analysis): the factor, the probable cause and the fix.
     * A direct test with a test-level note of its processing (a drift along the blocks:
       :attr:`~jointid.measurement.stepsine.StepSineResult.notes`): the note, after anything above or below.
     * A test whose measured shift factor does not fall as the temperature rises from its
@@ -129,6 +131,8 @@ def test_warning(test, outcome, analysis=None) -> str | None:
     if why is not None:
         return "; ".join(w for w in (f"{why}; left out of the master curve", note) if w)
     a = (analysis or {}).get(test.specimen)
+    if a is not None and test.row in a.unit_slips:  # a unit factor off the other tests: named, left out
+        return "; ".join(w for w in (a.unit_slips[test.row], note) if w)
     if a is None or a.master_curve is None:
         return note
     shifts = sorted(a.master_curve.measured_shift.items())
