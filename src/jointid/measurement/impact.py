@@ -7,6 +7,9 @@ records). Every public name of the impact modules is importable from here.
 
 Processing (:func:`estimate_frf`, :func:`estimate_frfs`)
 --------------------------------------------------------
+0. **Acquisition** (:mod:`jointid.measurement.impact_acquisition`): a force window that cuts the
+   pulse is refused; a DC offset on the force (pre-trigger mean) is removed; no pre-trigger, force
+   noise without a force window, leakage and noise-only responses are noted.
 1. **Hit quality** (:mod:`jointid.measurement.impact_checks`): double hits and
    overloads, per hit, on the raw data. Bad hits are dropped and listed in
    ``ImpactFRF.rejected``; if every hit of an excited node is bad,
@@ -35,6 +38,7 @@ point (Sherman-Morrison on the added mass).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -45,6 +49,14 @@ import scipy.fft
 from ..dofs import Dof
 from ..errors import DataError
 from ..frequency import Frequency
+from .impact_acquisition import (
+    force_noise_note,
+    force_window_error,
+    leakage_notes,
+    noise_channel_notes,
+    pretrigger_note,
+    remove_force_offset,
+)
 from .impact_checks import HitProblem, RejectedHit, check_hits, main_pulse, rejected_hits_table
 from .impact_records import ImpactOptions, ImpactRecord, where_hit
 from .impact_windows import WindowMode, correct_exponential_window, exponential_window, force_window
@@ -106,8 +118,10 @@ class ImpactFRF:
         a response channel that is flat zero (dead), a median coherence
         below :data:`DEAD_CHANNEL_COHERENCE`, an exponential window that keeps less than
         :data:`WINDOW_MIN_ENERGY` of the responses' energy, lines where the force channel's noise is more
-        than :data:`FORCE_NOISE_BIAS` of Gxx (H1 low by as much); then mode bands that were detected but
-        not corrected, and why.
+        than :data:`FORCE_NOISE_BIAS` of Gxx (H1 low by as much); then the acquisition checks of
+        :mod:`jointid.measurement.impact_acquisition` (a DC offset removed from the force, no pre-trigger, force noise
+        without a force window, responses ringing at the record's end, a noise-only response); then mode bands
+        that were detected but not corrected, and why.
     """
 
     frequency: Frequency
@@ -137,8 +151,8 @@ class ImpactFRF:
 
 def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: int):
     """Averaged Gxx (K,), Gyy (K, C), Gxy (K, C) over the kept hits (one batched rfft), the fraction of the
-    responses' energy the exponential window keeps (1.0 without one), and the force noise's share of Gxx (K,) (NaN
-    where it cannot be measured: :func:`_force_noise_share`)."""
+    responses' energy the exponential window keeps (1.0 without one), the force noise's share of Gxx (K,) (NaN
+    where it cannot be measured: :func:`_force_noise_share`) and the responses as processed (H, C, n)."""
     fs = record.sample_rate_hz
     F = record.force[keep]
     Y = record.responses[keep]
@@ -164,7 +178,7 @@ def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: in
     gxy = np.mean(np.conj(X)[:, None, :] * Yf, axis=0).T
     with np.errstate(divide="ignore", invalid="ignore"):
         share = np.minimum(noise / gxx, 1.0)
-    return gxx, gyy, gxy, kept, share
+    return gxx, gyy, gxy, kept, share, Y
 
 
 #: Median of a chi-square variable of one degree of freedom: ``median(x^2) / this`` estimates a Gaussian's variance.
@@ -273,7 +287,12 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
     gxx, gyy, gxy, n_avg = [], [], [], []
     checks: list[str] = []
     dead: dict = {}
-    for rec in records:
+    acquisition: list[str] = []
+    for k, rec in enumerate(records):
+        force_window_error(rec, o)
+        rec, offset = remove_force_offset(rec, o)
+        records[k] = rec
+        acquisition.extend(x for x in (offset, pretrigger_note(rec, o)) if x)
         bad = check_hits(rec, o)
         rejected.extend(bad)
         keep = np.ones(rec.n_hits, dtype=bool)
@@ -282,7 +301,11 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
             raise DataError(
                 f"excited node {rec.reference}: all {rec.n_hits} hits were rejected: " + " | ".join(b.reason for b in bad)
             )
-        a, b, c, kept, share = _spectra(rec, keep, o, n_fft)
+        a, b, c, kept, share, y = _spectra(rec, keep, o, n_fft)
+        band = (float(hz[sel][0]), float(hz[sel][-1]))
+        accepted = dataclasses.replace(rec, force=rec.force[keep], responses=rec.responses[keep])
+        acquisition.extend(x for x in (force_noise_note(accepted, o, band, n_fft),) if x)
+        acquisition.extend(leakage_notes(rec, y, o.exp_tau_s is not None))
         bias = share[sel]
         above = bias > FORCE_NOISE_BIAS
         if np.any(above):
@@ -322,12 +345,15 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
     if single:
         checks.append(f"excited node(s) {', '.join(single)}: one accepted hit: the coherence is 1 by construction and says "
                       "nothing about the noise (identify then measures the noise from the residuals); average several hits")
+    reported = {(i, j) for i, d in enumerate(r0.response_dofs) if d in dead for j in range(len(refs))}
     if all(n > 1 for n in n_avg):
         med = np.median(coh, axis=0)  # (r, c)
         for i, j in zip(*np.nonzero(med < DEAD_CHANNEL_COHERENCE)):
+            reported.add((int(i), int(j)))
             if r0.response_dofs[i] not in dead:
                 checks.append(f"response {r0.response_dofs[i]}, excited node {refs[j]}: median coherence {med[i, j]:.2g} over "
                               f"the band (below {DEAD_CHANNEL_COHERENCE:g}): a dead or disconnected channel, or no signal")
+    acquisition.extend(noise_channel_notes(coh, n_avg, r0.response_dofs, refs, reported))
     freq = Frequency(hz[sel])
     modes: tuple[WindowMode, ...] = ()
     notes: tuple[str, ...] = ()
@@ -350,7 +376,7 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
         rejected=tuple(rejected),
         exp_tau_s=o.exp_tau_s,
         window_modes=modes,
-        notes=tuple(checks) + notes,
+        notes=tuple(checks) + tuple(acquisition) + notes,
     )
 
 
