@@ -11,7 +11,8 @@ from jointid.frf import FRF
 from jointid.methods.receptance.coupling import CouplingOptions, identify_joint_coupling
 from jointid.methods.receptance.spline_bands import (BIAS_BAND_C, BIAS_BAND_LOG10_RHO, BIAS_BAND_Q, band_coverage, bias_band_table,
                                                      bias_band_variance, richer_fit_band)
-from jointid.methods.receptance.spline_fit import JointSplineFit, fit_joint_spline, legendre_log_basis, log_frequency_basis, term_variance
+from jointid.methods.receptance.spline_fit import (JointSplineFit, fit_joint_spline, legendre_log_basis, log_frequency_basis, richer_nested_order,
+                                                  term_variance)
 from jointid.physics import FrameSection, Material, build_frame
 from jointid.physics.jointed_model import JointedModel
 from jointid.physics.reduction import craig_bampton
@@ -243,7 +244,9 @@ def test_orders_go_past_the_cap_while_the_aic_still_improves(wide_band, monkeypa
     band = spline_fit.richer_fit_band
     monkeypatch.setattr(spline_fit, "richer_fit_band", lambda *a, **k: (nested.append(k["nested"]), band(*a, **k))[1])
     fit, capped = fit_joint_spline(*args), fit_joint_spline(*args, n_basis=4)
-    assert nested == [False]  # 6 in 7 (cubic splines on other knots) is not nested: the band without tau^2 taken off
+    # the band's bias is measured against the splines on the best order's knots with every interval halved, which hold
+    # it (6 in 9: the table's band), not against the next order (6 in 7: other knots, not nested)
+    assert nested == [True] and fit.bias_basis == richer_nested_order(fit.n_basis) == 2 * fit.n_basis - 3
     aic = {k: v[0] for k, v in fit.criterion.items()}
     assert fit.n_basis > 4 and max(aic) == fit.n_basis + 1  # the search stops one order past the best
     assert all(aic[k + 1] < aic[k] for k in range(1, fit.n_basis)) and aic[fit.n_basis + 1] > aic[fit.n_basis]
@@ -321,3 +324,18 @@ def test_a_square_layout_skips_the_noise_model_choice_and_names_its_ill_conditio
     assert not r.reliable_terms[ill].any()
     d = np.arange(3)
     assert np.all(r.reliable_terms[:, d, d].mean(axis=0) > 0.5)  # the translations elsewhere
+
+
+@pytest.mark.parametrize("nb", [2, 4, 5, 6, 7])
+def test_the_richer_nested_order_holds_the_order_and_the_next_one_does_not_above_4(nb):
+    # the bias band's table needs the chosen class inside the richer one: every basis function of order nb must be a
+    # combination of order richer_nested_order(nb)'s (least-squares residual at rounding: cond(B) x eps), while above 4
+    # the next order's splines (other knots) leave a residual of the order of the functions themselves
+    f = np.geomspace(2.0, 150.0, 400)
+    B = log_frequency_basis(f, nb)
+    R = log_frequency_basis(f, richer_nested_order(nb))
+    resid = B - R @ np.linalg.lstsq(R, B, rcond=None)[0]
+    assert np.abs(resid).max() <= 100 * np.linalg.cond(R) * np.finfo(float).eps
+    if nb > 4:
+        N = log_frequency_basis(f, nb + 1)
+        assert np.abs(B - N @ np.linalg.lstsq(N, B, rcond=None)[0]).max() > 1e-3

@@ -33,10 +33,10 @@ a band that holds for every bias while ``d`` is noisier than the fit (``rho >~ 1
 where there is no bias (a bias of the size of that noise cannot be told from none). The estimate keeps
 the smaller error of the chosen orders.
 
-The same band is used for a uniform order chosen by the AIC: the richer fit is then the order above
-the best (the one that stopped the search past the cap ``max_basis``, or one fitted for the band
-alone when the line count or :data:`~.spline_fit.MAX_EXTENDED_BASIS` stopped it), ``d`` and ``tau^2``
-are the best order's against it, and the bias term is added to the Akaike average's variance (the
+The same band is used for a uniform order chosen by the AIC: the richer fit is then the smallest
+order whose class holds the best one (:func:`~.spline_fit.richer_nested_order`: the next order up to
+4; above, the cubic splines on the best order's knots with every interval halved, ``2 nb - 3``,
+fitted for the band alone from the best fit), ``d`` and ``tau^2`` are the best order's against it, and the bias term is added to the Akaike average's variance (the
 average holds the richer order with its weight ``w``: its own difference from it, ``(1 - w) d``, is not
 the nested one, and with ``w`` = 0.2-0.5 it covered 0.87-0.89). A joint whose
 shape the cap cannot follow is biased by several of its own sigma although the AIC prefers 4 to 5:
@@ -45,10 +45,14 @@ needs it, and the richer class's extra directions are so poorly determined that 
 sees the bias (``benchmarks/spline_wide_band.py``: a stiffening ``1 + 0.3 (f / 100)^0.8`` over
 10-400 Hz, K_x_x up to 6.7 sigma off with 4 coefficients; the diagonal terms' own bands cover
 0.60-0.86 at 1 % noise, these 0.94-0.99). Cubic polynomials lie in the cubic B-splines with one
-interior knot, so 4 is nested in 5 and the argument above holds; 5 and 6, 6 and 7 are not nested:
-``tau^2`` is then not the variance of ``d``, and the band is ``max(s^2, sigma_rich^2 + d^2)``, all of the
-richer fit's variance counted (the table's band, which takes ``tau^2`` off, covered 0.86-0.87 on three
-terms of the frame at 0.1 % noise, orders 6 and 7; this one 0.90-0.98). An order
+interior knot, so 4 is nested in 5 and the argument above holds; 5 and 6, 6 and 7 are not nested, but 5
+is in 7 and 6 in 9. The next order, on other knots, was the reference once: ``tau^2`` is then not the variance
+of ``d``, the band ``max(s^2, sigma_rich^2 + d^2)`` (still used where the line count leaves no room for
+``2 nb - 3``), and where the joint's shape is hard to follow in ``log f`` the next order is biased
+alike (a stiffness growing as ``f`` over 2-150 Hz on a 3-D frame, exact data: 6 coefficients
+-2.1 sigma at 150 Hz, 7 -1.0, 9 -0.3), so ``d`` saw half the bias and K_x_x's real part covered 0.82
+(21 seeds, 1 % noise); against ``2 nb - 3`` with the table, 0.92 (real parts of the diagonal terms
+0.90-0.95, from 0.82-0.95; off-diagonal 0.90-0.92, from 0.88-0.93; ``benchmarks/README.md``). An order
 past the cap that the AIC rejects stops after a few iterations (the well-determined directions,
 which set ``d`` where the band is narrow, converge in them; the others enter through their
 variance). Where the chosen class is right, the noise in ``d`` makes these bands conservative

@@ -41,8 +41,9 @@ Procedure (:func:`fit_joint_spline`):
    each part's variance is ``var + max(0, q d^2 - c tau^2)``, ``d`` the difference from a richer fit, ``tau^2`` its noise
    (``max(var, var_rich / 2 + d^2)`` where the richer class does not hold the chosen one)
    (the bias of the chosen class, :mod:`.spline_bands`): with per-term orders the richest uniform
-   fit; else the order above the AIC's best (fitted for the band alone if the limit stopped the
-   search there) against the best order, that bias term added to the Akaike average's ``var``.
+   fit; else the smallest richer order that holds the AIC's best (:func:`richer_nested_order`: the next
+   one up to 4, ``2 nb - 3`` above; fitted for the band alone when the search did not reach it)
+   against the best order, that bias term added to the Akaike average's ``var``.
 
 Units: ``frequency_hz`` in Hz; receptances in m/N, rad/N, m/(N*m), rad/(N*m); ``K`` in
 N/m, N/rad, N*m/m, N*m/rad; ``variance`` in the squared units of ``H``.
@@ -61,7 +62,8 @@ from .smoothing import bspline_basis
 from .spline_bands import richer_fit_band
 from .spline_result import JointSplineFit
 
-__all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "legendre_log_basis", "spline_covariance", "term_variance",
+__all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "legendre_log_basis", "richer_nested_order", "spline_covariance",
+           "term_variance",
            "DEFAULT_MAX_BASIS", "MAX_EXTENDED_BASIS", "MAX_ITERATIONS", "EXTENSION_ITERATIONS", "STARTS"]
 
 #: Most B-splines per term that :func:`fit_joint_spline` tries by default (orders 1..this, by AIC).
@@ -335,6 +337,24 @@ def _constant_starts(initial: np.ndarray, pairs, rng: np.random.Generator, start
     return out
 
 
+def richer_nested_order(n_basis: int) -> int:
+    """The smallest richer order of :func:`log_frequency_basis` whose space holds order ``n_basis``'s.
+
+    Up to 4 (polynomials of ``log f``) the next order; above, the cubic splines on the same uniform knots with every
+    interval halved: ``k`` interior knots at ``i / (k + 1)`` lie among the ``2 k + 1`` at ``i / (2 k + 2)``, so order
+    ``nb`` (``k = nb - 4``) is held by ``2 nb - 3`` (5 in 7, 6 in 9, 7 in 11), not by ``nb + 1``.
+    """
+    return n_basis + 1 if n_basis <= 4 else 2 * n_basis - 3
+
+
+def _refined(problem: _Problem, fit: tuple, basis: np.ndarray, iterations: int) -> tuple:
+    """A fit on a richer ``basis`` whose space holds ``fit``'s, started from ``fit`` itself (its exact projection):
+    ``(coef, cost, converged, basis)``."""
+    c = _project(fit[0], fit[3], basis)
+    c, cost, converged = _levenberg_marquardt(problem, c, basis, iterations)
+    return c, cost, converged, basis
+
+
 def _project(coef: np.ndarray, basis_from: np.ndarray, basis_to: np.ndarray) -> np.ndarray:
     """Coefficients on ``basis_to`` of the series ``basis_from @ coef.T`` (least squares over the lines)."""
     values = basis_from @ coef.T  # (F, p)
@@ -555,18 +575,23 @@ def fit_joint_spline(
         coef, cost, converged, _ = fits[best]
         K, std, std_im, cov, s2 = _averaged(problem, fits, criterion, best, n_basis is None, count, n)
         bias_basis = None
-        if n_basis is None and (best + 1) * len(problem.pairs[0]) < count:
-            # the band also holds the bias measured against the order above the AIC's best (:mod:`.spline_bands`):
-            # the one that stopped the search, or (stopped by the limit) one fitted for the band alone
-            above = fits[best + 1] if best + 1 in fits else order(best + 1, EXTENSION_ITERATIONS)
-            # the bias term is the best order's against the next (the average holds the next order with its Akaike
-            # weight: its difference from the next is not the nested d), added to the average's variance; nested
-            # up to 4 in 5 (polynomials of log f, then a cubic in the one-knot cubic splines), not 5 in 6, ...
+        rich = richer_nested_order(best)
+        P = len(problem.pairs[0])
+        if n_basis is None and not (rich * P < count and rich <= F // 4):
+            rich = best + 1  # no room for the nested refinement: the next order, its whole variance counted
+        if n_basis is None and rich * P < count:
+            # the band also holds the bias measured against a richer class holding the best one (richer_nested_order,
+            # :mod:`.spline_bands`; the next order above 4, biased alike where the shape is hard to follow, saw half of
+            # a 6-coefficient class's bias: K_x_x bands covering 0.82 on a 3-D frame, benchmarks/README.md)
+            above = fits[rich] if rich in fits else (order(rich, EXTENSION_ITERATIONS) if rich == best + 1 else
+                                                     _refined(problem, fits[best], log_frequency_basis(f, rich), EXTENSION_ITERATIONS))
+            # the bias term is the best order's against the richer one (the average holds other orders with their
+            # Akaike weights: its difference from the richer one is not the nested d), added to the average's variance
             K_b, V_b = _estimate_and_variance(problem, fits[best], count, n)[:2]
             b_re, b_im = richer_fit_band(K_b, V_b / 2.0, V_b / 2.0, *_estimate_and_variance(problem, above, count, n)[:2],
-                                         nested=best <= 4)
+                                         nested=rich == richer_nested_order(best))
             std = np.sqrt(std ** 2 + np.maximum(b_re ** 2 - V_b / 2.0, 0.0))
             std_im = np.sqrt(std_im ** 2 + np.maximum(b_im ** 2 - V_b / 2.0, 0.0))
-            bias_basis = best + 1
+            bias_basis = rich
     return JointSplineFit(f, K, std, std_im, best, float(s2), bool(converged), coef, cov, criterion, len(candidates), symmetric, term_orders,
                           bias_basis)
