@@ -29,7 +29,10 @@ def add_parser(sub) -> None:
         "exponential windows (the exponential window's damping corrected mode by mode), H1 or H2 averaged over "
         "the accepted hits. Writes DIR/frf.uff (UFF58 FRF records plus coherence records), DIR/rejected_hits.csv "
         "(one row per finding: excited_dof, hit, check, channel, value, threshold, unit, time_s, reason) and "
-        "DIR/frf.png (magnitude, coherence beneath).",
+        "DIR/frf.png (magnitude, coherence beneath). Acquisition checks: a force window that ends before the pulse is "
+        "refused; a DC offset on the force (the pre-trigger mean) is subtracted and said; a hit without pre-trigger, force "
+        "noise outside the pulse without --force-window-ms, responses still ringing at the record's end (leakage) and a "
+        "response whose coherence is that of noise are printed, one line each.",
     )
     p.add_argument("hits", nargs="+", metavar="HITS", help="hit files (.npz, .csv, .uff/.unv/.58)")
     add_out_argument(p)
@@ -39,7 +42,8 @@ def add_parser(sub) -> None:
     p.add_argument("--band-hz", nargs=2, type=float, metavar=("LO", "HI"), default=None,
                    help="output band, Hz (default: first line above 0 Hz to Nyquist)")
     p.add_argument("--force-window-ms", metavar="MS", type=float, default=None,
-                   help="flat length of the force window, ms (default: no force window)")
+                   help="flat length of the force window, ms, from --pretrigger-ms before the pulse's start; it must hold the "
+                        "whole pulse (default: no force window)")
     p.add_argument("--pretrigger-ms", metavar="MS", type=float, default=0.0,
                    help="start of the force window and of the exponential decay before the pulse start, ms (default 0)")
     p.add_argument("--force-taper-ms", metavar="MS", type=float, default=0.0, help="half-cosine taper on both sides of the force window, ms")
