@@ -81,6 +81,22 @@ def test_a_sensor_recording_noise_is_refused_naming_it(measured):
     assert text.endswith("fix it, or leave it out of [measurement] observed" + TAIL)
 
 
+@pytest.mark.parametrize("factor, label, why", [(10.0, "10", "a sensitivity typed 10x too small?"),
+                                                (1.0 / 9.80665, "1/9.81", "g/N read as m/s^2/N?")])
+def test_one_response_scaled_by_a_unit_or_sensitivity_factor_is_named_with_its_factor(measured, factor, label, why):
+    """One channel's sensitivity typed a decade off, or one channel exported in g without a label (a blind test of the
+    hammer workflow, 2026-11-28): leaving it out explains the data, but so does rescaling it, the fix that keeps it."""
+    study, frf = measured
+    data = frf.data.copy()
+    data[:, 4, :] *= factor  # response 12w
+    text = _refusal(study, _with(frf, data))
+    assert text.startswith(f"response 12w looks scaled by {label} while the others do not ({why}) (divided by it, the per-line "
+                           "fit's residual is ")
+    assert text.endswith("correct that channel's sensitivity or unit label in the FRF file (or leave it out of [measurement] "
+                         "observed)" + TAIL)
+    assert _ratio(text) >= GROSS_RATIO
+
+
 def test_used_as_they_are_when_asked_and_every_line_flagged(measured):
     study, frf = measured
     data = frf.data.copy()

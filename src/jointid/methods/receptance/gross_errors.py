@@ -20,7 +20,10 @@ true FRFs are):
   references, or both, along one direction (``x``, ``y``, ``z``, ... of the DOF labels: a
   direction convention reversed), then on one response or one reference;
 * **channels**: one response row or one reference column left out (the rest must still
-  have the joint's DOFs and :data:`~.model_check.MIN_REDUNDANCY` residual degrees of freedom).
+  have the joint's DOFs and :data:`~.model_check.MIN_REDUNDANCY` residual degrees of freedom);
+  when that explains the data best, the record is tried once more kept and divided by each factor
+  of :data:`RECORD_FACTORS` (a unit factor, a sensitivity a decade off): one that explains the data
+  about as well (within :data:`GROSS_TIE`) is named instead, a more specific fix that keeps the record.
 
 Each is scored by the median over lines of the per-line fit's ``chi2_f``
 (:func:`~.model_check.line_residuals`; medians, so that a few junk lines do not decide).
@@ -49,7 +52,7 @@ from .coupling_lines import symmetric_parametrization, whitened_line_design
 from .model_check import MIN_REDUNDANCY, design_residual, line_residuals
 from .units_check import UNIT_FACTORS
 
-__all__ = ["GrossError", "gross_error", "GROSS_LINES", "GROSS_RATIO", "GROSS_TIE", "GROSS_COLUMN_ERROR"]
+__all__ = ["GrossError", "gross_error", "GROSS_LINES", "GROSS_RATIO", "GROSS_TIE", "GROSS_COLUMN_ERROR", "RECORD_FACTORS"]
 
 #: Most lines the hypotheses are tried on (evenly spread over the band).
 GROSS_LINES = 128
@@ -163,20 +166,53 @@ def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray
     for j in range(e):
         tried.append((flipped([], [j]), "sign", f"the excitation at {references[j]} (column {j + 1}) {negative}", _FIX["sign"]))
 
+    channels = []  # (score, kind, what, fix, axis, index): one record left out
     for i in range(m if m - 1 >= n else 0):
         k = np.arange(m) != i
-        tried.append((_score(Ymn[:, k], Yne, Yme[:, k], H[:, k], V[:, k], symmetric), "channel",
-                      f"response {responses[i]} does not follow the free model while the others do (a dead, disconnected "
-                      "or misplaced sensor, or the model wrong there)", _FIX["response"]))
+        channels.append((_score(Ymn[:, k], Yne, Yme[:, k], H[:, k], V[:, k], symmetric), "channel",
+                         f"response {responses[i]} does not follow the free model while the others do (a dead, disconnected "
+                         "or misplaced sensor, or the model wrong there)", _FIX["response"], 0, i))
     for j in range(e if e - 1 >= n else 0):
         k = np.arange(e) != j
-        tried.append((_score(Ymn, Yne[:, :, k], Yme[:, :, k], H[:, :, k], V[:, :, k], symmetric), "channel",
-                      f"the excitation at {references[j]} (column {j + 1}) does not follow the free model while the others "
-                      "do (a dead force channel, a hit elsewhere, or the model wrong there)", _FIX["reference"]))
+        channels.append((_score(Ymn, Yne[:, :, k], Yme[:, :, k], H[:, :, k], V[:, :, k], symmetric), "channel",
+                         f"the excitation at {references[j]} (column {j + 1}) does not follow the free model while the others "
+                         "do (a dead force channel, a hit elsewhere, or the model wrong there)", _FIX["reference"], 1, j))
+    tried += [c[:4] for c in channels]
 
     best = min(t[0] for t in tried)
     if not best * GROSS_RATIO <= base:
         return None
     score, kind, what, fix = next(t for t in tried if t[0] <= GROSS_TIE * best)
+    if kind == "channel":  # the record left out may be one scaled by a unit or sensitivity factor: keep it, rescaled
+        axis, index = next(c[4:] for c in channels if c[:4] == (score, kind, what, fix))
+        scaled = _scaled_record(Ymn, Yne, Yme, H, V, symmetric, axis, index, score)
+        if scaled is not None:
+            score, kind, (u_label, why) = scaled[0], "units", scaled[1:]
+            who = f"response {responses[index]}" if axis == 0 else f"the excitation at {references[index]} (column {index + 1})"
+            what = f"{who} looks scaled by {u_label} while the others do not ({why})"
+            fix = f"correct that channel's sensitivity or unit label in the FRF file (or leave it out of [measurement] " \
+                  f"{'observed' if axis == 0 else 'excited'})"
     ratio = base / score
     return GrossError(kind, f"{what} ({how[kind]}, the per-line fit's residual is {ratio:.2g} times lower): {fix}", ratio)
+
+
+#: Factors one channel can be off by: the unit factors, and a sensitivity typed a decade off (10 mV/g for 100 mV/g).
+RECORD_FACTORS = UNIT_FACTORS + (
+    (10.0, "10", "a sensitivity typed 10x too small?"),
+    (0.1, "1/10", "a sensitivity typed 10x too large?"),
+)
+
+
+def _scaled_record(Ymn, Yne, Yme, H, V, symmetric, axis: int, index: int, left_out: float):
+    """``(score, label, why)`` of the factor of :data:`RECORD_FACTORS` that, dividing record ``index`` (a response row,
+    ``axis`` 0, or an excitation column, 1), explains the data about as well as leaving the record out (score within
+    :data:`GROSS_TIE` of ``left_out``), the best one; else None."""
+    best = None
+    for u, label, why in RECORD_FACTORS:
+        scale = np.ones(H.shape[1 + axis])
+        scale[index] = u
+        s = scale[None, :, None] if axis == 0 else scale[None, None, :]
+        score = _score(Ymn, Yne, Yme, H / s, V / s ** 2, symmetric)
+        if score <= GROSS_TIE * left_out and (best is None or score < best[0]):
+            best = (score, label, why)
+    return best
