@@ -97,6 +97,27 @@ def test_one_response_scaled_by_a_unit_or_sensitivity_factor_is_named_with_its_f
     assert _ratio(text) >= GROSS_RATIO
 
 
+def test_two_exchanged_excitation_columns_are_named(measured):
+    """The files of two hit positions mixed up (a blind test of the hammer workflow): blamed on the free model before."""
+    study, frf = measured
+    data = frf.data[:, :, [0, 2, 1]]  # 9w and 15w exchanged
+    text = _refusal(study, _with(frf, data))
+    assert text.startswith("the excitations at 9w and 15w (columns 2 and 3) look exchanged (each column is what the free model "
+                           "predicts for a hit at the other) (exchanged back, the per-line fit's residual is ")
+    assert text.endswith("exchange their point or direction labels in the FRF file (or the records' files, or the cables)" + TAIL)
+    assert _ratio(text) >= GROSS_RATIO
+
+
+def test_two_exchanged_responses_are_named(measured):
+    study, frf = measured
+    p = np.arange(frf.data.shape[1])
+    p[[2, 4]] = 4, 2  # 6w and 12w: cables or point labels exchanged
+    text = _refusal(study, _with(frf, frf.data[:, p]))
+    assert text.startswith("responses 6w and 12w look exchanged (each measured what the free model predicts at the other) "
+                           "(exchanged back, the per-line fit's residual is ")
+    assert _ratio(text) >= GROSS_RATIO
+
+
 def test_used_as_they_are_when_asked_and_every_line_flagged(measured):
     study, frf = measured
     data = frf.data.copy()
@@ -106,6 +127,12 @@ def test_used_as_they_are_when_asked_and_every_line_flagged(measured):
     assert not result.reliable.any()
     assert any(f.startswith("the excitation at 9w (column 2) measured the negative") and
                f.endswith(": used as they are (units_check = false); every term flagged unreliable") for f in result.findings())
+    # a term flagged on every line by a check prints no predicted error as if it were the term's error
+    from jointid.cli.identify import term_lines
+
+    lines = term_lines(result, asked)
+    assert len(lines) == 3 and all(", reliable on no line (the findings say why; its band's " in x for x in lines), lines
+    assert not any("predicted error" in x for x in lines)
 
 
 def _blocks(study, frf):

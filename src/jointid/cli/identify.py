@@ -268,8 +268,13 @@ def term_lines(result, study) -> list[str]:
                 text += f", loss factor {eta:.3g}" if eta is not None else ", no loss factor (Re K <= 0 on every line)"
             if result.has_uncertainty:
                 err = t.get("median_predicted_relative_std")
-                text += f", predicted error {100 * err:.2g} %" if err is not None else ", no predicted error"
-                text += f", reliable on {100 * t['reliable_fraction']:.0f} % of lines"
+                if t["reliable_fraction"] == 0 and err is not None and err < result.options_summary().get("max_relative_std", np.inf):
+                    # flagged on every line by a check (the findings), not by its band: the band's figure is not the error
+                    text += (f", reliable on no line (the findings say why; its band's {100 * err:.2g} % holds only for data "
+                             "the free model and the joint model explain)")
+                else:
+                    text += f", predicted error {100 * err:.2g} %" if err is not None else ", no predicted error"
+                    text += f", reliable on {100 * t['reliable_fraction']:.0f} % of lines"
             lines.append(text)
     return lines
 

@@ -19,6 +19,7 @@ true FRFs are):
 * **signs**: ``H' = diag(s_r) H diag(s_c)`` with ``s = -1`` on the responses, the
   references, or both, along one direction (``x``, ``y``, ``z``, ... of the DOF labels: a
   direction convention reversed), then on one response or one reference;
+* **swaps**: two responses, or two references, exchanged (labels, files or cables mixed up);
 * **channels**: one response row or one reference column left out (the rest must still
   have the joint's DOFs and :data:`~.model_check.MIN_REDUNDANCY` residual degrees of freedom);
   when that explains the data best, the record is tried once more kept and divided by each factor
@@ -29,8 +30,8 @@ Each is scored by the median over lines of the per-line fit's ``chi2_f``
 (:func:`~.model_check.line_residuals`; medians, so that a few junk lines do not decide).
 The data as given score ``chi2_0``. An explanation is taken when its score is at most
 ``chi2_0 /`` :data:`GROSS_RATIO`; among those within a factor :data:`GROSS_TIE` of the best
-score, the first in the order above (a unit factor before a sign, a sign before leaving a
-channel out: the most specific fix that keeps the data).
+score, the first in the order above (a unit factor before a sign, a sign before a swap, a swap
+before leaving a channel out: the most specific fix that keeps the data).
 
 Caveats: a free model that is off where one sensor sits (a wrong node, a local mode missed)
 makes that sensor's residual large too; leaving it out then "explains" the data, and the
@@ -42,6 +43,7 @@ asked then refuses with its own conclusion.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import combinations
 from typing import Sequence
 
 import numpy as np
@@ -72,7 +74,7 @@ class GrossError:
     Attributes
     ----------
     kind : str
-        ``"units"``, ``"sign"`` or ``"channel"``.
+        ``"units"``, ``"sign"``, ``"swap"`` or ``"channel"``.
     conclusion : str
         One line: what is wrong and how to fix it (no trailing period).
     ratio : float
@@ -102,6 +104,7 @@ def _names(dofs, which) -> str:
 _FIX = {
     "units": "give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units)",
     "sign": "fix the direction code of those records in the FRF file (or the sensor's or the hammer's direction)",
+    "swap": "exchange their point or direction labels in the FRF file (or the records' files, or the cables)",
     "response": "fix it, or leave it out of [measurement] observed",
     "reference": "fix it, or leave it out of [measurement] excited",
 }
@@ -142,7 +145,7 @@ def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray
     if not np.isfinite(base) or base <= 0:
         return None
     tried: list[tuple[float, str, str, str]] = []  # (score, kind, what is wrong, fix), in the module's order
-    how = {"units": "divided by it", "sign": "with the sign reversed", "channel": "without it"}
+    how = {"units": "divided by it", "sign": "with the sign reversed", "swap": "exchanged back", "channel": "without it"}
 
     for u, label, why in UNIT_FACTORS:
         tried.append((same_design(H / u, u), "units",
@@ -165,6 +168,19 @@ def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray
         tried.append((flipped([i], []), "sign", f"response {responses[i]} {negative}", _FIX["sign"]))
     for j in range(e):
         tried.append((flipped([], [j]), "sign", f"the excitation at {references[j]} (column {j + 1}) {negative}", _FIX["sign"]))
+
+    for a, b in combinations(range(m), 2):  # two responses' labels (or cables) exchanged
+        p = np.arange(m)
+        p[[a, b]] = b, a
+        tried.append((_score(Ymn, Yne, Yme, H[:, p], V[:, p], symmetric), "swap",
+                      f"responses {responses[a]} and {responses[b]} look exchanged (each measured what the free model predicts "
+                      "at the other)", _FIX["swap"]))
+    for a, b in combinations(range(e), 2):  # two hit positions' labels exchanged
+        p = np.arange(e)
+        p[[a, b]] = b, a
+        tried.append((_score(Ymn, Yne, Yme, H[:, :, p], V[:, :, p], symmetric), "swap",
+                      f"the excitations at {references[a]} and {references[b]} (columns {a + 1} and {b + 1}) look exchanged "
+                      "(each column is what the free model predicts for a hit at the other)", _FIX["swap"]))
 
     channels = []  # (score, kind, what, fix, axis, index): one record left out
     for i in range(m if m - 1 >= n else 0):
