@@ -412,3 +412,36 @@ def test_a_parameter_name_with_a_dot_is_written_as_one_key():
     out = replace_study_table(text, "uncertainty", {"accelerometers.mass": 6e-8, "elastic_modulus": 1e8})
     assert out.endswith('[uncertainty]\n"accelerometers.mass" = 6e-08\nelastic_modulus = 100000000.0\n')
     assert tomllib.loads(out)["uncertainty"] == {"accelerometers.mass": 6e-8, "elastic_modulus": 1e8}
+
+
+@pytest.mark.parametrize("factor, label", [(1.0 / 9.80665, "1/9.81"), (1000.0, "1000")])
+def test_free_free_frfs_off_by_a_unit_factor_are_refused_naming_it(chain, capsys, tmp_path, factor, label):
+    """A free-free test exported in g (or mm/s^2) without unit labels (a blind test, 2026-11-28): update exited 0 and wrote
+    an 'updated' study with the initial values, saying only 'check ... its units'. Now one line with the factor, exit 2,
+    nothing written."""
+    import dataclasses
+
+    from jointid.io.uff import read_uff_frf, write_uff_frf
+
+    frf = read_uff_frf(chain / "sim" / "free_frf.uff")
+    scaled = tmp_path / "scaled.uff"
+    write_uff_frf(scaled, dataclasses.replace(frf, data=frf.data * factor), kind=frf.kind)
+    capsys.readouterr()
+    assert main(["update", str(chain / "study.toml"), "--frf", str(scaled), "--out", str(tmp_path / "upd")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("jointid update: error: these FRFs do not look like a free-free test of the study's structure "
+                          f"(this beam with these sensors): every value is off by one factor, {label} (")
+    assert err.endswith("give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units)")
+    assert len(err.splitlines()) == 1 and not (tmp_path / "upd").exists()
+
+
+def test_unit_factor_of_a_residual_needs_one_factor_on_every_value():
+    from jointid.methods.updating.check import unit_factor_of
+
+    rng = np.random.default_rng(2)
+    noise = 0.01 * (rng.standard_normal((500, 3, 2)) + 1j * rng.standard_normal((500, 3, 2)))
+    assert unit_factor_of(noise - np.log(1.0 / 9.80665), 0.01)[0] == "1/9.81"   # H_measured = H / 9.81
+    assert unit_factor_of(noise - np.log(9.80665), 0.01)[0] == "9.81"
+    assert unit_factor_of(noise - np.log(3.0), 0.01) is None                    # no unit is a factor 3
+    wavy = noise - np.log(1.0 / 9.80665) + 0.5 * np.sin(np.arange(500))[:, None, None]  # a model misfit on top
+    assert unit_factor_of(wavy, 0.01) is None

@@ -45,7 +45,10 @@ import math
 
 import numpy as np
 
-__all__ = ["MISFIT_FLOOR", "MISFIT_CEILING", "NOISE_FACTOR", "MAX_FREQUENCY_SHIFT", "noise_level", "judge_update_fit"]
+from ...errors import DataError
+
+__all__ = ["MISFIT_FLOOR", "MISFIT_CEILING", "NOISE_FACTOR", "MAX_FREQUENCY_SHIFT", "noise_level", "judge_update_fit",
+           "unit_factor_of"]
 
 #: Median relative misfit |ln(H_model / H_measured)| above which a fit can be rejected.
 MISFIT_FLOOR = 0.1
@@ -66,7 +69,8 @@ def noise_level(residual: np.ndarray) -> float:
     return float(np.median(np.abs(d2)) / math.sqrt(6.0))
 
 
-def judge_update_fit(residual: np.ndarray, measured, model_hz: np.ndarray | None, described: str) -> str | None:
+def judge_update_fit(residual: np.ndarray, measured, model_hz: np.ndarray | None, described: str,
+                     initial: np.ndarray | None = None) -> str | None:
     """The finding when an updated model does not fit its FRFs, else None.
 
     Parameters
@@ -79,11 +83,20 @@ def judge_update_fit(residual: np.ndarray, measured, model_hz: np.ndarray | None
         The updated model's natural frequencies (Hz); None skips the resonance check.
     described : str
         What the FRFs should be a test of ("this beam with these sensors").
+    initial : ndarray, shape (F, r, c), complex, optional
+        The same residual of the initial model: FRFs off by a unit factor leave it at ``-ln u`` on every value
+        when the initial model is right (the update, pulled by the factor, may scatter it); named when so
+        (:func:`unit_factor_of`).
 
     Returns
     -------
     str or None
         ``"these FRFs do not look like a free-free test of the study's structure (<described>): ..."``.
+
+    Raises
+    ------
+    DataError
+        The FRFs are off by one unit factor as a whole (:func:`unit_factor_of`): bad input, named with the factor.
     """
     from .resonances import frequency_scale
 
@@ -91,6 +104,12 @@ def judge_update_fit(residual: np.ndarray, measured, model_hz: np.ndarray | None
     sigma = noise_level(residual)
     head = f"these FRFs do not look like a free-free test of the study's structure ({described}): "
     if misfit > max(MISFIT_FLOOR, min(NOISE_FACTOR * sigma, MISFIT_CEILING)):
+        factor = next((f for f in (unit_factor_of(r, noise_level(r)) for r in (residual, initial) if r is not None)
+                       if f is not None), None)
+        if factor is not None:  # bad input, not a model question: refused (exit 2), as jointid identify refuses it
+            label, why = factor
+            raise DataError(head + (f"every value is off by one factor, {label} ({why}; median |ln(H_model / H_measured)| "
+                           f"{100 * misfit:.3g} % after the update): give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units)"))
         return head + (
             f"after the update a typical value is still off by {100 * misfit:.3g} % (median |ln(H_model / H_measured)|), "
             f"{misfit / sigma:.3g} times the noise level of the data ({100 * sigma:.2g} %); no parameter is reported as "
@@ -107,3 +126,27 @@ def judge_update_fit(residual: np.ndarray, measured, model_hz: np.ndarray | None
                 "no parameter is reported as determined: check the FRF file (free-free, not jointed) and the study"
             )
     return None
+
+
+def unit_factor_of(residual: np.ndarray, sigma: float) -> tuple[str, str] | None:
+    """``(label, why)`` of the unit factor of :data:`~jointid.methods.receptance.units_check.UNIT_FACTORS` that the FRFs
+    are off by as a whole, or None.
+
+    ``H_measured = u H_true`` leaves ``ln(H_model / H_measured) = -ln u`` on every value (and a phase near 0): the
+    factor is taken when the median of the log-magnitude residual is within ``max(3 sigma, 0.05)`` of ``-ln u`` and
+    its values scatter about it by less than :data:`MISFIT_FLOOR` (median absolute deviation, so a few lines the
+    model misses do not decide); factors closer together than that are told apart by the nearest one.
+    """
+    from ..receptance.units_check import UNIT_FACTORS
+
+    r = np.asarray(residual)
+    mag = r.real.ravel()
+    mag = mag[np.isfinite(mag)]
+    if mag.size == 0:
+        return None
+    centre = float(np.median(mag))
+    if float(np.median(np.abs(mag - centre))) >= MISFIT_FLOOR or float(np.median(np.abs(r.imag))) >= MISFIT_FLOOR:
+        return None
+    tol = max(3.0 * sigma, 0.05) if math.isfinite(sigma) else 0.05
+    dist, label, why = min((abs(centre + math.log(u)), label, why) for u, label, why in UNIT_FACTORS)
+    return (label, why) if dist <= tol else None

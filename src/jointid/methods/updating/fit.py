@@ -429,7 +429,8 @@ def update_free_model(
         return lr.real + 1j * np.angle(np.exp(1j * lr.imag))
 
     initial_model = _model_frf(family, init, measured)
-    before = float(np.sqrt(np.mean(np.abs(log_ratio_of(initial_model)) ** 2)))
+    initial_residual = log_ratio_of(initial_model)
+    before = float(np.sqrt(np.mean(np.abs(initial_residual) ** 2)))
 
     start = dict(init)
     scale = 1.0
@@ -488,7 +489,7 @@ def update_free_model(
     finding = None
     if fitted:  # does the model explain the data at all? (jointed FRFs, another structure, wrong units)
         model_hz = family.natural_frequencies_hz(values, float(measured.frequency.hz[-1]))
-        finding = judge_update_fit(residual, measured, model_hz, family.described)
+        finding = judge_update_fit(residual, measured, model_hz, family.described, initial=initial_residual)
     if finding is not None:
         final = tuple(
             ParameterEstimate(p.name, p.unit, init[p.name], math.nan, NOT_IDENTIFIED, "the updated model does not fit these FRFs", p.label)
