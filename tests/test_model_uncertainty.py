@@ -153,7 +153,11 @@ def test_a_mesh_coarser_than_the_criterion_puts_its_discretization_error_in_the_
     original = sections.BeamSpec.reference_model
     try:
         sections.BeamSpec.reference_model = lambda self, stop: None
-        assert beyond_3_sigma(identify(st, frf)) > 0.3
+        # without the reference the per-line estimates scatter about the smoothed terms beyond their variance: the
+        # fallback's bands carry that scatter (fallback_bands) and say so, instead of half the lines beyond 3 sigma
+        bare = identify(st, frf)
+        assert beyond_3_sigma(bare) <= 0.05
+        assert "or the free model is off" in bare.fallback_note
     finally:
         sections.BeamSpec.reference_model = original
     # the criterion's own mesh (the key absent) has no reference: nothing to add

@@ -20,7 +20,8 @@ The default inverse method of jointid. Three steps, each documented where it liv
      Used only when it passes its chi^2 test; otherwise the P-spline, with a finding.
    - ``"gcv"`` (:mod:`jointid.methods.receptance.smoothing`): the real and imaginary part of
      each term smoothed on its own by a weighted P-spline, lambda by GCV, which
-     lowers the variance by about the number of lines in a correlation band.
+     lowers the variance by about the number of lines in a correlation band. Its bands are
+     widened where the lines err more than their variance (:mod:`.fallback_bands`).
 
    ``"auto"`` (default) is ``"structured"`` for one symmetric joint of at most
    :data:`AUTO_STRUCTURED_MAX_DOFS` DOFs on the exact per-line path, with at least
@@ -93,9 +94,10 @@ from ..frf_screening import check_visibility, floor_exact_zeros, noise_level_unk
 from .frf_variance import RELATIVE_FLOOR, column_noise_fraction, frf_variance
 from ..estimate import Z90, check_layout, term_scale
 from ...terms import dof_term_labels, term_names
-from .smoothing import smooth_series
+from .fallback_bands import widen_fallback_bands
+from .smoothing import residual_scale, resolution_lines, smooth_series
 from .spline_fit import JointSplineFit, fit_joint_spline
-from .structured_select import STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
+from .structured_select import MAX_CHI2_PER_DOF, STRUCTURED_MAX_DOFS, StructuredEstimate, structured_estimate
 
 __all__ = ["identify_joint_coupling", "SMOOTH_MIN_RELATIVE_STD", "MAX_CONDITION", "AUTO_STRUCTURED_MAX_DOFS", "AUTO_SPLINE_MAX_DOFS",
            "STRUCTURED_MIN_LINES"]
@@ -447,6 +449,7 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     check failed there); ``residual_correlation``: the model check's lag-1 correlation of the residuals and its z-score
     (:class:`~.model_check.ResidualStatistics`), kept for the findings."""
     structured, note = _structured(freq, lines, options, cal, applied)
+    fallback_note = ""
     if spline is not None:  # every line at once, on the FRFs as measured: its covariance from the Jacobian
         K, var_re, var_im = spline.stiffness, spline.std_real ** 2, spline.std_imag ** 2
         labels = dof_term_labels(n_dofs)
@@ -457,10 +460,16 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
         K, edf = structured.stiffness, {}
         var_re, var_im = structured.std_real ** 2, structured.std_imag ** 2
     else:
-        K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines, options)
+        K, var_re, var_im, edf, scales = _smooth_terms(freq, n_dofs, lines, options)
         for _ in range(RELINEARIZATIONS if any(v is not None for v in edf.values()) else 0):
             lines_k = relinearize(lines, K)
-            K, var_re, var_im, edf = _smooth_terms(freq, n_dofs, lines_k, options)
+            K, var_re, var_im, edf, scales = _smooth_terms(freq, n_dofs, lines_k, options)
+        if not (structured is not None and structured.shape_only):  # lines erring more than their variance (fallback_bands)
+            misfit = structured is not None and not structured.accepted and structured.best.chi2_per_dof > MAX_CHI2_PER_DOF
+            half = {name: resolution_lines(freq.size, e) for name, e in edf.items() if e is not None}
+            wide = widen_fallback_bands(K, var_re, var_im, scales, half, structured.stiffness if misfit else None, options.symmetric)
+            var_re, var_im = wide.var_real, wide.var_imag
+            fallback_note = wide.finding()
         if structured is not None and structured.shape_only:
             # residuals correlated over frequency, misfit within chi^2: out of the class, or noise correlated between
             # lines (leakage). The structured estimate is kept with bands that hold its difference from each term
@@ -502,17 +511,19 @@ def _finish(freq: Frequency, n_dofs, lines, source: str, options: CouplingOption
     return CouplingResult(
         freq, tuple(n_dofs), K, std_re, std_im, lines.stiffness, np.sqrt(np.maximum(lines.variance + (lines.common_variance if lines.common_variance is not None else 0.0), 0.0)),
         reliable, passive, lines.condition, lines.scale, source, edf, options, cal, applied, structured, note, data_notes, checked,
-        spline, residual_correlation,
+        spline, residual_correlation, fallback_note,
     )
 
 
 def _smooth_terms(freq: Frequency, n_dofs, lines, options: CouplingOptions):
-    """Smoothed stiffness and the variance of its real and imaginary parts, per term."""
+    """Smoothed stiffness, the variance of its real and imaginary parts (scaled where the residuals exceed it:
+    :func:`.smoothing.residual_scale`), the smoother's edf per term and, per smoothed term, ``(a, b, largest scale)``."""
     F, n, _ = lines.stiffness.shape
     K = lines.stiffness.copy()
     var_re = lines.variance / 2.0  # circular errors: half in each part
     var_im = lines.variance / 2.0
     edf: dict = {}
+    scales: dict = {}
     # symmetric: the upper triangle carries every term (mirrored); otherwise each entry on its own
     pairs = [(a, b) for a in range(n) for b in range(a if options.symmetric else 0, n)]
     labels = dof_term_labels(n_dofs)
@@ -526,10 +537,14 @@ def _smooth_terms(freq: Frequency, n_dofs, lines, options: CouplingOptions):
         re = smooth_series(freq.hz, y.real, v / 2.0, options.n_basis)
         im = smooth_series(freq.hz, y.imag, v / 2.0, options.n_basis)
         edf[name] = re.edf
+        # the posterior variance scaled where the residuals say the lines err more than their variance
+        sr, si = residual_scale(y.real, v / 2.0, re), residual_scale(y.imag, v / 2.0, im)
+        vr, vi = re.variance * sr, im.variance * si
+        scales[name] = (a, b, float(max(sr.max(), si.max())))
         for i, j in {(a, b), (b, a)} if options.symmetric else {(a, b)}:
             K[:, i, j] = re.value + 1j * im.value
-            var_re[:, i, j], var_im[:, i, j] = re.variance, im.variance
+            var_re[:, i, j], var_im[:, i, j] = vr, vi
     if lines.common_variance is not None:  # common to all lines: smoothing does not reduce it
         var_re = var_re + lines.common_variance / 2.0
         var_im = var_im + lines.common_variance / 2.0
-    return K, var_re, var_im, edf
+    return K, var_re, var_im, edf, scales

@@ -80,6 +80,9 @@ class CouplingResult(JointEstimate):
     residual_correlation : (float, float) or None
         Lag-1 correlation over frequency of the per-line fit's whitened residuals and its z-score
         (:class:`~jointid.methods.receptance.model_check.ResidualStatistics`); None when the model check did not run.
+    fallback_note : str
+        Which smoothed terms' bands were widened because their lines err more than their variance, and how
+        (:class:`~jointid.methods.receptance.fallback_bands.FallbackWidening`), else "".
     """
 
     std_real: np.ndarray
@@ -101,6 +104,7 @@ class CouplingResult(JointEstimate):
     checked_unreliable: np.ndarray | None = None
     spline: JointSplineFit | None = None
     residual_correlation: tuple[float, float] | None = None
+    fallback_note: str = ""
 
     method: ClassVar[str] = "receptance"
 
@@ -175,7 +179,7 @@ class CouplingResult(JointEstimate):
             self.frequency, dofs, self.stiffness[blk], self.std_real[blk], self.std_imag[blk], self.per_line[blk],
             self.per_line_std[blk], self.reliable_terms[blk], self.passive[:, idx], self.condition, self.residual_scale,
             self.weighting, edf, self.options, self.calibration, self.calibration_applied, self.structured, self.estimator_note,
-            self.data_notes, self.checked_unreliable, self.spline,
+            self.data_notes, self.checked_unreliable, self.spline, fallback_note=self.fallback_note,
         )
 
     def options_summary(self) -> dict:
@@ -224,6 +228,8 @@ class CouplingResult(JointEstimate):
             out.append(st.finding)
         if self.estimator_note:
             out.append(self.estimator_note)
+        if self.fallback_note:
+            out.append(self.fallback_note)
         cal = self.calibration
         if cal is not None and self.calibration_applied:
             eps = 100 * np.median(np.abs(cal.error), axis=0)

@@ -20,7 +20,8 @@ diagonal needs only the first diagonals of the coefficients' covariance (banded 
 
 Caveats: knots every ``band / K`` (``K`` <= :data:`MAX_BASIS`) resolve features
 a few knot spacings wide, not sharper ones; the variances ``v`` must be on an
-absolute scale for the bands to mean anything.
+absolute scale for the bands to mean anything: :func:`residual_scale` says by how much the residuals
+contradict them, band by band of lines (:mod:`.fallback_bands` applies it).
 """
 
 from __future__ import annotations
@@ -33,7 +34,9 @@ from scipy.interpolate import BSpline
 
 from ...parallel import single_threaded_blas
 
-__all__ = ["SmoothedSeries", "smooth_series", "bspline_basis", "MAX_BASIS", "LOG_LAMBDA_GRID"]
+__all__ = ["SmoothedSeries", "smooth_series", "bspline_basis", "residual_scale", "MAX_BASIS", "LOG_LAMBDA_GRID",
+           "RESIDUAL_WINDOW_EDF", "RESIDUAL_MIN_LINES", "RESIDUAL_FALSE_ALARM", "running_mean",
+           "resolution_lines"]
 
 #: Most basis functions of the spline (knot spacing = band / MAX_BASIS at most).
 MAX_BASIS = 200
@@ -41,6 +44,12 @@ MAX_BASIS = 200
 PENALTY_ORDER = 2
 #: The smoothing parameters searched, log10 of lambda relative to the data's scale (GCV picks one).
 LOG_LAMBDA_GRID = np.linspace(-10.0, 8.0, 73)
+#: The residual scale's window holds this many of the smoother's resolution cells (``n / edf`` lines each).
+RESIDUAL_WINDOW_EDF = 2.0
+#: The residual scale's window holds at least this many lines.
+RESIDUAL_MIN_LINES = 32
+#: Probability that the residual scale widens any band of a series whose variances are right (Bonferroni over windows).
+RESIDUAL_FALSE_ALARM = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +91,87 @@ def smooth_series(x: np.ndarray, y: np.ndarray, variance: np.ndarray, n_basis: i
     """
     with single_threaded_blas():
         return _smooth(np.asarray(x, float), y, variance, n_basis)
+
+
+def resolution_lines(n: int, edf: float) -> int:
+    """Half-width (lines) of the window of :func:`residual_scale`: ``max(RESIDUAL_MIN_LINES, RESIDUAL_WINDOW_EDF n / edf) // 2``."""
+    return max(RESIDUAL_MIN_LINES, int(np.ceil(RESIDUAL_WINDOW_EDF * n / max(edf, 1.0)))) // 2
+
+
+def running_mean(values: np.ndarray, half: int) -> np.ndarray:
+    """Mean of ``values`` over ``2 half + 1`` lines about each line (fewer at the ends; non-finite values left out).
+
+    Parameters
+    ----------
+    values : ndarray, shape (F,)
+        Any unit.
+    half : int
+        Half-width of the window (lines).
+
+    Returns
+    -------
+    ndarray, shape (F,)
+        The running mean (unit of ``values``; NaN where the window holds no finite value).
+    """
+    x = np.asarray(values, float)
+    ok = np.isfinite(x)
+    cs, cn = np.r_[0.0, np.cumsum(np.where(ok, x, 0.0))], np.r_[0.0, np.cumsum(ok)]
+    i = np.arange(x.size)
+    lo, hi = np.clip(i - half, 0, x.size), np.clip(i + half + 1, 0, x.size)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (cs[hi] - cs[lo]) / (cn[hi] - cn[lo])
+
+
+def residual_scale(y: np.ndarray, variance: np.ndarray, smoothed: SmoothedSeries) -> np.ndarray:
+    """Per-line factor (>= 1) on ``smoothed.variance`` where the residuals say the data err more than ``variance``.
+
+    The posterior variance of :func:`smooth_series` takes ``variance`` as absolute; when the data's errors are larger
+    (an FRF variance from the coherence that misses part of the error, e.g. hammer records without a force window),
+    its bands are too narrow by the same factor. Over a window of ``max(RESIDUAL_MIN_LINES, RESIDUAL_WINDOW_EDF n /
+    edf)`` lines about each line, the whitened residuals' sum ``sum (y - s)^2 / v`` is compared with its degrees of
+    freedom ``sum (1 - h)`` (``h = smoothed.variance / v``: the hat matrix's diagonal); where the ratio exceeds the
+    chi^2 quantile ``1 - RESIDUAL_FALSE_ALARM / n_windows`` for that many degrees of freedom it is the factor, else 1
+    (a series with the right variances keeps its bands, with probability ``1 - RESIDUAL_FALSE_ALARM``).
+
+    Parameters
+    ----------
+    y : ndarray, shape (F,)
+        The values smoothed (any unit).
+    variance : ndarray, shape (F,)
+        Their stated variance (unit of ``y`` squared); non-finite or non-positive: line left out.
+    smoothed : SmoothedSeries
+        :func:`smooth_series` of ``y`` with ``variance``.
+
+    Returns
+    -------
+    ndarray, shape (F,)
+        The factor (dimensionless, >= 1; 1 on lines left out).
+
+    Notes
+    -----
+    Only the part of the error that varies faster than the smoother's resolution shows in the residuals: an error
+    smooth over frequency is followed by the smoother and is not seen here.
+    """
+    from scipy.special import gammaincinv  # chi^2 quantile: 2 P^-1(d / 2, q) (lighter than scipy.stats)
+
+    y, v = np.asarray(y, float), np.asarray(variance, float)
+    ok = np.isfinite(y) & np.isfinite(v) & (v > 0) & np.isfinite(smoothed.value) & np.isfinite(smoothed.variance)
+    out = np.ones(y.size)
+    n = int(ok.sum())
+    if n < 2 * RESIDUAL_MIN_LINES:
+        return out
+    r = (y[ok] - smoothed.value[ok]) ** 2 / v[ok]
+    dof = np.clip(1.0 - smoothed.variance[ok] / v[ok], 0.0, 1.0)
+    half = resolution_lines(n, smoothed.edf)
+    cr, cd = np.r_[0.0, np.cumsum(r)], np.r_[0.0, np.cumsum(dof)]
+    i = np.arange(n)
+    lo, hi = np.clip(i - half, 0, n), np.clip(i + half + 1, 0, n)
+    rss, d = cr[hi] - cr[lo], np.maximum(cd[hi] - cd[lo], 1.0)
+    windows = max(n / (2 * half + 1), 1.0)
+    limit = 2.0 * gammaincinv(d / 2.0, 1.0 - RESIDUAL_FALSE_ALARM / windows) / d
+    ratio = rss / d
+    out[ok] = np.where(ratio > limit, ratio, 1.0)
+    return out
 
 
 def _smooth(x: np.ndarray, y: np.ndarray, variance: np.ndarray, n_basis: int | None) -> SmoothedSeries:

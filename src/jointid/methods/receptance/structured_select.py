@@ -135,7 +135,8 @@ class StructuredEstimate:
         cls = f"{b.model.label}; chi^2/dof {b.chi2_per_dof:.2f}"
         if b.chi2_per_dof > MAX_CHI2_PER_DOF:  # the gross misfit first: the residuals are far above the noise
             return (f"the structured joint model does not fit these FRFs (chi^2/dof {b.chi2_per_dof:.2f} > {MAX_CHI2_PER_DOF}: "
-                    "not one viscoelastic material, or a model error): each term smoothed on its own instead")
+                    "not one viscoelastic material, a model error, or FRF errors larger than their coherence says, e.g. hammer "
+                    "records without a force window): each term smoothed on its own instead")
         m = self.membership
         if m is not None and not m.passed:
             iu = np.triu_indices(b.model.n)
