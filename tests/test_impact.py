@@ -149,7 +149,7 @@ def test_the_force_noise_bias_of_h1_is_measured_and_reported(hits3):
     sel = (hz >= 5.0) & (hz <= 600.0)
     for options, noted in ((ImpactOptions(band_hz=(5.0, 600.0)), True), (ImpactOptions(band_hz=(5.0, 600.0), **FWIN), False)):
         res = estimate_frf(rec, options)
-        share = _spectra(rec, np.ones(rec.n_hits, bool), options, rec.n_samples)[4][sel]
+        share = _spectra(rec, np.ones(rec.n_hits, bool), options, rec.n_samples, sel)[4][sel]
         low = 1.0 - np.median(np.real(res.h1[:, :, 0] / exact_accelerance(res.frequency.hz, MODES3, A3)), axis=0)
         notes = [n for n in res.notes if "force channel's noise" in n]
         if noted:
