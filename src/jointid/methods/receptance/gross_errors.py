@@ -19,7 +19,8 @@ true FRFs are):
 * **signs**: ``H' = diag(s_r) H diag(s_c)`` with ``s = -1`` on the responses, the
   references, or both, along one direction (``x``, ``y``, ``z``, ... of the DOF labels: a
   direction convention reversed), then on one response or one reference;
-* **swaps**: two responses, or two references, exchanged (labels, files or cables mixed up);
+* **swaps**: two responses, or two references, exchanged (labels, files or cables mixed up), among the
+  :data:`SWAP_CANDIDATES` records of each kind whose leaving out (below) lowers the residual most;
 * **channels**: one response row or one reference column left out (the rest must still
   have the joint's DOFs and :data:`~.model_check.MIN_REDUNDANCY` residual degrees of freedom);
   when that explains the data best, the record is tried once more kept and divided by each factor
@@ -54,7 +55,8 @@ from .coupling_lines import symmetric_parametrization, whitened_line_design
 from .model_check import MIN_REDUNDANCY, design_residual, line_residuals
 from .units_check import UNIT_FACTORS
 
-__all__ = ["GrossError", "gross_error", "GROSS_LINES", "GROSS_RATIO", "GROSS_TIE", "GROSS_COLUMN_ERROR", "RECORD_FACTORS"]
+__all__ = ["GrossError", "gross_error", "GROSS_LINES", "GROSS_RATIO", "GROSS_TIE", "GROSS_COLUMN_ERROR", "RECORD_FACTORS",
+           "SWAP_CANDIDATES"]
 
 #: Most lines the hypotheses are tried on (evenly spread over the band).
 GROSS_LINES = 128
@@ -62,6 +64,9 @@ GROSS_LINES = 128
 GROSS_RATIO = 20.0
 #: Explanations within this factor of the best one's score are equivalent; the first in the module's order is named.
 GROSS_TIE = 2.0
+#: Records of each kind (responses, excitations) among which exchanged pairs are tried: those whose leaving out lowers
+#: the residual most (both records of an exchanged pair are among them).
+SWAP_CANDIDATES = 3
 #: A column whose calibration factor ``1 + eps`` is off by more than this (median over lines of ``|eps|``) is a gross
 #: error, not a force calibration error (a hammer's sensitivity is known to a few per cent).
 GROSS_COLUMN_ERROR = 0.5
@@ -169,19 +174,6 @@ def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray
     for j in range(e):
         tried.append((flipped([], [j]), "sign", f"the excitation at {references[j]} (column {j + 1}) {negative}", _FIX["sign"]))
 
-    for a, b in combinations(range(m), 2):  # two responses' labels (or cables) exchanged
-        p = np.arange(m)
-        p[[a, b]] = b, a
-        tried.append((_score(Ymn, Yne, Yme, H[:, p], V[:, p], symmetric), "swap",
-                      f"responses {responses[a]} and {responses[b]} look exchanged (each measured what the free model predicts "
-                      "at the other)", _FIX["swap"]))
-    for a, b in combinations(range(e), 2):  # two hit positions' labels exchanged
-        p = np.arange(e)
-        p[[a, b]] = b, a
-        tried.append((_score(Ymn, Yne, Yme, H[:, :, p], V[:, :, p], symmetric), "swap",
-                      f"the excitations at {references[a]} and {references[b]} (columns {a + 1} and {b + 1}) look exchanged "
-                      "(each column is what the free model predicts for a hit at the other)", _FIX["swap"]))
-
     channels = []  # (score, kind, what, fix, axis, index): one record left out
     for i in range(m if m - 1 >= n else 0):
         k = np.arange(m) != i
@@ -193,6 +185,22 @@ def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray
         channels.append((_score(Ymn, Yne[:, :, k], Yme[:, :, k], H[:, :, k], V[:, :, k], symmetric), "channel",
                          f"the excitation at {references[j]} (column {j + 1}) does not follow the free model while the others "
                          "do (a dead force channel, a hit elsewhere, or the model wrong there)", _FIX["reference"], 1, j))
+
+    # two records exchanged: leaving out either lowers the residual, so pairs are tried among the SWAP_CANDIDATES
+    # records of each kind whose leaving out lowers it most (a few fits, not m (m - 1) / 2 + e (e - 1) / 2 of them)
+    for axis, size in ((0, m), (1, e)):
+        ranked = sorted((c for c in channels if c[4] == axis), key=lambda c: c[0])[:SWAP_CANDIDATES]
+        for a, b in combinations(sorted(c[5] for c in ranked), 2):
+            p = np.arange(size)
+            p[[a, b]] = b, a
+            if axis == 0:
+                tried.append((_score(Ymn, Yne, Yme, H[:, p], V[:, p], symmetric), "swap",
+                              f"responses {responses[a]} and {responses[b]} look exchanged (each measured what the free model "
+                              "predicts at the other)", _FIX["swap"]))
+            else:
+                tried.append((_score(Ymn, Yne, Yme, H[:, :, p], V[:, :, p], symmetric), "swap",
+                              f"the excitations at {references[a]} and {references[b]} (columns {a + 1} and {b + 1}) look "
+                              "exchanged (each column is what the free model predicts for a hit at the other)", _FIX["swap"]))
     tried += [c[:4] for c in channels]
 
     best = min(t[0] for t in tried)
