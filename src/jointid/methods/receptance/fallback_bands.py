@@ -90,9 +90,7 @@ def widen_fallback_bands(K: np.ndarray, var_real: np.ndarray, var_imag: np.ndarr
     erring = {name: v for name, v in scales.items() if v[2] > 1.0}
     Ks = structured_stiffness
     added = Ks is not None and bool(np.all(np.isfinite(Ks))) and bool(erring)
-    for name, (a, b, _) in erring.items():
-        if not added:
-            break
+    for name, (a, b, _) in (erring.items() if added else ()):
         d = Ks[:, a, b] - K[:, a, b]
         add_re, add_im = running_mean(d.real ** 2, half[name]), running_mean(d.imag ** 2, half[name])
         for i, j in {(a, b), (b, a)} if symmetric else {(a, b)}:
