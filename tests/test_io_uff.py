@@ -352,3 +352,21 @@ def test_every_cut_past_a_datasets_first_line_is_found(tmp_path, binary):
         cut.write_bytes(data[:start + k])
         with pytest.raises(DataError, match="pair .* is missing"):
             read_uff_frf(cut)
+
+
+@pytest.mark.parametrize("binary", [0, 1])
+def test_the_writer_writes_the_bytes_pyuff_writes_without_its_quadratic_reindex(tmp_path, binary):
+    """``write_uff_datasets`` skips pyuff's re-read of the file after each dataset, nothing else."""
+    from jointid.io.uff import write_uff_datasets
+
+    sets = [pyuff.prepare_164(units_code=1, units_description="SI", temp_mode=1, length=1.0, force=1.0, temp=1.0,
+                              temp_offset=273.15)]
+    sets += [_rec(H * (k + 1), X, rsp_node=k + 1, binary=binary) for k in range(4)]
+    ours, theirs = tmp_path / "ours.uff", tmp_path / "theirs.uff"
+    ours.touch()
+    write_uff_datasets(ours, [dict(s) for s in sets], ours)
+    _write(theirs, [dict(s) for s in sets])
+    assert ours.read_bytes() == theirs.read_bytes()
+    back = pyuff.UFF(str(ours))
+    assert list(back.get_set_types()) == [164, 58, 58, 58, 58]
+    np.testing.assert_array_equal(read_uff_frf(ours)("3w", "2w"), 3 * H if binary else read_uff_frf(theirs)("3w", "2w"))

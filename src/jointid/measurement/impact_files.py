@@ -50,7 +50,7 @@ from ..dofs import Dof
 from ..errors import DataError
 from .impact import ImpactRecord, where_hit
 from ..io.atomic import atomic_path
-from ..io.uff import FUNC_TIME
+from ..io.uff import FUNC_TIME, write_uff_datasets
 
 __all__ = ["read_impact_npz", "write_impact_npz", "read_impact_csv", "write_impact_csv", "read_impact_uff", "write_impact_uff"]
 
@@ -553,8 +553,5 @@ def write_impact_uff(path: str | Path, records: Sequence[ImpactRecord]) -> Path:
                 )
     path = Path(path)
     with atomic_path(path) as tmp:  # a fresh empty file: pyuff's "add" never appends to an old one
-        try:
-            pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
-        except Exception as exc:  # pyuff raises bare Exception
-            raise DataError(f"pyuff failed to write {path}: {exc}") from exc
+        write_uff_datasets(tmp, sets, path)
     return path
