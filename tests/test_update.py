@@ -414,11 +414,16 @@ def test_a_parameter_name_with_a_dot_is_written_as_one_key():
     assert tomllib.loads(out)["uncertainty"] == {"accelerometers.mass": 6e-8, "elastic_modulus": 1e8}
 
 
-@pytest.mark.parametrize("factor, label", [(1.0 / 9.80665, "1/9.81"), (1000.0, "1000")])
-def test_free_free_frfs_off_by_a_unit_factor_are_refused_naming_it(chain, capsys, tmp_path, factor, label):
+@pytest.mark.parametrize("factor, label, study, when", [
+    (1.0 / 9.80665, "1/9.81", "study.toml", "after the update"),  # the initial model off: the update runs first
+    (1000.0, "1000", "upd/updated_study.toml", "with the initial model"),  # the initial model right: refused before it
+    (1.0 / 2.2046226218487757, "1/2.20", "upd/updated_study.toml", "with the initial model"),  # E, density x2.2 would fit
+])
+def test_free_free_frfs_off_by_a_unit_factor_are_refused_naming_it(chain, capsys, tmp_path, factor, label, study, when):
     """A free-free test exported in g (or mm/s^2) without unit labels (a blind test, 2026-11-28): update exited 0 and wrote
     an 'updated' study with the initial values, saying only 'check ... its units'. Now one line with the factor, exit 2,
-    nothing written."""
+    nothing written. Where the initial model explains the data but for the factor, before any fit: a factor within the
+    parameters' bounds (lbm, 1/2.20) would otherwise be taken up by E and the density scaled together."""
     import dataclasses
 
     from jointid.io.uff import read_uff_frf, write_uff_frf
@@ -427,10 +432,11 @@ def test_free_free_frfs_off_by_a_unit_factor_are_refused_naming_it(chain, capsys
     scaled = tmp_path / "scaled.uff"
     write_uff_frf(scaled, dataclasses.replace(frf, data=frf.data * factor), kind=frf.kind)
     capsys.readouterr()
-    assert main(["update", str(chain / "study.toml"), "--frf", str(scaled), "--out", str(tmp_path / "upd")]) == 2
+    assert main(["update", str(chain / study), "--frf", str(scaled), "--out", str(tmp_path / "upd")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("jointid update: error: these FRFs do not look like a free-free test of the study's structure "
                           f"(this beam with these sensors): every value is off by one factor, {label} (")
+    assert f" % {when}): give" in err
     assert err.endswith("give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units)")
     assert len(err.splitlines()) == 1 and not (tmp_path / "upd").exists()
 

@@ -48,7 +48,7 @@ import numpy as np
 from ...errors import DataError
 
 __all__ = ["MISFIT_FLOOR", "MISFIT_CEILING", "NOISE_FACTOR", "MAX_FREQUENCY_SHIFT", "noise_level", "judge_update_fit",
-           "unit_factor_of"]
+           "unit_factor_of", "refuse_unit_factor"]
 
 #: Median relative misfit |ln(H_model / H_measured)| above which a fit can be rejected.
 MISFIT_FLOOR = 0.1
@@ -103,13 +103,11 @@ def judge_update_fit(residual: np.ndarray, measured, model_hz: np.ndarray | None
     misfit = float(np.median(np.abs(residual)))
     sigma = noise_level(residual)
     head = f"these FRFs do not look like a free-free test of the study's structure ({described}): "
-    if misfit > max(MISFIT_FLOOR, min(NOISE_FACTOR * sigma, MISFIT_CEILING)):
+    if _rejected(misfit, sigma):
         factor = next((f for f in (unit_factor_of(r, noise_level(r)) for r in (residual, initial) if r is not None)
                        if f is not None), None)
         if factor is not None:  # bad input, not a model question: refused (exit 2), as jointid identify refuses it
-            label, why = factor
-            raise DataError(head + (f"every value is off by one factor, {label} ({why}; median |ln(H_model / H_measured)| "
-                           f"{100 * misfit:.3g} % after the update): give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units)"))
+            raise DataError(_unit_factor_message(head, *factor, misfit, "after the update"))
         return head + (
             f"after the update a typical value is still off by {100 * misfit:.3g} % (median |ln(H_model / H_measured)|), "
             f"{misfit / sigma:.3g} times the noise level of the data ({100 * sigma:.2g} %); no parameter is reported as "
@@ -126,6 +124,43 @@ def judge_update_fit(residual: np.ndarray, measured, model_hz: np.ndarray | None
                 "no parameter is reported as determined: check the FRF file (free-free, not jointed) and the study"
             )
     return None
+
+
+def _rejected(misfit: float, sigma: float) -> bool:
+    return misfit > max(MISFIT_FLOOR, min(NOISE_FACTOR * sigma, MISFIT_CEILING))
+
+
+def _unit_factor_message(head: str, label: str, why: str, misfit: float, when: str) -> str:
+    return head + (f"every value is off by one factor, {label} ({why}; median |ln(H_model / H_measured)| {100 * misfit:.3g} % "
+                   f"{when}): give the file's units (UFF dataset 164 / unit labels; a CSV file is read in SI units)")
+
+
+def refuse_unit_factor(initial: np.ndarray, described: str) -> None:
+    """Refuse FRFs that the initial model explains but for one unit factor on every value, before any update.
+
+    The initial model's residual ``ln(H_model / H_measured)`` at ``-ln u`` on every value (:func:`unit_factor_of`)
+    with the misfit of a rejected fit (module docstring): an update cannot remove the factor, or it takes it up as
+    material values (``E`` and the density scaled together by one factor scale a free structure's FRFs and leave its
+    resonances: within the parameters' bounds for the factor 2.2 of lbm), and it costs the whole fit first.
+
+    Parameters
+    ----------
+    initial : ndarray, shape (F, r, c), complex
+        ``ln(H_model / H_measured)`` of the initial model, phase wrapped to (-pi, pi].
+    described : str
+        What the FRFs should be a test of (as :func:`judge_update_fit`).
+
+    Raises
+    ------
+    DataError
+        ``"these FRFs do not look like a free-free test ...: every value is off by one factor, <label> (...)"``.
+    """
+    misfit = float(np.median(np.abs(initial)))
+    if _rejected(misfit, noise_level(initial)):
+        factor = unit_factor_of(initial, noise_level(initial))
+        if factor is not None:
+            head = f"these FRFs do not look like a free-free test of the study's structure ({described}): "
+            raise DataError(_unit_factor_message(head, *factor, misfit, "with the initial model"))
 
 
 def unit_factor_of(residual: np.ndarray, sigma: float) -> tuple[str, str] | None:

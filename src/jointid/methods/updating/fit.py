@@ -91,7 +91,7 @@ from ...physics.banded_receptance import receptance_banded
 from ...physics.free_model import StructureModel
 from ...physics.modes import natural_modes
 from ...physics.structure import Structure
-from .check import judge_update_fit
+from .check import judge_update_fit, refuse_unit_factor
 from ..fit_statistics import (
     AT_BOUND,
     HELD_AT_DEFAULT,
@@ -430,6 +430,7 @@ def update_free_model(
 
     initial_model = _model_frf(family, init, measured)
     initial_residual = log_ratio_of(initial_model)
+    refuse_unit_factor(initial_residual, family.described)  # a slip in the file's units: refused before the fit
     before = float(np.sqrt(np.mean(np.abs(initial_residual) ** 2)))
 
     start = dict(init)
