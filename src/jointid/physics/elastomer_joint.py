@@ -47,8 +47,14 @@ equals the beam's ``theta``; a cylinder pointing the other way flips the sign
 of the ``w``-``theta`` coupling terms.
 
 Both condensations are dynamic (exact for the FE model):
-``S = D_bb - D_bi D_ii^-1 D_ib``, evaluated as one batched solve over all
-frequency lines.
+``S = D_bb - D_bi D_ii^-1 D_ib``. Both keep the same interior (every node but the two ends), whose
+``D_ii = s K_ii - w^2 r M_ii`` (``s = E*(f) / E_ref``, ``r = rho / rho_ref``) is diagonal in the interior's
+clamped modes (``K_ii Phi = M_ii Phi Lambda``, ``Phi^T M_ii Phi = I``, computed once):
+``D_ii^-1 = Phi (s Lambda - w^2 r)^-1 Phi^T``, so that
+``S = D_bb - G^T (s Lambda - w^2 r)^-1 G`` with ``G = Phi^T D_ib = s Phi^T K_ib - w^2 r Phi^T M_ib``:
+``O(n b^2)`` per line, no ``(F, n, n)`` array and no solve per line (the dense batched solve took 2 s
+per call on a virtual hammer test's 8 000 lines). The rounding is that of the symmetric-definite
+eigenproblem, ``~ eps cond(M_ii)`` relative (the translational over the rotary inertia, ~1e3).
 
 End caps (:class:`EndCap`) and the built-in elastomers (:data:`MATERIALS`) are defined in
 :mod:`jointid.physics.elastomer_material` (re-exported here).
@@ -171,6 +177,9 @@ class ElastomerJoint:
         K, M = cylinder.K.real, cylinder.M
         object.__setattr__(self, "_K", K)
         object.__setattr__(self, "_M", M)
+        i = np.arange(2, K.shape[0] - 2)  # the interior: every node but the two ends
+        lam, phi = eigh(K[np.ix_(i, i)], M[np.ix_(i, i)])
+        object.__setattr__(self, "_interior_modes", (lam, phi))
 
     # ------------------------------------------------------------ constructors
     @classmethod
@@ -265,27 +274,25 @@ class ElastomerJoint:
         w2 = (2.0 * np.pi * f) ** 2 * (density / self.density)
         return scale[:, None, None] * self._K[None] - w2[:, None, None] * self._M[None]
 
-    def _condense(self, D: np.ndarray, boundary: Sequence[int], interior: Sequence[int]):
-        """Return ``S = D_bb - D_bi D_ii^-1 D_ib`` (F, b, b) and ``X = D_ii^-1 D_ib`` (F, i, b)."""
+    def _condense(self, f: np.ndarray, modulus: np.ndarray, density: float, boundary: Sequence[int], interior: bool = False):
+        """``S = D_bb - D_bi D_ii^-1 D_ib`` (F, b, b) on ``boundary`` DOFs, the interior's modes (module docstring),
+        and with ``interior`` also ``X = D_ii^-1 D_ib`` (F, i, b) (else None); ``modulus`` E* (F,) complex, Pa."""
         b = np.asarray(boundary)
-        i = np.asarray(interior)
-        Dbb = D[:, b[:, None], b[None, :]]
-        Dbi = D[:, b[:, None], i[None, :]]
-        Dib = D[:, i[:, None], b[None, :]]
-        Dii = D[:, i[:, None], i[None, :]]
-        X = np.linalg.solve(Dii, Dib)
-        return Dbb - Dbi @ X, X
+        lam, phi = self._interior_modes
+        i = np.arange(2, self._K.shape[0] - 2)
+        s = np.asarray(modulus, dtype=complex) / self.elastic_modulus
+        w2 = (2.0 * np.pi * f) ** 2 * (density / self.density)
+        Dbb = s[:, None, None] * self._K[np.ix_(b, b)][None] - w2[:, None, None] * self._M[np.ix_(b, b)][None]
+        G = s[:, None, None] * (phi.T @ self._K[np.ix_(i, b)])[None] - w2[:, None, None] * (phi.T @ self._M[np.ix_(i, b)])[None]
+        qG = G / (s[:, None] * lam[None, :] - w2[:, None])[:, :, None]  # (s Lambda - w^2 r)^-1 G, (F, i, b)
+        S = Dbb - np.swapaxes(G, 1, 2) @ qG  # D_bi = D_ib^T (complex symmetric)
+        return S, (phi @ qG if interior else None)
 
-    def _blocked(self, f_hz, modulus=None, density=None):
+    def _blocked(self, f_hz, modulus=None, density=None, interior: bool = False):
         f = np.atleast_1d(np.asarray(f_hz, dtype=float))
         n = self._K.shape[0]
-        boundary = [0, 1, n - 2, n - 1]
-        interior = list(range(2, n - 2))
-        if modulus is None:
-            D = self.dynamic_stiffness(f)
-        else:
-            D = self._dynamic(f, np.broadcast_to(np.asarray(modulus, dtype=complex), f.shape), self.density if density is None else density)
-        S, X = self._condense(D, boundary, interior)
+        E = self.complex_modulus(f) if modulus is None else np.broadcast_to(np.asarray(modulus, dtype=complex), f.shape)
+        S, X = self._condense(f, E, self.density if density is None else density, [0, 1, n - 2, n - 1], interior)
         return f, S, X
 
     def blocked_transfer_stiffness(self, f_hz) -> np.ndarray:
@@ -329,7 +336,7 @@ class ElastomerJoint:
             Transverse displacement per unit imposed displacement (w(0) = 1, w(L) = 0).
         """
         scalar = np.ndim(f_hz) == 0
-        f, _, X = self._blocked(f_hz)
+        f, _, X = self._blocked(f_hz, interior=True)
         n = self._K.shape[0]
         w = np.zeros((f.size, n // 2), dtype=complex)
         w[:, 0] = 1.0
@@ -353,7 +360,7 @@ class ElastomerJoint:
         """
         f = np.atleast_1d(np.asarray(f_hz, dtype=float))
         n = self._K.shape[0]
-        S, _ = self._condense(self.dynamic_stiffness(f), [n - 2, n - 1], list(range(2, n - 2)))
+        S, _ = self._condense(f, self.complex_modulus(f), self.density, [n - 2, n - 1])
         if include_cap and self.cap is not None:
             w2 = (2.0 * np.pi * f) ** 2
             S = S - w2[:, None, None] * self.cap.mass_matrix(+1.0)[None]

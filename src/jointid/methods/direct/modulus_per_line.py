@@ -82,7 +82,7 @@ def _newton_modulus(tpl: ElastomerJoint, f, k, rho, E, max_iterations, rtol):
     interior = np.arange(2, n - 2)
     done = np.zeros(f.shape, dtype=bool)
     for _ in range(int(max_iterations)):
-        _, S, X = tpl._blocked(f, modulus=E, density=rho)
+        _, S, X = tpl._blocked(f, modulus=E, density=rho, interior=True)
         # every DOF's displacement for a unit w at x = 0 (u) and at x = L (v), other boundary DOFs held
         u = np.zeros((f.size, n), dtype=complex)
         u[:, 0] = 1.0
