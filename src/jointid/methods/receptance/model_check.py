@@ -241,7 +241,8 @@ def design_residual(change, sw, Q):
     ``change``: ``Y[m,e] - H``, shape (F, m, e)."""
     F, m, e = change.shape
     dw = change.reshape(F, m * e) * sw
-    return dw - (Q @ (np.conj(np.swapaxes(Q, 1, 2)) @ dw[:, :, None]))[:, :, 0]
+    c = np.conj(np.conj(dw)[:, None, :] @ Q)  # (Q^H d_w)^T, (F, 1, p): no conjugated copy of Q
+    return dw - (Q @ np.swapaxes(c, 1, 2))[:, :, 0]
 
 
 def _lag_correlation(r: np.ndarray, dof: int, lag: int = 1) -> tuple[float, float]:
