@@ -179,6 +179,7 @@ class _Problem:
         if common is not None:
             self.Gw = (self.W @ common).reshape(F * p, -1)
             self.U, sv, _ = np.linalg.svd(self.Gw, full_matrices=False)
+            self.UH = np.ascontiguousarray(np.conj(self.U.T))  # formed once: _project runs at every residual and Jacobian
             self.shrink = 1.0 - 1.0 / np.sqrt(1.0 + sv ** 2)
         self.P, self.F, self.p = model.n_params, F, p
         self._last = (None, None)  # (theta bytes, (x, Li, terms)): lmder asks for the Jacobian where it evaluated the residual
@@ -187,7 +188,7 @@ class _Problem:
         """``(I + G_w G_w^H)^(-1/2) v`` for v of shape (F p, ...)."""
         if self.U is None:
             return v
-        c = np.conj(self.U.T) @ v
+        c = self.UH @ v
         return v - self.U @ (self.shrink.reshape(-1, *([1] * (v.ndim - 1))) * c)
 
     def coupling(self, D, inverses: bool):
