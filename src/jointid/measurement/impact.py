@@ -58,7 +58,7 @@ from .impact_acquisition import (
     remove_force_offset,
 )
 from .impact_checks import HitProblem, RejectedHit, check_hits, main_pulse, rejected_hits_table
-from .impact_consistency import INCONSISTENT_FACTOR, INCONSISTENT_FLOOR, hit_misfits, inconsistent_hits
+from .impact_consistency import agreement_threshold, inconsistent_hits, pairwise_misfits
 from .impact_records import ImpactOptions, ImpactRecord, where_hit
 from .impact_windows import WindowMode, correct_exponential_window, exponential_window, force_window
 from .sensor_correction import roving_sensor_correction
@@ -154,7 +154,7 @@ def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: in
     """Averaged Gxx (K,), Gyy (K, C), Gxy (K, C) over the kept hits (one batched rfft), the fraction of the
     responses' energy the exponential window keeps (1.0 without one), the force noise's share of Gxx (K,) (NaN
     where it cannot be measured: :func:`_force_noise_share`), the responses as processed (H, C, n) and each kept
-    hit's misfit against the others on the band's lines ``sel`` (:func:`~.impact_consistency.hit_misfits`)."""
+    hits' pairwise misfits on the band's lines ``sel`` (:func:`~.impact_consistency.pairwise_misfits`)."""
     fs = record.sample_rate_hz
     F = record.force[keep]
     Y = record.responses[keep]
@@ -180,7 +180,7 @@ def _spectra(record: ImpactRecord, keep: np.ndarray, o: ImpactOptions, n_fft: in
     gxy = np.mean(np.conj(X)[:, None, :] * Yf, axis=0).T
     with np.errstate(divide="ignore", invalid="ignore"):
         share = np.minimum(noise / gxx, 1.0)
-    return gxx, gyy, gxy, kept, share, Y, hit_misfits(X[:, sel], Yf[:, :, sel])
+    return gxx, gyy, gxy, kept, share, Y, pairwise_misfits(X[:, sel], Yf[:, :, sel])
 
 
 #: Median of a chi-square variable of one degree of freedom: ``median(x^2) / this`` estimates a Gaussian's variance.
@@ -303,17 +303,19 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
             raise DataError(
                 f"excited node {rec.reference}: all {rec.n_hits} hits were rejected: " + " | ".join(b.reason for b in bad)
             )
-        a, b, c, kept, share, y, misfit = _spectra(rec, keep, o, n_fft, sel)
-        odd = inconsistent_hits(misfit)
-        if odd.size:  # hits that disagree with the others (a hit elsewhere): left out, as a double hit is
+        a, b, c, kept, share, y, pairwise = _spectra(rec, keep, o, n_fft, sel)
+        odd = inconsistent_hits(pairwise)
+        if odd.size:  # hits that disagree with most others (a hit elsewhere): left out, as a double hit is
             hits = np.flatnonzero(keep)
-            others = float(np.median(misfit))
+            good = np.setdiff1d(np.arange(hits.size), odd)
+            typical = float(np.median(pairwise[np.ix_(good, good)][~np.eye(good.size, dtype=bool)])) if good.size > 1 else float("nan")
             for i in odd:
-                text = (f"does not agree with the other hits: {100 * np.sqrt(misfit[i]):.2g} % of its response (median over the "
-                        f"band) is not what their FRF predicts from its force, the others {100 * np.sqrt(others):.2g} %: a hit "
+                own = float(np.median(pairwise[i, good]))
+                text = (f"does not agree with most other hits: {100 * np.sqrt(own):.2g} % of its response (median over the "
+                        f"band) is not what their FRFs predict from its force, between them {100 * np.sqrt(typical):.2g} %: a hit "
                         "at another point?")
-                problem = HitProblem("inconsistent", "responses", float(np.sqrt(misfit[i])),
-                                     float(np.sqrt(max(INCONSISTENT_FACTOR * others, INCONSISTENT_FLOOR))), "", float("nan"), text)
+                problem = HitProblem("inconsistent", "responses", float(np.sqrt(own)), float(np.sqrt(agreement_threshold(pairwise))),
+                                     "", float("nan"), text)
                 rejected.append(RejectedHit(rec.reference, int(hits[i]), f"{where_hit(rec.reference, int(hits[i]))}: {text}", (problem,)))
             keep[hits[odd]] = False
             a, b, c, kept, share, y, _ = _spectra(rec, keep, o, n_fft, sel)
