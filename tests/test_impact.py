@@ -307,6 +307,46 @@ def test_overload_is_rejected_with_message(hits3):
     assert check_hits(_record(F[[0, 2, 4]], R[[0, 2, 4]]), ImpactOptions(force_clip_n=clip)) == ()
 
 
+def test_a_hit_reaching_the_clipping_level_other_hits_show_is_rejected_too(hits3):
+    """A blind test (2026-11-28): an accelerometer clipped on every hit of a node, for 3-6 samples on four hits and 2
+    on one; the short one passed, was averaged alone, and identify blamed the excitation column."""
+    _, t0s, _, _ = hits3
+    F, R = simulate(MODES3, A3, [80.0, 85.0, 90.0, 100.5, 82.0], t0s, np.random.default_rng(3))
+    R = R.copy()
+    lim = 0.6 * np.abs(R[1, 0]).max()
+    R[1, 0] = np.clip(R[1, 0], -lim, lim)  # a flat top: the channel's clipping level
+    R[4, 0] *= 0.99 * lim / np.abs(R[4, 0]).max()
+    i = int(np.argmax(np.abs(R[4, 0])))
+    R[4, 0, i] = np.sign(R[4, 0, i]) * lim  # hit 4 touches that level at one sample, its peak
+    assert np.abs(R[4, 0]).max() == lim
+    bad = {r.hit: r for r in check_hits(_record(F, R), ImpactOptions())}
+    assert sorted(bad) == [1, 4]
+    (p,) = bad[4].problems
+    assert (p.check, p.channel, p.value, p.threshold) == ("flat_top", "3w", lim, lim)
+    assert "response channel 3w reaches" in p.message and "(its clipping level)" in p.message
+    # a hit below that level passes, and so does one above it (the channel does not clip there)
+    R[4, 0, i] *= 0.999
+    assert sorted(r.hit for r in check_hits(_record(F, R), ImpactOptions())) == [1]
+    R[4, 0, i] *= 1.1 / 0.999
+    assert sorted(r.hit for r in check_hits(_record(F, R), ImpactOptions())) == [1]
+
+
+def test_a_peak_level_half_the_hits_share_exactly_is_a_clipping_level(hits3):
+    """A blind test's force amplifier saturating at 150 N on every hit (peaks 160-240 N, 1-2 samples at the top, no
+    flat top of 3): independent hits do not peak at one value to 1e-9 by chance."""
+    _, t0s, _, _ = hits3
+    F, R = simulate(MODES3, A3, [80.0, 85.0, 90.0, 100.5, 82.0], t0s, np.random.default_rng(3))
+    clip = 0.97 * np.abs(F).max(axis=1).min()
+    Fc = np.clip(F, -clip, clip)
+    bad = {r.hit: r for r in check_hits(_record(Fc, R), ImpactOptions())}
+    assert sorted(bad) == [0, 1, 2, 3, 4]
+    assert all(any(p.check == "flat_top" and p.channel == "force" for p in r.problems) for r in bad.values())
+    # a dead (all-zero) channel shares the peak 0 on every hit: not a clipping level
+    R0 = R.copy()
+    R0[:, 0] = 0.0
+    assert check_hits(_record(F, R0), ImpactOptions()) == ()
+
+
 def test_all_hits_rejected_raises(hits3):
     (F, R), *_ = hits3
     Rc = np.clip(R, -0.5 * np.abs(R).max(), 0.5 * np.abs(R).max())

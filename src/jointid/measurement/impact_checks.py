@@ -8,7 +8,13 @@ Per hit, on the raw force and response:
 * *overload*: a sample with ``|x| >= overload_fraction * clip`` when a
   clipping level is given (``force_clip_n``, ``response_clip``), or a flat
   top: ``flat_top_samples`` consecutive samples at the channel's ``max|x|``
-  (what a saturated ADC or amplifier produces).
+  (what a saturated ADC or amplifier produces); and then any other hit of the record whose
+  ``max|x|`` on that channel is the level the flat tops sit at (within 1e-9; a hit above it shows
+  that the channel does not clip there): the channel's clipping level, learned from the flat tops,
+  reached by a hit clipped for fewer samples; or the level that at least half the hits (and two)
+  peak at exactly, which independent hits do not by chance (a blind
+  test's accelerometer clipped for 2 samples on one hit of five was averaged in, and ``identify``
+  then blamed the excitation column).
 
 Bad hits are dropped from the averages by
 :func:`jointid.measurement.impact.estimate_frfs` and listed, with every finding
@@ -189,7 +195,8 @@ def check_hits(record: ImpactRecord, options: ImpactOptions | None = None) -> tu
                 f"overload: the force has a flat top ({n_flat}+ consecutive samples at its maximum "
                 f"{np.abs(F[i]).max():.4g} N): the channel saturated; hit softer or raise the range",
             ))
-        for i, c in zip(*np.nonzero(_flat_top(R, n_flat))):
+        flat_r = _flat_top(R, n_flat)
+        for i, c in zip(*np.nonzero(flat_r)):
             run, at = _longest_run(R[i, c])
             found[i].append(HitProblem(
                 "flat_top", str(record.response_dofs[c]), float(run), float(n_flat), "samples", at / fs,
@@ -197,6 +204,24 @@ def check_hits(record: ImpactRecord, options: ImpactOptions | None = None) -> tu
                 f"consecutive samples at its maximum {np.abs(R[i, c]).max():.4g}): the channel saturated; "
                 "hit softer or raise the range",
             ))
+        # the clipping level the flat tops show, reached by other hits for fewer samples
+        for name, x, flat, unit in (("the force", F[:, None, :], _flat_top(F, n_flat)[:, None], "N"), (None, R, flat_r, runit)):
+            top = np.abs(x).max(axis=-1)  # (H, C)
+            for c in range(top.shape[1]):
+                same = np.abs(top[:, c][:, None] - top[:, c][None, :]) <= 1e-9 * top[:, c][None, :]  # (H, H) equal peaks
+                # a peak level half the hits share exactly (not 0: a dead channel is the dead-channel check's)
+                shared = (same.sum(axis=1) >= max(2, -(-top.shape[0] // 2))) & (top[:, c] > 0)
+                if not (flat[:, c].any() or shared.any()):
+                    continue
+                level = float(np.min(top[flat[:, c] | shared, c]))
+                for i in np.flatnonzero(~flat[:, c] & (np.abs(top[:, c] - level) <= 1e-9 * level)):  # above it: not clipped there
+                    what = name or f"response channel {record.response_dofs[c]}"
+                    found[i].append(HitProblem(
+                        "flat_top", "force" if name else str(record.response_dofs[c]), float(top[i, c]), level, unit,
+                        int(np.argmax(np.abs(x[i, c]) >= level * (1.0 - 1e-9))) / fs,
+                        f"overload: {what} reaches {top[i, c]:.4g}, the level at which it has a flat top in other hits "
+                        "(its clipping level): the channel saturated; hit softer or raise the range",
+                    ))
     return tuple(
         RejectedHit(record.reference, i, f"{where_hit(record.reference, i)}: " + "; ".join(p.message for p in ps), tuple(ps))
         for i, ps in enumerate(found)
