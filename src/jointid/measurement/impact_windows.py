@@ -48,7 +48,6 @@ import math
 from typing import NamedTuple, Sequence
 
 import numpy as np
-import scipy.signal
 
 from ..errors import DataError
 
@@ -127,7 +126,9 @@ def _detect_mode_bands(hz: np.ndarray, H: np.ndarray) -> list[tuple[float, float
     if not np.any(mif > 0):
         return []
     db = 10.0 * np.log10(np.maximum(mif, mif.max() * 1e-30))
-    peaks, _ = scipy.signal.find_peaks(db, prominence=10.0)
+    from scipy.signal import find_peaks  # scipy.signal takes ~1-2 s to import: only when a window is proposed
+
+    peaks, _ = find_peaks(db, prominence=10.0)
     bands = []
     for i, p in enumerate(peaks):
         under = np.flatnonzero(mif <= mif[p] / 2.0)
