@@ -341,6 +341,13 @@ def test_a_peak_level_half_the_hits_share_exactly_is_a_clipping_level(hits3):
     bad = {r.hit: r for r in check_hits(_record(Fc, R), ImpactOptions())}
     assert sorted(bad) == [0, 1, 2, 3, 4]
     assert all(any(p.check == "flat_top" and p.channel == "force" for p in r.problems) for r in bad.values())
+    # every hit touching one level at one sample, no flat top at all: the shared peak alone names it
+    Fs = F * (clip / np.abs(F).max(axis=1))[:, None]
+    Fs[np.arange(5), np.argmax(np.abs(Fs), axis=1)] = np.sign(Fs[np.arange(5), np.argmax(np.abs(Fs), axis=1)]) * clip
+    problems = [p for r in check_hits(_record(Fs, R), ImpactOptions()) for p in r.problems]
+    assert len(problems) == 5 and all(p.message.startswith(f"overload: the force reaches {clip:.4g}, the level 5 of the 5 hits "
+                                                           "peak at exactly (independent hits do not) (its clipping level)")
+                                      for p in problems)
     # a dead (all-zero) channel shares the peak 0 on every hit: not a clipping level
     R0 = R.copy()
     R0[:, 0] = 0.0

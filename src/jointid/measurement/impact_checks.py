@@ -214,13 +214,16 @@ def check_hits(record: ImpactRecord, options: ImpactOptions | None = None) -> tu
                 if not (flat[:, c].any() or shared.any()):
                     continue
                 level = float(np.min(top[flat[:, c] | shared, c]))
-                for i in np.flatnonzero(~flat[:, c] & (np.abs(top[:, c] - level) <= 1e-9 * level)):  # above it: not clipped there
+                at_level = np.abs(top[:, c] - level) <= 1e-9 * level  # above it: the channel does not clip there
+                why = ("the level at which it has a flat top in other hits" if flat[:, c].any() else
+                       f"the level {int(at_level.sum())} of the {top.shape[0]} hits peak at exactly (independent hits do not)")
+                for i in np.flatnonzero(~flat[:, c] & at_level):
                     what = name or f"response channel {record.response_dofs[c]}"
                     found[i].append(HitProblem(
                         "flat_top", "force" if name else str(record.response_dofs[c]), float(top[i, c]), level, unit,
                         int(np.argmax(np.abs(x[i, c]) >= level * (1.0 - 1e-9))) / fs,
-                        f"overload: {what} reaches {top[i, c]:.4g}, the level at which it has a flat top in other hits "
-                        "(its clipping level): the channel saturated; hit softer or raise the range",
+                        f"overload: {what} reaches {top[i, c]:.4g}, {why} (its clipping level): the channel saturated; "
+                        "hit softer or raise the range",
                     ))
     return tuple(
         RejectedHit(record.reference, i, f"{where_hit(record.reference, i)}: " + "; ".join(p.message for p in ps), tuple(ps))

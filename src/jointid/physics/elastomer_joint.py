@@ -54,7 +54,8 @@ clamped modes (``K_ii Phi = M_ii Phi Lambda``, ``Phi^T M_ii Phi = I``, computed 
 ``S = D_bb - G^T (s Lambda - w^2 r)^-1 G`` with ``G = Phi^T D_ib = s Phi^T K_ib - w^2 r Phi^T M_ib``:
 ``O(n b^2)`` per line, no ``(F, n, n)`` array and no solve per line (the dense batched solve took 2 s
 per call on a virtual hammer test's 8 000 lines). The rounding is that of the symmetric-definite
-eigenproblem, ``~ eps cond(M_ii)`` relative (the translational over the rotary inertia, ~1e3).
+eigenproblem, within ``n eps cond(D_ii)`` of the dense solve (``tests/test_joint_model.py``; measured 2e-12 relative
+on Material A's cylinder over 1-4000 Hz, where ``cond(D_ii)`` is 4e5-3e6).
 
 End caps (:class:`EndCap`) and the built-in elastomers (:data:`MATERIALS`) are defined in
 :mod:`jointid.physics.elastomer_material` (re-exported here).
