@@ -389,7 +389,7 @@ def write_uff_datasets(tmp: str | os.PathLike, sets: list[dict], path: str | os.
     pyuff's ``UFF.write_sets`` re-reads and re-indexes the whole file after every dataset it
     appends (``refresh``): writing ``n`` records costs ``O(n^2)`` (973 records of 196 lines: 16 s,
     against 0.6 s here). The writer here is pyuff's, with that re-index skipped: the object is never
-    read from, and the bytes written are the same (``tests/test_uff.py`` compares them).
+    read from, and the bytes written are the same (``tests/test_io_uff.py`` compares them).
 
     Raises
     ------

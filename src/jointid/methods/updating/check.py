@@ -155,9 +155,9 @@ def refuse_unit_factor(initial: np.ndarray, described: str) -> None:
     DataError
         ``"these FRFs do not look like a free-free test ...: every value is off by one factor, <label> (...)"``.
     """
-    misfit = float(np.median(np.abs(initial)))
-    if _rejected(misfit, noise_level(initial)):
-        factor = unit_factor_of(initial, noise_level(initial))
+    misfit, sigma = float(np.median(np.abs(initial))), noise_level(initial)
+    if _rejected(misfit, sigma):
+        factor = unit_factor_of(initial, sigma)
         if factor is not None:
             head = f"these FRFs do not look like a free-free test of the study's structure ({described}): "
             raise DataError(_unit_factor_message(head, *factor, misfit, "with the initial model"))
