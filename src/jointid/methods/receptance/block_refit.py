@@ -4,8 +4,9 @@ Per line, a whitened design ``Q R = diag(sw) A`` (``Q`` with orthonormal columns
 and data ``d`` give the fit's residual ``r = (I - Q Q^H) d``. A hypothesis about one record of the
 measurement (a sensor left out, a channel rescaled, two records exchanged) changes only the rows
 ``B`` of that record: its data become ``d'_B`` and its design rows ``D_B A_B`` (``D`` the ratio of the
-new weights to the old, ``sw'_B / sw_B``). Refitting needs no new factorization (``O(N p^2)`` per
-line, ``N`` rows): in the coordinates ``y = R x``, with ``y0 = Q^H d`` the full fit,
+new weights to the old, ``sw'_B / sw_B``). Refitting needs no new factorization (that costs ``O(N p^2)``
+per line, ``N`` rows; the refit ``O(|B|^2 p)`` for rows left out, ``O(|B| p^2 + p^3)`` for rows replaced): in
+the coordinates ``y = R x``, with ``y0 = Q^H d`` the full fit,
 
 * **left out** (the deleted-residual identity, Sherman-Morrison-Woodbury)::
 
