@@ -27,8 +27,10 @@ def test_reproduce_into_a_git_checkout_keeps_everything(tmp_path, monkeypatch, c
     _git(repo, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "init")
     before = snapshot(repo)
     monkeypatch.chdir(repo)
+    coarse = tmp_path / "coarse.toml"  # outside the checkout: what is written, not the numbers, is tested here
+    coarse.write_text("[frequency]\nstart = 5.0\nstop = 1000.0\nstep = 20.0\n")
     for _ in range(2):  # twice: the second run replaces its own files only
-        assert main(["reproduce", "--out", ".", "--only", "conditioning", "--quiet"]) == 0
+        assert main(["reproduce", "--out", ".", "--only", "conditioning", "--quiet", "--config", str(coarse)]) == 0
     after = snapshot(repo)
     assert {k: v for k, v in after.items() if k in before} == before  # .git and every file untouched
     new = sorted(k for k in set(after) - set(before))

@@ -19,7 +19,8 @@ thereby estimated jointly with the joint instead of being added to the bands as
 an error smoothing cannot reduce.
 
 Jacobian analytic: ``dX = (I + Du Ynn)^-1 dDu (I + Ynn Du)^-1``; solver
-:func:`scipy.optimize.least_squares`'s Levenberg-Marquardt (MINPACK ``lmder``). Starts: a linear fit without
+:func:`~jointid.methods.levenberg_marquardt.levenberg_marquardt` (MINPACK ``lmder``'s algorithm on the normal
+equations: its QR of the tall Jacobian was a third of the fit's time). Starts: a linear fit without
 modes; for the first internal mode a grid over (loss angle, pole) that is linear in
 ``A``, ``B``, ``C`` on the smoothed per-term curves; for further modes a grid of
 poles ranked by the linearized cost.
@@ -183,6 +184,7 @@ class _Problem:
             self.shrink = 1.0 - 1.0 / np.sqrt(1.0 + sv ** 2)
         self.P, self.F, self.p = model.n_params, F, p
         self._last = (None, None)  # (theta bytes, (x, Li, terms)): lmder asks for the Jacobian where it evaluated the residual
+        self._res = (None, None)  # (theta bytes, residual)
 
     def _project(self, v):
         """``(I + G_w G_w^H)^(-1/2) v`` for v of shape (F p, ...)."""
@@ -244,8 +246,11 @@ class _Problem:
         return (self.xw - np.einsum("fij,fj->fi", self.W, self.x_model(theta))).ravel()
 
     def residual(self, theta):
-        r = self._project(self.complex_residual(theta))
-        return _SQRT2 * np.concatenate([r.real, r.imag])
+        key = theta.tobytes()
+        if self._res[0] != key:  # the solver asks for it again with the normal equations
+            r = self._project(self.complex_residual(theta))
+            self._res = (key, _SQRT2 * np.concatenate([r.real, r.imag]))
+        return self._res[1]
 
     def jacobian(self, theta):
         """``d residual / d theta``, shape (2 F p, P): ``-sqrt(2) [Re; Im]`` of the projected whitened Jacobian."""
@@ -258,15 +263,18 @@ class _Problem:
 
 
 def _solve(prob: _Problem, theta0: np.ndarray, max_nfev: int = 200):
-    """MINPACK ``lmder`` as ``least_squares(method="lm", x_scale="jac")`` calls it, without its per-call wrappers: ``x``,
-    ``fun``, ``jac`` (at ``x``), ``cost``."""
-    from scipy.optimize import leastsq  # here: importing scipy.optimize costs ~0.1 s, and only a fit needs it
+    """MINPACK's Levenberg-Marquardt (:func:`~jointid.methods.levenberg_marquardt.levenberg_marquardt`: ``lmder``'s
+    steps on the normal equations) with ``scipy.optimize.leastsq``'s settings here: ``x``, ``fun``, ``jac`` (at ``x``),
+    ``cost``."""
+    from ..levenberg_marquardt import levenberg_marquardt
+
+    def normal(theta):
+        J = prob.jacobian(theta)
+        return J.T @ J, J.T @ prob.residual(theta)
 
     with np.errstate(all="ignore"):
-        x, _, info, _, _ = leastsq(prob.residual, theta0, Dfun=prob.jacobian, full_output=True, ftol=_FTOL, xtol=_TOL,
-                                   gtol=1e-8, maxfev=max_nfev, factor=100.0, diag=None)
-        f = info["fvec"]
-        return SimpleNamespace(x=x, fun=f, jac=prob.jacobian(x), cost=0.5 * float(np.dot(f, f)))
+        sol = levenberg_marquardt(prob.residual, normal, theta0, ftol=_FTOL, xtol=_TOL, gtol=1e-8, max_nfev=max_nfev, factor=100.0)
+        return SimpleNamespace(x=sol.x, fun=sol.fun, jac=prob.jacobian(sol.x), cost=sol.cost)
 
 
 def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
