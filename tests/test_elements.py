@@ -96,3 +96,20 @@ def test_bad_model_input(call, msg):
     with pytest.raises(ModelError if "DOF" not in msg else Exception, match=None) as e:
         call()
     assert str(e.value) == msg
+
+
+def test_modes_of_the_same_matrices_are_solved_once_and_cannot_be_changed():
+    """A structure rebuilt with the same matrices gets the kept eigensolution (read-only: a caller cannot corrupt
+    it for the next one); other matrices (one value changed by a few units in its last place) are solved anew, with their dofs."""
+    from dataclasses import replace
+
+    a, b = natural_modes(build_beam(L, SEC, AL, 19)), natural_modes(build_beam(L, SEC, AL, 19))
+    assert b.shapes is a.shapes and b.eigenvalues is a.eigenvalues
+    with pytest.raises(ValueError, match="read-only"):
+        a.shapes[0, 0] = 1.0
+    beam = build_beam(L, SEC, AL, 19)
+    K = beam.stiffness.copy()
+    K[-1, -1] += 4 * np.finfo(float).eps * abs(K[-1, -1])
+    other = natural_modes(replace(beam, stiffness=K))
+    assert other.shapes is not a.shapes and other.dofs == beam.dofs
+    assert np.allclose(other.frequencies_hz, a.frequencies_hz, rtol=1e-12, atol=1e-6)

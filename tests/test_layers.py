@@ -101,6 +101,8 @@ def imports(module: str, path: Path) -> list[tuple[int, str, str | None]]:
 
     def visit(node: ast.AST, function: str | None) -> None:
         for child in ast.iter_child_nodes(node):
+            if not isinstance(child, (ast.stmt, ast.excepthandler, ast.match_case)):  # an expression holds no import
+                continue
             if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 visit(child, child.name)
                 continue

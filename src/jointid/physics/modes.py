@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,6 +59,37 @@ class Modes:
         return int(np.sum(self.frequencies_hz < tol_hz))
 
 
+#: Dense eigensolutions kept for structures solved again (the same matrices: a model rebuilt, a study run twice);
+#: at most this many, each of at most :data:`_CACHED_DOFS` DOFs (a few MB in all).
+_CACHE_SIZE = 16
+_CACHED_DOFS = 400
+_cache: OrderedDict = OrderedDict()
+_cache_lock = threading.Lock()
+
+
+def _dense_modes(K: np.ndarray, M: np.ndarray, dofs: tuple, eta) -> Modes:
+    """Every mode by LAPACK's ``eigh(K, M)``; the same matrices (bit for bit) get the same, read-only arrays again."""
+    key = None
+    if isinstance(K, np.ndarray) and isinstance(M, np.ndarray) and K.shape[0] <= _CACHED_DOFS:
+        digest = hashlib.blake2b(np.ascontiguousarray(K).tobytes(), digest_size=16)
+        digest.update(np.ascontiguousarray(M).tobytes())
+        key = (K.shape, K.dtype.str, M.dtype.str, digest.digest())
+        with _cache_lock:
+            hit = _cache.get(key)
+            if hit is not None:
+                _cache.move_to_end(key)
+                return Modes(hit[0], hit[1], dofs, eta, True)
+    lam, phi = sla.eigh(K, M)
+    lam = np.clip(np.where(np.abs(lam) < _RIGID_TOL * max(abs(lam[-1]), 1.0), 0.0, lam), 0.0, None)
+    if key is not None:
+        lam.flags.writeable = phi.flags.writeable = False
+        with _cache_lock:
+            _cache[key] = (lam, phi)
+            while len(_cache) > _CACHE_SIZE:
+                _cache.popitem(last=False)
+    return Modes(lam, phi, dofs, eta, True)
+
+
 def natural_modes(
     structure: Structure,
     max_frequency_hz: float | None = None,
@@ -95,9 +129,7 @@ def natural_modes(
     n = K.shape[0]
     eta = structure.proportional_loss_factor
     if n <= DENSE_EIGEN_LIMIT:
-        lam, phi = sla.eigh(K, M)
-        lam = np.where(np.abs(lam) < _RIGID_TOL * max(abs(lam[-1]), 1.0), 0.0, lam)
-        return Modes(np.clip(lam, 0.0, None), phi, structure.dofs, eta, True)
+        return _dense_modes(K, M, structure.dofs, eta)
     if max_frequency_hz is None:
         raise ModelError(
             f"the model has {n} DOFs (> {DENSE_EIGEN_LIMIT}): give max_frequency_hz to compute the modes below it"

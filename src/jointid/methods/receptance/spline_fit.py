@@ -17,8 +17,9 @@ coefficients ``c`` are fitted to all lines jointly by Levenberg-Marquardt on the
 whitened residual ``w (Y[m,e] - H - Y[m,n] X(K) Y[n,e])``, ``w = 1 / sqrt(var H)``.
 The model is holomorphic in ``c``, so the Gauss-Newton step is the complex one,
 ``(J^H J + mu D) dc = -J^H r``, with ``dr = -(Y[m,n] L) dK (R Y[n,e])``,
-``L = (I + K Y[n,n])^-1``, ``R = (I + Y[n,n] K)^-1`` (``dX = L dK R``). The normal
-matrix is built from per-line ``p x p`` blocks (no Python loop over lines).
+``L = (I + K Y[n,n])^-1``, ``R = (I + Y[n,n] K)^-1 = I - Y[n,n] X`` (``dX = L dK R``; the product's cancellation,
+``eps |Y X| / |R|`` relative, reaches only the Jacobian, never the residual). The normal matrix is built from per-line
+``p x p`` blocks (no Python loop over lines).
 
 Why a joint fit: per line, a weakly seen term (a mount's rotation the measured translations hardly
 feel) has an error of the order of the term itself, far from Gaussian, and smoothing those estimates
@@ -153,8 +154,8 @@ class _Problem:
         """Whitened residual (F, m, e) and ``A = Y[m,n] L``, ``B = R Y[n,e]`` at ``K``."""
         eye = np.eye(self.n)
         L = np.linalg.inv(eye + K @ self.Ynn)
-        R = np.linalg.inv(eye + self.Ynn @ K)
         X = L @ K
+        R = eye - self.Ynn @ X  # = (I + Y[n,n] K)^-1 (module docstring): a product instead of a second inverse
         r = (self.change - self.Ymn @ X @ self.Yne) * self.weight
         return r, self.Ymn @ L, R @ self.Yne
 
@@ -407,10 +408,8 @@ def _inverse(N: np.ndarray) -> np.ndarray:
 def _weights(variance: np.ndarray) -> np.ndarray:
     """``1 / sqrt(variance)``; zero for non-finite or non-positive variances (those values are not used)."""
     v = np.asarray(variance, float)
-    ok = np.isfinite(v) & (v > 0)
-    w = np.zeros(v.shape)
-    w[ok] = 1.0 / np.sqrt(v[ok])
-    return w
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(np.isfinite(v) & (v > 0), 1.0 / np.sqrt(np.abs(v)), 0.0)
 
 
 def _aic_and_scale(cost: float, count: int, P: int) -> tuple[float, float]:
@@ -421,11 +420,6 @@ def _aic_and_scale(cost: float, count: int, P: int) -> tuple[float, float]:
 def _best_order(criterion: dict):
     """The key of the lowest AIC."""
     return min(criterion, key=lambda k: criterion[k][0])
-
-
-def _best_aic(criterion: dict) -> float:
-    """The lowest AIC."""
-    return min(v[0] for v in criterion.values())
 
 
 def _estimate_and_variance(problem: _Problem, fit: tuple, count: int, n: int) -> tuple:
@@ -543,7 +537,7 @@ def fit_joint_spline(
         basis = log_frequency_basis(f, nb)
         c = _project(previous[0], previous[3], basis) if nb > 1 else previous[0]
         c, cost, converged = _levenberg_marquardt(problem, c, basis, iterations)
-        if not converged and iterations < MAX_ITERATIONS and _aic_and_scale(cost, count, c.size)[0] < _best_aic(criterion):
+        if not converged and iterations < MAX_ITERATIONS and _aic_and_scale(cost, count, c.size)[0] < min(v[0] for v in criterion.values()):
             c, cost, converged = _levenberg_marquardt(problem, c, basis, MAX_ITERATIONS)
         return c, cost, converged, basis
 
