@@ -15,7 +15,10 @@ between the nodes and beyond them, by the accurate
 :func:`~jointid.methods.receptance.spline_bands.band_coverage`. ``--check``: the module's table by that function,
 the smallest coverage over ``b`` on 161 ratios from ``1e-4`` to ``1e4`` and in the limit ``rho -> inf``.
 
-Not a test (about 90 s; ``--check`` 10 s): ``python benchmarks/spline_band_table.py [--check]``; the module's constants are its output
+``--tradeoff``: the price of a band that over-covers less at zero bias (the smallest coverage over the bias it must then
+accept, per ``rho``).
+
+Not a test (about 90 s; ``--check`` 10 s): ``python benchmarks/spline_band_table.py [--check | --tradeoff]``; the module's constants are its output
 (``tests/test_spline_fit.py`` checks the guarantee on a finer grid).
 """
 
@@ -89,12 +92,39 @@ def repair(qs: np.ndarray, cs: np.ndarray) -> np.ndarray:
     return cs
 
 
+def tradeoff() -> None:
+    """How far below 0.90 a band of this form must go for some bias if it may over-cover at most to a cap at zero bias.
+
+    Per ``rho`` and cap (0.93, 0.95): over a ``(q, c)`` grid (q 0.5-4 step 0.1, c -2 to 1.5 step 0.05), the largest
+    smallest-coverage-over-every-bias among the bands whose zero-bias coverage is at most the cap (the guide's
+    quadrature; the chosen band's figures again by ``band_coverage``).
+    """
+    print("cap at b = 0   rho    smallest coverage over every bias (best band)   q     c")
+    for cap in (0.93, 0.95):
+        for rho in (0.3, 1.0, 3.0, 10.0, 100.0):
+            b = bias_grid(rho)
+            best = None
+            for q in np.arange(0.5, 4.0001, 0.1):
+                for c in np.arange(-2.0, 1.5001, 0.05):
+                    cover = coverage_and_width(q, c, rho, b)[0]
+                    if cover[0] <= cap and (best is None or cover.min() > best[0]):
+                        best = (cover.min(), q, c)
+            accurate = band_coverage(best[1], best[2], rho, b)
+            print(f"{cap:12.2f} {rho:6g} {accurate.min():30.3f} (zero bias {accurate[0]:.3f}) {best[1]:8.2f} {best[2]:6.2f}", flush=True)
+
+
 def main(argv=None) -> None:
     import argparse
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="only check the module's table (seconds)")
-    if not ap.parse_args(argv).check:
+    ap.add_argument("--tradeoff", action="store_true",
+                    help="only the trade-off: the smallest coverage a band may have if it over-covers at most 0.93 / 0.95 at zero bias")
+    args = ap.parse_args(argv)
+    if args.tradeoff:
+        tradeoff()
+        return
+    if not args.check:
         compute()
     check()
 

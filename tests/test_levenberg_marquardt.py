@@ -63,3 +63,17 @@ def test_a_direction_the_residual_does_not_see_is_left_where_it_started():
     best = np.linalg.lstsq(A, y, rcond=None)[0]
     assert sol.x[0] + sol.x[1] == pytest.approx(best[0], rel=1e-9) and sol.x[2] == pytest.approx(best[1], rel=1e-9)
     assert sol.x[0] - sol.x[1] == pytest.approx(0.2, abs=1e-9)
+
+
+def test_a_jacobian_that_is_not_finite_stops_the_fit_where_it_is():
+    """NaN in the normal equations (a model evaluated outside its domain): stopped at the last good point, status 9."""
+    calls = []
+
+    def normal(x):
+        calls.append(x.copy())
+        N, g = _normal(x)
+        return (N, g) if len(calls) < 3 else (N * np.nan, g)
+
+    sol = levenberg_marquardt(_residual, normal, np.array([1.0, 1.0, 1.0, 1.0, 2.5]), ftol=1e-12, xtol=1e-12)
+    assert sol.status == 9 and sol.njev == 3 and np.array_equal(sol.x, calls[-1])
+    assert sol.cost == pytest.approx(0.5 * np.sum(_residual(sol.x) ** 2), rel=1e-15)

@@ -53,7 +53,7 @@ class LeastSquaresSolution:
         Residual and normal-equation evaluations.
     status : int
         MINPACK's ``info``: 1 ``ftol``, 2 ``xtol``, 3 both, 4 ``gtol``, 5 ``max_nfev`` reached, 6-8 the
-        tolerances below round-off.
+        tolerances below round-off; and 9: the normal equations at ``x`` are not finite (stopped there).
     """
 
     x: np.ndarray
@@ -160,6 +160,9 @@ def levenberg_marquardt(residual: Callable[[np.ndarray], np.ndarray],
     while status == 0:
         N, g = normal(x)
         njev += 1
+        if not (np.all(np.isfinite(N)) and np.all(np.isfinite(g))):
+            status = 9
+            break
         acnorm = np.sqrt(np.maximum(np.diagonal(N), 0.0))
         if it == 1:
             diag = np.where(acnorm == 0.0, 1.0, acnorm)

@@ -45,6 +45,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..levenberg_marquardt import levenberg_marquardt
 from .structured_bands import covariance_factor, structured_bands, terms_moving_along
 from .structured_model import (
     StructuredModel, default_scale, drop_last_mode, extend, pack, structured_stiffness, structured_terms, sym_basis, unpack,
@@ -266,15 +267,18 @@ def _solve(prob: _Problem, theta0: np.ndarray, max_nfev: int = 200):
     """MINPACK's Levenberg-Marquardt (:func:`~jointid.methods.levenberg_marquardt.levenberg_marquardt`: ``lmder``'s
     steps on the normal equations) with ``scipy.optimize.leastsq``'s settings here: ``x``, ``fun``, ``jac`` (at ``x``),
     ``cost``."""
-    from ..levenberg_marquardt import levenberg_marquardt
+    last = {}  # the latest Jacobian: the solution's, when no step was taken after it
 
     def normal(theta):
-        J = prob.jacobian(theta)
+        J = last[theta.tobytes()] = prob.jacobian(theta)
+        if len(last) > 1:
+            del last[next(iter(last))]
         return J.T @ J, J.T @ prob.residual(theta)
 
     with np.errstate(all="ignore"):
         sol = levenberg_marquardt(prob.residual, normal, theta0, ftol=_FTOL, xtol=_TOL, gtol=1e-8, max_nfev=max_nfev, factor=100.0)
-        return SimpleNamespace(x=sol.x, fun=sol.fun, jac=prob.jacobian(sol.x), cost=sol.cost)
+        J = last.get(sol.x.tobytes())
+        return SimpleNamespace(x=sol.x, fun=sol.fun, jac=prob.jacobian(sol.x) if J is None else J, cost=sol.cost)
 
 
 def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
