@@ -117,7 +117,9 @@ def natural_modes(
     -----
     A free-free structure has singular ``K``; the dense solver handles it, the
     sparse one shifts to a negative ``sigma`` so the factorized matrix
-    ``K + |sigma| M`` is positive definite.
+    ``K + |sigma| M`` is positive definite. The dense path keeps its last
+    solutions of up to 400 DOFs (keyed by the matrices' bytes): a structure
+    built again gets the same, read-only arrays without a new ``eigh``.
     """
     if structure.joints:
         raise ModelError(
