@@ -267,18 +267,17 @@ def _solve(prob: _Problem, theta0: np.ndarray, max_nfev: int = 200):
     """MINPACK's Levenberg-Marquardt (:func:`~jointid.methods.levenberg_marquardt.levenberg_marquardt`: ``lmder``'s
     steps on the normal equations) with ``scipy.optimize.leastsq``'s settings here: ``x``, ``fun``, ``jac`` (at ``x``),
     ``cost``."""
-    last = {}  # the latest Jacobian: the solution's, when no step was taken after it
+    last = [None, None]  # (parameters' bytes, Jacobian) of the latest one: the solution's when no step followed it
 
     def normal(theta):
-        J = last[theta.tobytes()] = prob.jacobian(theta)
-        if len(last) > 1:
-            del last[next(iter(last))]
+        J = prob.jacobian(theta)
+        last[:] = theta.tobytes(), J
         return J.T @ J, J.T @ prob.residual(theta)
 
     with np.errstate(all="ignore"):
         sol = levenberg_marquardt(prob.residual, normal, theta0, ftol=_FTOL, xtol=_TOL, gtol=1e-8, max_nfev=max_nfev, factor=100.0)
-        J = last.get(sol.x.tobytes())
-        return SimpleNamespace(x=sol.x, fun=sol.fun, jac=prob.jacobian(sol.x) if J is None else J, cost=sol.cost)
+        J = last[1] if last[0] == sol.x.tobytes() else prob.jacobian(sol.x)
+        return SimpleNamespace(x=sol.x, fun=sol.fun, jac=J, cost=sol.cost)
 
 
 def _finish(prob: _Problem, sol, t0: float) -> StructuredFit:
