@@ -42,7 +42,7 @@ def case():
 def test_the_worker_draws_the_png_this_process_draws(case):
     from jointid.plots.figure_worker import FigureWorker
     from jointid.plots.stiffness_data import JointStiffnessData
-    from jointid.plots.style import figure_png
+    from jointid.io.png import figure_png
 
     _, _, result = case
     here = figure_png(result.plot())
@@ -326,7 +326,7 @@ def test_the_file_the_worker_reads_first_is_the_file_read_here(case, tmp_path, w
     from jointid.pipeline import read_measured
     from jointid.plots.figure_worker import FigureWorker
     from jointid.plots.stiffness_data import JointStiffnessData
-    from jointid.plots.style import figure_png
+    from jointid.io.png import figure_png
     from jointid.study.measured import read_study_frf
 
     st, measured, result = case
@@ -420,7 +420,7 @@ def test_the_png_level_changes_the_bytes_not_the_pixels(case):
 
     from PIL import Image
 
-    from jointid.plots.style import PNG_COMPRESS_LEVEL, figure_png
+    from jointid.io.png import PNG_COMPRESS_LEVEL, figure_png
 
     _, _, result = case
     fig = result.plot()

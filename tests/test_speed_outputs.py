@@ -92,7 +92,7 @@ def test_ticks_in_view_draw_the_same_png_with_fewer_tick_artists(monkeypatch):
     from jointid.plots import fast_axes
     from jointid.plots.joint_stiffness import plot_joint_stiffness
     from jointid.plots.stiffness_data import JointStiffnessData
-    from jointid.plots.style import figure_png
+    from jointid.io.png import figure_png
 
     rng = np.random.default_rng(2)
     f = np.linspace(5.0, 1000.0, 400)
@@ -159,7 +159,8 @@ def _two_panel_png(convert: bool, style, sharex: bool = False) -> bytes:
     from matplotlib.ticker import NullFormatter
 
     from jointid.plots.fast_axes import minor_ticks_as_one_artist
-    from jointid.plots.style import figure_png, new_figure
+    from jointid.io.png import figure_png
+    from jointid.plots.style import new_figure
 
     fig, axes = new_figure(1, 2, figsize=(6.0, 3.0), sharex=sharex, layout=None)
     for ax in axes:

@@ -100,7 +100,8 @@ def _figures(specimen, tests, outcomes, a):
         plot_shift_factors,
         plot_temperature_curves,
     )
-    from ..plots.style import figure_png, new_figure
+    from ..io.png import figure_png
+    from ..plots.style import new_figure
 
     slug = _anchor(specimen)[len("specimen-"):]
     figs = []

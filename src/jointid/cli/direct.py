@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import io
 import json
 import sys
 from pathlib import Path
@@ -152,9 +151,9 @@ def _run(args: argparse.Namespace, out: OutputSet) -> int:
     if not args.no_plots:
         from ..plots.direct import plot_direct_stiffness
 
-        buf = io.BytesIO()
-        plot_direct_stiffness(result, fit).savefig(buf, format="png", dpi=120)
-        png = buf.getvalue()
+        from ..io.png import figure_png
+
+        png = figure_png(plot_direct_stiffness(result, fit), dpi=120)
     # everything is computed: stage the files (they appear together when `out` commits)
     out.write_csv("direct_stiffness.csv", csv_columns)
     out.write_text("direct_fit.json", text)

@@ -120,7 +120,7 @@ def write_identification(out: OutputSet, result, study, source: Path, plots: boo
     figures = []  # (file name, PNG bytes or a PendingFigure, caption) for the report
 
     def figure(name: str, fig, caption: str) -> None:
-        from ..plots.style import figure_png
+        from ..io.png import figure_png
 
         figures.append((name, figure_png(fig), caption))
 
@@ -165,7 +165,7 @@ def _worker_png(pending, draw) -> bytes:
     try:
         return pending.result()
     except WorkerLost:  # only then matplotlib in this process (its import alone costs ~0.4 s)
-        from ..plots.style import figure_png
+        from ..io.png import figure_png
 
         return figure_png(draw())
 

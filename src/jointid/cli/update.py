@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
         out.write_text("updated_study.toml", new_text)
         figures = []
         if not args.no_plots:
-            from ..plots.style import figure_png
+            from ..io.png import figure_png
 
             png = figure_png(result.plot())
             out.write_bytes("update.png", png)

@@ -9,7 +9,8 @@ The main API, re-exported here (imported on first use)::
   ``write_frf_csv``;
 * :mod:`.output_dir` -- ``OutputSet`` (the ``--out DIR`` writer), ``OutputError``;
 * :mod:`.tables` -- ``write_csv``; :mod:`.json_files` -- ``json_text`` (strict JSON); :mod:`.atomic` -- ``atomic_write_text``,
-  ``atomic_write_bytes``, ``atomic_path``.
+  ``atomic_write_bytes``, ``atomic_path``; :mod:`.png` -- ``figure_png`` (a matplotlib figure as PNG bytes, laid
+  out once: every figure jointid writes goes through it).
 """
 
 from .._lazy import attach
@@ -24,6 +25,7 @@ __getattr__, __dir__, __all__ = attach(
         ".tables": ("write_csv",),
         ".json_files": ("json_text", "strict_json"),
         ".atomic": ("atomic_write_text", "atomic_write_bytes", "atomic_path"),
+        ".png": ("figure_png",),
     },
-    submodules=("frf_files", "uff", "frf_csv", "output_dir", "tables", "json_files", "atomic"),
+    submodules=("frf_files", "uff", "frf_csv", "output_dir", "tables", "json_files", "atomic", "png"),
 )

@@ -357,8 +357,10 @@ class OutputSet:
         return self.write_text(name, text)
 
     def write_figure(self, name: str, fig, dpi: int = 120) -> Path:
-        """Stage matplotlib ``fig`` as a PNG; returns the final path."""
-        return self.write_file(name, lambda p: fig.savefig(p, format="png", dpi=dpi))
+        """Stage matplotlib ``fig`` as a PNG (:func:`~jointid.io.png.figure_png`); returns the final path."""
+        from .png import figure_png
+
+        return self.write_bytes(name, figure_png(fig, dpi=dpi))
 
     def write_file(self, name: str, writer: Callable[[Path], object]) -> Path:
         """Stage output ``name`` with ``writer(path)``, which must create the file at ``path``.

@@ -14,7 +14,7 @@ The main API, re-exported here (matplotlib is imported on first use, not by ``im
 * :mod:`.joint_stiffness` -- ``plot_joint_stiffness`` (also ``CouplingResult.plot()``);
 * :mod:`.campaign` -- temperature curves, master curve, shift factors, amplitude and preload dependence;
 * :mod:`.nvh_axes` -- log frequency axes, ``|K|`` bands, loss factor or phase, robust limits;
-* :mod:`.style` -- ``new_figure``, ``save_figure``, ``figure_png``.
+* :mod:`.style` -- ``new_figure``, ``save_figure`` (PNG bytes: :func:`jointid.io.png.figure_png`).
 """
 
 from .._lazy import attach
@@ -34,7 +34,7 @@ __getattr__, __dir__, __all__ = attach(
         ".campaign": ("plot_temperature_curves", "plot_master_fit", "plot_shift_factors", "plot_amplitude_dependence",
                       "plot_preload_dependence"),
         ".nvh_axes": ("set_frequency_axis", "loss_or_phase", "magnitude_band"),
-        ".style": ("new_figure", "save_figure", "figure_png"),
+        ".style": ("new_figure", "save_figure"),
     },
     submodules=("frf", "campaign", "impact", "inverse", "joint_stiffness", "nvh_axes", "direct", "studies", "design", "noise_robustness", "real_world", "style"),
 )

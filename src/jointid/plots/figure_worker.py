@@ -52,7 +52,7 @@ def render(kind: str, data, kwargs: dict, dpi: int = 120) -> bytes:
     """Draw figure ``kind`` of :data:`FIGURES` from ``data`` and return it as PNG bytes (in any process)."""
     from importlib import import_module
 
-    from .style import figure_png
+    from ..io.png import figure_png
 
     module, name = FIGURES[kind]
     fig = getattr(import_module(module), name)(data, **kwargs)

@@ -7,14 +7,10 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
-from ..io.atomic import atomic_path
+from ..io.atomic import atomic_write_bytes
+from ..io.png import figure_png
 
-__all__ = ["new_figure", "save_figure", "figure_png", "PNG_COMPRESS_LEVEL"]
-
-#: zlib level of the PNGs written here (the pixels do not depend on it). Measured on ``joint_stiffness.png`` of
-#: 19 901 lines (1380 x 840 px): level 6 (PIL's default) 0.053 s, 315 kB; 3: 0.036 s, 303 kB (a third faster, and
-#: smaller: the line-art's filtered rows compress as well at the lower level).
-PNG_COMPRESS_LEVEL = 3
+__all__ = ["new_figure", "save_figure"]
 
 
 def new_figure(rows: int = 1, cols: int = 1, height_ratios=None, figsize=(8.0, 6.0), sharex: bool = True,
@@ -36,19 +32,10 @@ def new_figure(rows: int = 1, cols: int = 1, height_ratios=None, figsize=(8.0, 6
 
 
 def save_figure(fig: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
-    """Save ``fig`` as PNG at ``path`` atomically (umask permissions); returns the path.
+    """Save ``fig`` as PNG at ``path`` atomically (umask permissions), laid out once
+    (:func:`jointid.io.png.figure_png`); returns the path.
 
     For a command's outputs use :meth:`jointid.io.output_dir.OutputSet.write_figure`.
     """
-    with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+    atomic_write_bytes(path, figure_png(fig, dpi=dpi))
     return Path(path)
-
-
-def figure_png(fig: Figure, dpi: int = 120) -> bytes:
-    """``fig`` as PNG bytes (to write with ``OutputSet.write_bytes`` and embed in a report)."""
-    import io
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
-    return buf.getvalue()

@@ -85,8 +85,8 @@ class StudyOutput:
 
 
 def png(fig, dpi: int = 110) -> bytes:
-    """``fig`` as PNG bytes (:func:`jointid.plots.style.figure_png`): a figure of the report, as it crosses a process boundary."""
-    from ..plots.style import figure_png
+    """``fig`` as PNG bytes (:func:`jointid.io.png.figure_png`): a figure of the report, as it crosses a process boundary."""
+    from ..io.png import figure_png
 
     return figure_png(fig, dpi=dpi)
 
