@@ -235,3 +235,39 @@ def test_minor_ticks_as_one_artist_draw_what_matplotlib_draws(style):
 def test_minor_ticks_as_one_artist_on_shared_axes():
     """Converting one of two axes sharing x gives both the artist (they share the minor locator): the same bytes."""
     assert _two_panel_png(True, lambda *a: None, sharex=True) == _two_panel_png(False, lambda *a: None, sharex=True)
+
+
+def test_a_figure_laid_out_once_has_the_pixels_of_savefig_and_keeps_its_layout_engine():
+    """figure_png runs the constrained layout once (savefig runs it at each of its two draws) and draws the pixels
+    matplotlib's own savefig draws; the figure keeps its engine and its titles' automatic position afterwards."""
+    from matplotlib.image import imread
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from jointid.io.png import PNG_COMPRESS_LEVEL, figure_png
+    from jointid.plots.style import new_figure
+
+    def build():
+        fig, axes = new_figure(2, 2, figsize=(7.0, 5.0))
+        f = np.linspace(10.0, 1000.0, 400)
+        for i, ax in enumerate(axes.flat):
+            ax.semilogy(f, 1e3 * (i + 1) * (1 + (f / 300.0) ** 2), label=f"term {i}")
+            ax.set_title(f"K_{i} (long title {i})")
+            ax.set_ylabel("|K| [N/m]")
+            ax.legend()
+        fig.suptitle("a constrained figure")
+        return fig
+
+    ref = build()
+    buf = io.BytesIO()
+    ref.savefig(buf, format="png", dpi=120, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+    fig = build()
+    engine = fig.get_layout_engine()
+    calls = []
+    run = engine.execute
+    engine.execute = lambda f: (calls.append(1), run(f))[1]
+    png = figure_png(fig, dpi=120)
+    assert len(calls) == 1
+    a, b = imread(io.BytesIO(buf.getvalue())), imread(io.BytesIO(png))
+    assert a.shape == b.shape and np.array_equal(a, b)
+    assert fig.get_layout_engine() is engine and isinstance(engine, ConstrainedLayoutEngine)
+    assert all(ax._autotitlepos for ax in fig.axes)
