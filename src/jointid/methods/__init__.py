@@ -18,7 +18,8 @@ The main API, re-exported here (imported on first use)::
 * shared by the families: :mod:`.estimate` (``JointEstimate``, the one result of every inverse
   estimator, and the estimator registry), :mod:`.frf_screening` (dead data, invisible DOFs),
   :mod:`.fit_statistics` (``ParameterEstimate``), :mod:`.levenberg_marquardt` (``levenberg_marquardt``: MINPACK's
-  steps on the normal equations, for least squares of many rows and few parameters).
+  steps on the normal equations, for least squares of many rows and few parameters), :mod:`.bspline_basis` (the B-spline design
+  matrices of the smoothers and the structured model, without importing ``scipy.interpolate``).
 
 This layer imports :mod:`jointid.measurement`, :mod:`jointid.physics` and the labels, never
 the application (study, pipeline, reproduce, report, plots except inside ``plot()`` methods) or

@@ -30,9 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.interpolate import BSpline
 
 from ...parallel import single_threaded_blas
+from ..bspline_basis import bspline_design_sparse, clamped_uniform_knots
 
 __all__ = ["SmoothedSeries", "smooth_series", "bspline_basis", "residual_scale", "MAX_BASIS", "LOG_LAMBDA_GRID",
            "RESIDUAL_WINDOW_EDF", "RESIDUAL_MIN_LINES", "RESIDUAL_FALSE_ALARM", "running_mean",
@@ -65,9 +65,7 @@ class SmoothedSeries:
 def bspline_basis(x: np.ndarray, n_basis: int, degree: int = 3):
     """Cubic (``degree``) B-splines on uniform knots over ``x[0]..x[-1]``, shape (F, n_basis), sparse CSR."""
     u = (x - x[0]) / (x[-1] - x[0])
-    inner = np.linspace(0.0, 1.0, n_basis - degree + 1)
-    t = np.r_[[0.0] * degree, inner, [1.0] * degree]
-    return BSpline.design_matrix(np.clip(u, 0.0, 1.0), t, degree).tocsr()
+    return bspline_design_sparse(np.clip(u, 0.0, 1.0), clamped_uniform_knots(n_basis, degree), degree)
 
 
 def smooth_series(x: np.ndarray, y: np.ndarray, variance: np.ndarray, n_basis: int | None = None) -> SmoothedSeries:

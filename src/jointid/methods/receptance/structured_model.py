@@ -33,7 +33,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.interpolate import BSpline
+
+from ..bspline_basis import bspline_design, clamped_uniform_knots
 
 __all__ = ["StructuredModel", "structured_stiffness", "structured_terms", "default_scale", "sym_basis", "unpack", "pack", "extend", "drop_last_mode"]
 
@@ -104,9 +105,7 @@ class StructuredModel:
             return np.ones((hz.size, 1))
         lo, hi = self.band
         u = np.clip((hz - lo) / (hi - lo), 0.0, 1.0)
-        inner = np.linspace(0.0, 1.0, self.g_basis - 2)
-        t = np.r_[[0.0] * 3, inner, [1.0] * 3]
-        return BSpline.design_matrix(u, t, 3).toarray()
+        return bspline_design(u, clamped_uniform_knots(self.g_basis, 3), 3)
 
 
 @lru_cache(maxsize=16)
