@@ -10,8 +10,8 @@ Sections (default: ``startup process``; ``all`` adds ``in-process``)::
   figures, CSV and report written) on a 7 x 3 accelerance UFF of the benchmark beam with N lines
   (default 19 901: 5-1000 Hz in 0.05 Hz steps, 1 % complex noise; written by ``jointid simulate``),
   against a plain per-line ``numpy.linalg.pinv`` loop in its own process reading the same UFF with
-  pyuff (19-node model, both Hong & Lee steps, result written with ``numpy.savetxt``); best of R runs,
-  wall and CPU (user + sys of the child), and the ratio. Then the identify process's CPU split by
+  pyuff (19-node model, both Hong & Lee steps, result written with ``numpy.savetxt``); R interleaved
+  (loop, identify) pairs: best times, wall and CPU (user + sys of the child), and the median of the pairs' ratios. Then the identify process's CPU split by
   phase (imports, UFF read, column calibration, structured fit, ..., writing), from timers wrapped
   around each phase's function (the UFF is parsed by the figure worker while the identify process
   imports: the read phase is then its check only, and the wall time it waited for the worker is shown;
@@ -251,17 +251,22 @@ def process(lines: int, repeats: int, coherence: bool = False) -> None:
         global _ENV
         _ENV = _child_env(tmp / "pycache")
         _run(loop), _run(ident)  # warm-up: bytecode cached, files in the page cache (not timed)
-        t_loop = [_run(loop) for _ in range(repeats)]
-        t_id = [_run(ident) for _ in range(repeats)]
+        # interleaved (loop, identify) pairs: a shared machine's speed drifts by 20-30 % over minutes, and the ratio of
+        # two runs next to each other drifts far less than the ratio of two blocks of runs
+        pairs = [(_run(loop), _run(ident)) for _ in range(repeats)]
+        t_loop, t_id = [p[0] for p in pairs], [p[1] for p in pairs]
         wall_l, cpu_l = min(t[0] for t in t_loop), min(t[1] for t in t_loop)
         wall_i, cpu_i = min(t[0] for t in t_id), min(t[1] for t in t_id)
+        wall_r = statistics.median(i[0] / lp[0] for lp, i in pairs)
+        cpu_r = statistics.median(i[1] / lp[1] for lp, i in pairs)
         n = t_id[0][2].split(" lines (")[0].rsplit(" ", 1)[-1]
         what = " and coherences" if coherence else ""
         print(f"whole process, {n} lines, 7 x 3 accelerances{what}, {uff.stat().st_size / 1e6:.1f} MB ASCII UFF "
-              f"(best of {repeats}; wall / CPU):")
+              f"(best of {repeats}, run in interleaved pairs; wall / CPU):")
         print(f"    per-line pinv loop (pyuff read, 19-node model, savetxt)   {wall_l:6.2f} s / {cpu_l:6.2f} s")
-        print(f"    jointid identify (default estimator, uncertainty, outputs) {wall_i:6.2f} s / {cpu_i:6.2f} s   "
-              f"ratio {wall_i / wall_l:.2f} / {cpu_i / cpu_l:.2f} of the loop")
+        print(f"    jointid identify (default estimator, uncertainty, outputs) {wall_i:6.2f} s / {cpu_i:6.2f} s")
+        print(f"    ratio identify / loop, median of the {repeats} pairs: {wall_r:.2f} wall / {cpu_r:.2f} CPU "
+              f"(best / best: {wall_i / wall_l:.2f} / {cpu_i / cpu_l:.2f})")
         _split(ident[1:], tmp)
 
 

@@ -19,7 +19,8 @@ The main API, re-exported here (imported on first use)::
   estimator, and the estimator registry), :mod:`.frf_screening` (dead data, invisible DOFs),
   :mod:`.fit_statistics` (``ParameterEstimate``), :mod:`.levenberg_marquardt` (``levenberg_marquardt``: MINPACK's
   steps on the normal equations, for least squares of many rows and few parameters), :mod:`.bspline_basis` (the B-spline design
-  matrices of the smoothers and the structured model, without importing ``scipy.interpolate``).
+  matrices of the smoothers and the structured model, without importing ``scipy.interpolate``),
+  :mod:`.moving_average` (``scipy.ndimage.uniform_filter1d``'s average over lines, without importing ``scipy.ndimage``).
 
 This layer imports :mod:`jointid.measurement`, :mod:`jointid.physics` and the labels, never
 the application (study, pipeline, reproduce, report, plots except inside ``plot()`` methods) or

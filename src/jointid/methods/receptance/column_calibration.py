@@ -85,10 +85,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 from scipy.special import fdtrc
 
 from ...parallel import map_lines, single_threaded_blas
+from ..moving_average import moving_average
 from .coupling_lines import symmetric_parametrization, whitened_line_design
 from .smoothing import bspline_basis
 
@@ -482,8 +482,8 @@ def residual_variance(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, vari
     r2 = (np.abs(rw) / sw) ** 2  # |residual|^2, (m/N)^2
     free = np.clip(1.0 - np.sum(np.abs(Q) ** 2, axis=2), 0.0, None)
     width = min(int(lines), max(1, F // 10)) | 1
-    num = uniform_filter1d(r2, width, axis=0, mode="nearest")
-    den = uniform_filter1d(free, width, axis=0, mode="nearest")
+    num = moving_average(r2, width, axis=0)
+    den = moving_average(free, width, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         v = num / den
     return np.where(np.isfinite(v) & (v > 0), v, variance.reshape(F, m * e)).reshape(F, m, e)

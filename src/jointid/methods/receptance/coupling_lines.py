@@ -96,9 +96,9 @@ import threading
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
 from ...parallel import map_lines
+from ..moving_average import moving_average
 
 __all__ = [
     "LineEstimates", "coupling_per_line", "symmetric_parametrization", "relinearize", "uses_kronecker", "DENSE_PATH_BYTES",
@@ -352,7 +352,7 @@ def _pooled_scale(chi2: np.ndarray, dof: int, pool_lines: int | None) -> np.ndar
     if dof <= 0:
         return np.full(F, np.nan)
     w = pool_lines or (max(1, F // 40) | 1)
-    return uniform_filter1d(chi2 / dof, size=min(w, F), mode="nearest")
+    return moving_average(chi2 / dof, min(w, F))
 
 
 def separable_weights(variance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

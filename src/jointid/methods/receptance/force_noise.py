@@ -77,10 +77,10 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 from scipy.special import fdtrc
 
 from ...parallel import map_lines, single_threaded_blas
+from ..moving_average import moving_average
 from .coupling_lines import LineEstimates, symmetric_parametrization, whitened_line_design
 
 __all__ = ["ForceNoise", "detect_force_noise", "column_split", "FORCE_NOISE_P_VALUE", "FORCE_NOISE_MIN_F", "FORCE_NOISE_MIN_LEVEL", "FORCE_NOISE_LINES"]
@@ -226,7 +226,7 @@ def detect_force_noise(Ymn: np.ndarray, Yne: np.ndarray, change: np.ndarray, H: 
     tiny = np.finfo(float).tiny
 
     def run(x):
-        return uniform_filter1d(x, width, axis=0, mode="nearest")
+        return moving_average(x, width, axis=0)
 
     a = np.maximum(run(perp) / rest, tiny)  # (F,)
     # the F test, each line normalized by its own smoothed a
@@ -324,7 +324,7 @@ def _gls_lines(Ymn, Yne, Ynn, change, H, resp_var, col_var, symmetric, pool_line
     with np.errstate(divide="ignore", invalid="ignore"):
         cond = sv[:, 0] / sv[:, -1]
     w = pool_lines or (max(1, F // 40) | 1)
-    scale = uniform_filter1d(np.sum(np.abs(resid) ** 2, axis=1) / dof, size=min(w, F), mode="nearest") if dof > 0 else np.full(F, np.nan)
+    scale = moving_average(np.sum(np.abs(resid) ** 2, axis=1) / dof, min(w, F)) if dof > 0 else np.full(F, np.nan)
     C = (Ri @ np.conj(np.swapaxes(Ri, 1, 2))) / (cs[:, :, None] * cs[:, None, :])
     X = (x @ P.T).reshape(F, n, n)
     I = np.eye(n)

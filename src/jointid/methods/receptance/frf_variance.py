@@ -59,10 +59,10 @@ the residuals once the column error is removed
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
 from ...errors import IdentificationError
 from ...parallel import map_chunks, single_threaded_blas, worker_count
+from ..moving_average import moving_average
 
 __all__ = ["frf_variance", "column_noise_fraction", "smooth_coherence_variance", "WEIGHTINGS", "RELATIVE_FLOOR", "COHERENCE_SMOOTHING_LINES", "SPLIT_MIN_REDUNDANCY", "SPLIT_MIN_FRACTION"]
 
@@ -330,7 +330,7 @@ def smooth_coherence_variance(q: np.ndarray, mag2: np.ndarray) -> np.ndarray:
     y, x = np.log(q), np.log(mag2)
 
     def mean(z):
-        return uniform_filter1d(z, width, axis=0, mode="nearest")
+        return moving_average(z, width, axis=0)
 
     my, mx = mean(y), mean(x)
     sxx = np.maximum(mean(x * x) - mx * mx, 0.0)
@@ -344,4 +344,4 @@ def smooth_coherence_variance(q: np.ndarray, mag2: np.ndarray) -> np.ndarray:
 def _smooth_log(x: np.ndarray) -> np.ndarray:
     """Running mean in log scale over :data:`COHERENCE_SMOOTHING_LINES` lines (at most a tenth of them)."""
     width = min(COHERENCE_SMOOTHING_LINES, max(1, x.shape[0] // 10)) | 1
-    return np.exp(uniform_filter1d(np.log(x), width, axis=0, mode="nearest")) if width > 1 else x
+    return np.exp(moving_average(np.log(x), width, axis=0)) if width > 1 else x
