@@ -92,14 +92,16 @@ def test_virtual_experiment_study(coarse):
 def test_reproduce_cli_subset_is_deterministic(tmp_path):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[frequency]\nstart = 5.0\nstop = 1000.0\nstep = 10.0\n")
-    args = ["reproduce", "--only", "conditioning,model-error", "--config", str(cfg), "--quiet", "--seed", "7"]
+    # one study with noise (its seed drawn from --seed); the conditioning study, without noise, added 40 % to the time
+    args = ["reproduce", "--only", "model-error", "--config", str(cfg), "--quiet", "--seed", "7"]
     assert main(args + ["--out", str(tmp_path / "a")]) == 0
     assert main(args + ["--out", str(tmp_path / "b")]) == 0
     html = (tmp_path / "a" / "report.html").read_text()
-    assert html.count("data:image/png;base64,") == 5 and "Summary" in html and "http" not in html.split("<body>")[1]
-    for csv_file in (tmp_path / "a" / "data").iterdir():
+    assert html.count("data:image/png;base64,") == 3 and "Summary" in html and "http" not in html.split("<body>")[1]
+    csvs = sorted((tmp_path / "a" / "data").iterdir())
+    assert csvs
+    for csv_file in csvs:
         assert csv_file.read_text() == (tmp_path / "b" / "data" / csv_file.name).read_text()
     assert sorted(p.name for p in (tmp_path / "a" / "figures").iterdir()) == [
-        "conditioning_condition_numbers.png", "conditioning_translational.png",
         "model_error_density.png", "model_error_elastic_modulus.png", "model_error_loss_factor.png",
     ]
