@@ -59,7 +59,7 @@ from .model_check import MIN_REDUNDANCY, design_residual
 from .units_check import UNIT_FACTORS
 
 __all__ = ["GrossError", "gross_error", "GROSS_LINES", "GROSS_RATIO", "GROSS_TIE", "GROSS_COLUMN_ERROR", "RECORD_FACTORS",
-           "SWAP_CANDIDATES"]
+           "SWAP_CANDIDATES", "HYPOTHESES_AT_ONCE"]
 
 #: Most lines the hypotheses are tried on (evenly spread over the band).
 GROSS_LINES = 128
@@ -67,6 +67,8 @@ GROSS_LINES = 128
 GROSS_RATIO = 20.0
 #: Explanations within this factor of the best one's score are equivalent; the first in the module's order is named.
 GROSS_TIE = 2.0
+#: Hypotheses on the one design scored in one product (memory: 16 x this x lines x m e bytes).
+HYPOTHESES_AT_ONCE = 16
 #: Records of each kind (responses, excitations) among which exchanged pairs are tried: those whose leaving out lowers
 #: the residual most (both records of an exchanged pair are among them).
 SWAP_CANDIDATES = 3
@@ -92,10 +94,6 @@ class GrossError:
     kind: str
     conclusion: str
     ratio: float
-
-
-def _median_chi2(r: np.ndarray, dof: int) -> float:
-    return float(np.median(np.sum(r.real ** 2 + r.imag ** 2, axis=1) / dof))
 
 
 def _names(dofs, which) -> str:
@@ -140,8 +138,17 @@ def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray
     with single_threaded_blas():
         sw, _, Q, _ = whitened_line_design(Ymn, Yne, V, symmetric, keep=False)
 
-    def same_design(H_true, u=1.0) -> float:  # V / u^2: the weights u sw
-        return _median_chi2(design_residual(Yme - H_true, u * sw, Q), dof)
+    QH = np.conj(np.swapaxes(Q, 1, 2))
+
+    def same_design(hypotheses: list) -> list[float]:
+        """The score of each ``(H_true, u)`` (weights ``u sw``: ``V / u^2``) on the one design, in blocks of
+        :data:`HYPOTHESES_AT_ONCE` as the columns of one product (not one matrix-vector product each)."""
+        out = []
+        for s in range(0, len(hypotheses), HYPOTHESES_AT_ONCE):
+            D = np.stack([(Yme - Ht).reshape(-1, N) * (u * sw) for Ht, u in hypotheses[s:s + HYPOTHESES_AT_ONCE]], axis=2)
+            R = D - Q @ (QH @ D)  # (I - Q Q^H) d_w, (F, m e, h)
+            out += [float(v) for v in np.median(np.sum(R.real ** 2 + R.imag ** 2, axis=1) / dof, axis=0)]
+        return out
 
     # a hypothesis about one or two records changes only their rows: refitted from the full fit (block_refit)
     N, p_ = m * e, Q.shape[2]
@@ -161,20 +168,17 @@ def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray
         d_new = sw_new * (Yme - H_new).reshape(-1, N)[:, rows]
         return float(np.median(replaced_rss(d0, r0, Q, rows, d_new, sw_new / sw[:, rows]) / dof))
 
-    base = same_design(H)
-    if not np.isfinite(base) or base <= 0:
-        return None
-    tried: list[tuple[float, str, str, str]] = []  # (score, kind, what is wrong, fix), in the module's order
     how = {"units": "divided by it", "sign": "with the sign reversed", "swap": "exchanged back", "channel": "without it"}
-
+    # the data as given, each unit factor and each sign pattern: the same design, scored together
+    pending = [((H, 1.0), None)]  # ((H_true, u), (kind, what is wrong, fix))
     for u, label, why in UNIT_FACTORS:
-        tried.append((same_design(H / u, u), "units",
-                      f"the FRFs look scaled by {label} in every excitation column ({why})", _FIX["units"]))
+        pending.append(((H / u, u), ("units", f"the FRFs look scaled by {label} in every excitation column ({why})",
+                                     _FIX["units"])))
 
-    def flipped(rows, cols) -> float:
+    def flipped(rows, cols) -> tuple:
         s_r, s_c = np.ones(m), np.ones(e)
         s_r[list(rows)], s_c[list(cols)] = -1.0, -1.0
-        return same_design(H * s_r[:, None] * s_c[None, :])
+        return H * s_r[:, None] * s_c[None, :], 1.0
 
     negative = "measured the negative of what the free model predicts"
     for d in dict.fromkeys(x.direction for x in (*responses, *references)):
@@ -183,11 +187,16 @@ def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray
         for r_, c_, who in ((rows, [], "responses"), ([], cols, "excitations"), (rows, cols, "responses and excitations")):
             if (r_ or c_) and len(r_) < m and len(c_) < e and len(r_) + len(c_) > 1:  # one record: below
                 names = ", ".join(x for x in (_names(responses, r_), _names(references, c_)) if x)
-                tried.append((flipped(r_, c_), "sign", f"the {who} along {d} ({names}) {negative}", _FIX["sign"]))
+                pending.append((flipped(r_, c_), ("sign", f"the {who} along {d} ({names}) {negative}", _FIX["sign"])))
     for i in range(m):
-        tried.append((flipped([i], []), "sign", f"response {responses[i]} {negative}", _FIX["sign"]))
+        pending.append((flipped([i], []), ("sign", f"response {responses[i]} {negative}", _FIX["sign"])))
     for j in range(e):
-        tried.append((flipped([], [j]), "sign", f"the excitation at {references[j]} (column {j + 1}) {negative}", _FIX["sign"]))
+        pending.append((flipped([], [j]), ("sign", f"the excitation at {references[j]} (column {j + 1}) {negative}",
+                                           _FIX["sign"])))
+    base, *scores = same_design([h for h, _ in pending])
+    if not np.isfinite(base) or base <= 0:
+        return None
+    tried: list[tuple[float, str, str, str]] = [(sc, *t) for sc, (_, t) in zip(scores, pending[1:])]  # in the module's order
 
     channels = []  # (score, kind, what, fix, axis, index): one record left out
     for i in range(m if m - 1 >= n else 0):
