@@ -150,20 +150,23 @@ class _Problem:
         self.symmetric = symmetric
         self.count = int(np.count_nonzero(weight))
 
-    def residual(self, K: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Whitened residual (F, m, e) and ``A = Y[m,n] L``, ``B = R Y[n,e]`` at ``K``."""
+    def residual(self, K: np.ndarray, factors: bool = True) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """Whitened residual (F, m, e) and ``A = Y[m,n] L``, ``B = R Y[n,e]`` at ``K`` (None, None if not ``factors``:
+        the cost and the acceleration's residual need ``r`` only)."""
         eye = np.eye(self.n)
         L = np.linalg.inv(eye + K @ self.Ynn)
         X = L @ K
-        R = eye - self.Ynn @ X  # = (I + Y[n,n] K)^-1 (module docstring): a product instead of a second inverse
         r = (self.change - self.Ymn @ X @ self.Yne) * self.weight
+        if not factors:
+            return r, None, None
+        R = eye - self.Ynn @ X  # = (I + Y[n,n] K)^-1 (module docstring): a product instead of a second inverse
         return r, self.Ymn @ L, R @ self.Yne
 
     def cost(self, K: np.ndarray) -> float:
         """Whitened residual sum of squares at ``K`` (inf where ``I + K Y[n,n]`` is singular)."""
         with np.errstate(all="ignore"):
             try:
-                r = self.residual(K)[0]
+                r = self.residual(K, factors=False)[0]
             except np.linalg.LinAlgError:
                 return np.inf
         c = float(np.sum(r.real ** 2 + r.imag ** 2))
@@ -239,7 +242,7 @@ def _levenberg_marquardt(problem: _Problem, coef: np.ndarray, basis: np.ndarray,
             # geodesic acceleration: r'' along v by a finite difference of the residual
             h = ACCELERATION_STEP
             try:
-                rh = problem.residual(_stiffness((x + h * v).reshape(p, nb), basis, problem.pairs, n, sym))[0]
+                rh = problem.residual(_stiffness((x + h * v).reshape(p, nb), basis, problem.pairs, n, sym), factors=False)[0]
             except np.linalg.LinAlgError:
                 rh = None
             step = v
