@@ -90,6 +90,29 @@ def test_response_ringing_at_the_record_end_is_leakage():
 def test_exponential_window_silences_the_leakage_line():
     notes = _notes(_hits(T=0.25), exp_tau_s=0.01, **WINDOW)
     assert not any("ring" in x for x in notes)
+    assert estimate_frfs([_hits(T=0.25)], ImpactOptions(band_hz=BAND, exp_tau_s=0.01, **WINDOW)).leaking == ()
+
+
+def test_leaking_records_are_marked_in_the_uff_file_and_read_back_as_a_note(tmp_path):
+    """The records whose response rings at the end carry the mark into frf.uff (ID line 4); reading the file says so,
+    naming them, and points at the processing before the free model. The other records stay unmarked."""
+    from jointid.io.uff import LEAKAGE_MARK, read_uff_frf
+    from jointid.measurement.impact import ImpactFRF
+
+    est = estimate_frfs([_hits(T=0.25)], ImpactOptions(band_hz=BAND, **WINDOW))
+    assert [(str(r), str(c)) for r, c in est.leaking] == [("1w", "3w"), ("5w", "3w")]
+    path = write_impact_npz(tmp_path / "hits_3.npz", _hits(T=0.25))
+    assert main(["frf", str(path), "--out", str(tmp_path / "o"), "--band-hz", "5", "500", "--no-plots",
+                 "--force-window-ms", "10", "--pretrigger-ms", "5", "--n-nodes", "5"]) == 0
+    text = (tmp_path / "o" / "frf.uff").read_text()
+    assert text.count(LEAKAGE_MARK) == 2
+    frf = read_uff_frf(tmp_path / "o" / "frf.uff", n_nodes=5)
+    assert frf.notes[-1] == (
+        "2 record(s) marked by jointid frf as leaking (the response still rang at the record's end: 1w/3w, 5w/3w): their "
+        "FRFs are biased near the lightly damped modes, so a free model that does not fit these FRFs there may be this, not "
+        "the model; process the hits again with longer records or an exponential window (--exp-tau-ms) before updating the "
+        "model")
+    assert ImpactFRF.__dataclass_fields__["leaking"].default == ()
 
 
 def test_noise_only_channel_is_named():

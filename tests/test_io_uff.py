@@ -183,6 +183,29 @@ def test_writer_refuses_what_it_cannot_write(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_record_marks_are_written_to_id_line_4_and_only_the_leakage_mark_becomes_a_note(tmp_path):
+    from jointid.io.uff import LEAKAGE_MARK
+
+    p = tmp_path / "m.uff"
+    write_uff_frf(p, _frf(), binary=True, marks={("7w", "2w"): LEAKAGE_MARK})
+    frf = read_uff_frf(p, kind="receptance")
+    assert frf.notes == (
+        "1 record(s) marked by jointid frf as leaking (the response still rang at the record's end: 7w/2w): their FRFs are "
+        "biased near the lightly damped modes, so a free model that does not fit these FRFs there may be this, not the "
+        "model; process the hits again with longer records or an exponential window (--exp-tau-ms) before updating the model",)
+    np.testing.assert_array_equal(frf.data, read_uff_frf(_written(tmp_path / "plain.uff"), kind="receptance").data)
+    assert read_uff_frf(tmp_path / "plain.uff", kind="receptance").notes == ()
+    write_uff_frf(tmp_path / "other.uff", _frf(), binary=True, marks={("7w", "2w"): "measured on a Monday"})
+    assert read_uff_frf(tmp_path / "other.uff", kind="receptance").notes == ()  # not jointid's mark: nothing said
+    with pytest.raises(DataError, match="^UFF ID lines hold at most 80 characters; shorten the record marks$"):
+        write_uff_frf(tmp_path / "long.uff", _frf(), marks={("7w", "2w"): "x" * 81})
+
+
+def _written(path):
+    write_uff_frf(path, _frf(), binary=True)
+    return path
+
+
 # ------------------------------------------------- kind and direction decoding
 @pytest.mark.parametrize("code, power", [(8, 0), (11, 1), (12, 2)])
 def test_kind_from_ordinate_numerator(tmp_path, code, power):

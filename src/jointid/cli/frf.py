@@ -150,6 +150,7 @@ def mapping_from_args(args: argparse.Namespace) -> tuple[dict[int, int] | None, 
 def run(args: argparse.Namespace) -> int:
     from ..hits import frf_from_hits
     from ..io.frf_files import write_frf
+    from ..io.uff import LEAKAGE_MARK
     from ..io.output_dir import OutputSet
     from ..plots.impact import plot_impact_frf
 
@@ -165,7 +166,9 @@ def run(args: argparse.Namespace) -> int:
         for r in result.impact.rejected:
             print(f"rejected: {r.reason}")
         # every output is computed above; the files appear together when `out` commits
-        written = [out.write_file("frf.uff", lambda p: write_frf(p, frf, kind=args.kind, coherence=result.coherence))]
+        # records whose response still rang at the record's end carry that mark into the file (ID line 4): identify says so
+        marks = {pair: LEAKAGE_MARK for pair in result.impact.leaking}
+        written = [out.write_file("frf.uff", lambda p: write_frf(p, frf, kind=args.kind, coherence=result.coherence, marks=marks))]
         written.append(out.write_csv("rejected_hits.csv", rejected))
         if figure is not None:
             written.append(out.write_figure("frf.png", figure))

@@ -134,7 +134,7 @@ def write_frf(path: str | os.PathLike, frf: FRF, kind: str | None = None, **uff_
 
     UFF files are written as ``kind`` (default accelerance, like a test);
     ``uff_options`` go to :func:`~jointid.io.uff.write_uff_frf` (``binary``,
-    ``coherence``, ``description``). CSV files are written in ``kind``
+    ``coherence``, ``description``, ``marks``). CSV files are written in ``kind``
     (default: the FRF's own kind).
     """
     path = Path(path)

@@ -76,13 +76,15 @@ from typing import Iterable, Mapping
 
 import numpy as np
 
-from ..dofs import parse_dofs
+from ..dofs import parse_dof, parse_dofs
 from ..errors import DataError, JointIdError
 from ..frf import FRF, KINDS, kind_factor
 from .atomic import atomic_path
-from .uff_records import FUNC_COHERENCE, FUNC_FRF, FUNC_TIME, Selection, assemble, axis_text, coherence_matrix, read_records, units_line
+from .uff_records import (FUNC_COHERENCE, FUNC_FRF, FUNC_TIME, LEAKAGE_MARK, Selection, assemble, axis_text, coherence_matrix, marks_line,
+                          read_records, units_line)
 
-__all__ = ["read_uff_frf", "write_uff_frf", "write_uff_datasets", "common_kind", "UFF_KIND_CODES", "FUNC_TIME", "FUNC_FRF", "FUNC_COHERENCE"]
+__all__ = ["read_uff_frf", "write_uff_frf", "write_uff_datasets", "common_kind", "UFF_KIND_CODES", "FUNC_TIME", "FUNC_FRF", "FUNC_COHERENCE",
+           "LEAKAGE_MARK"]
 
 #: Record 9 (ordinate numerator) specific data type of each FRF kind; denominator is 13.
 UFF_KIND_CODES: dict[str, int] = {"receptance": 8, "mobility": 11, "accelerance": 12}
@@ -194,7 +196,7 @@ def read_uff_frf(
         coh, coh_note = coherence_matrix(coh_records, path, frequency, resp, refs, sel)
     elif coh_records:
         sel.skipped["coherence"] += len(coh_records)
-    notes = tuple(n for n in (units_line(frf_records), kind_note, sel.skipped_line(), coh_note) if n)
+    notes = tuple(n for n in (units_line(frf_records), kind_note, sel.skipped_line(), coh_note, marks_line(frf_records)) if n)
     frf = FRF(frequency, data, resp, refs, base, coh if attach else None, notes)
     if kind is not None:
         try:
@@ -250,6 +252,7 @@ def write_uff_frf(
     coherence: np.ndarray | None = None,
     binary: bool | None = None,
     description: str = "jointid FRF",
+    marks: Mapping | None = None,
 ) -> Path:
     """Write FRFs as UFF dataset 58, one record per (response, reference) pair, atomically.
 
@@ -277,6 +280,9 @@ def write_uff_frf(
         None (default): ASCII when it is exact, binary otherwise.
     description : str
         ID line 1 of each record (at most 80 characters).
+    marks : mapping of (response, reference) -> str, optional
+        ID line 4 of those FRF records (at most 80 characters; e.g. :data:`LEAKAGE_MARK`, which
+        :func:`read_uff_frf` turns into a note); the others get ``NONE``.
 
     Returns
     -------
@@ -298,6 +304,9 @@ def write_uff_frf(
         raise DataError(f"UFF58 FRF files carry transverse (w, +Z) and 3-D (x, y, z, rx, ry, rz) DOFs only; cannot write {bad}")
     if len(description) > 80:
         raise DataError("UFF ID lines hold at most 80 characters; shorten the description")
+    marks = {(parse_dof(r), parse_dof(c)): str(v) for (r, c), v in (marks or {}).items()}
+    if any(len(v) > 80 for v in marks.values()):
+        raise DataError("UFF ID lines hold at most 80 characters; shorten the record marks")
     out = frf.to(kind)
     hz = out.frequency.hz
     if hz.size < 2:
@@ -372,6 +381,8 @@ def write_uff_frf(
                     **common,
                 )
                 d.update(func_id=func_id, abscissa_axis_lab="Frequency", ordinate_axis_lab=ord_label)
+                if func_type == FUNC_FRF and (r, c) in marks:
+                    d["id4"] = marks[(r, c)]
                 if den_label is not None:
                     d["orddenom_axis_lab"] = den_label
                 sets.append(d)

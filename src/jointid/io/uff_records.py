@@ -30,7 +30,7 @@ from ..errors import DataError, FrequencyError
 from ..frequency import Frequency
 from .uff_units import SI, UnitSystem, abscissa_factor, ordinate_units, units_from_164
 
-__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line", "map_record", "map_signal", "truncated_message", "unreadable_message"]
+__all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line", "marks_line", "MARK_PREFIX", "LEAKAGE_MARK", "map_record", "map_signal", "truncated_message", "unreadable_message"]
 
 FUNC_TIME = 1
 FUNC_FRF = 4
@@ -64,6 +64,7 @@ class Record:
     data: np.ndarray
     units: str = ""  # e.g. "g/N (labels)"
     factor: float = 1.0
+    mark: str = ""  # ID line 4 when jointid wrote a processing mark there (LEAKAGE_MARK), else empty
 
     def name(self) -> str:
         return f"record {self.index} (response {self.response}, reference {self.reference})"
@@ -289,7 +290,9 @@ def read_records(path: Path, sel: Selection) -> tuple[list[Record], list[Record]
         units = ordinate_units(d, d["ordinate_spec_data_type"], system, where, rotation=response.unit == "rad",
                                moment=reference.unit == "rad")
         text = f"{units.text} ({units.source})"
-        frfs.append(Record(index, FUNC_FRF, response, reference, sign, kind, x, data, text, units.factor))
+        id4 = str(d.get("id4", "")).strip()
+        frfs.append(Record(index, FUNC_FRF, response, reference, sign, kind, x, data, text, units.factor,
+                           id4 if id4.startswith(MARK_PREFIX) else ""))
     return frfs, cohs
 
 
@@ -362,6 +365,24 @@ def assemble(records: list[Record], path: Path, what: str) -> tuple[Frequency, n
     for r in records:
         data[:, ri[r.response], ci[r.reference]] = r.data
     return frequency, data, responses, references
+
+
+#: ID line 4 of the records that ``jointid frf`` marks (every mark starts with :data:`MARK_PREFIX`).
+MARK_PREFIX = "jointid frf:"
+#: The mark of a record whose response still rang at the record's end when ``jointid frf`` estimated it (leakage).
+LEAKAGE_MARK = "jointid frf: leakage (the response still rings at the record's end)"
+
+
+def marks_line(records: list[Record], shown: int = 6) -> str | None:
+    """One note on the records ``jointid frf`` marked as leaking (:data:`LEAKAGE_MARK`), or None."""
+    marked = [r for r in records if r.mark == LEAKAGE_MARK]
+    if not marked:
+        return None
+    names = ", ".join(f"{r.response}/{r.reference}" for r in marked[:shown]) + (", ..." if len(marked) > shown else "")
+    return (f"{len(marked)} record(s) marked by jointid frf as leaking (the response still rang at the record's end: {names}): "
+            "their FRFs are biased near the lightly damped modes, so a free model that does not fit these FRFs there may "
+            "be this, not the model; process the hits again with longer records or an exponential window (--exp-tau-ms) "
+            "before updating the model")
 
 
 def units_line(records: list[Record]) -> str | None:

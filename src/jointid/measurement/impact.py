@@ -52,7 +52,7 @@ from ..frequency import Frequency
 from .impact_acquisition import (
     force_noise_note,
     force_window_error,
-    leakage_notes,
+    leaking_responses,
     noise_channel_notes,
     pretrigger_note,
     remove_force_offset,
@@ -123,6 +123,10 @@ class ImpactFRF:
         :mod:`jointid.measurement.impact_acquisition` (a DC offset removed from the force, no pre-trigger, force noise
         without a force window, responses ringing at the record's end, a noise-only response); then mode bands
         that were detected but not corrected, and why.
+    leaking : tuple of (Dof, Dof)
+        ``(response, reference)`` of the FRFs whose response still rings at the record's end (leakage:
+        :func:`~jointid.measurement.impact_acquisition.leaking_responses`); ``jointid frf`` marks their records in
+        the UFF file it writes (:data:`jointid.io.uff.LEAKAGE_MARK`).
     """
 
     frequency: Frequency
@@ -137,6 +141,7 @@ class ImpactFRF:
     exp_tau_s: float | None = None
     window_modes: tuple[WindowMode, ...] = ()
     notes: tuple[str, ...] = field(default=())
+    leaking: tuple[tuple[Dof, Dof], ...] = ()
 
     def to_frf(self, estimator: str = "h1"):
         """The estimate as a labelled :class:`jointid.frf.FRF` (``estimator`` "h1" or "h2"), with its coherence."""
@@ -290,6 +295,7 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
     checks: list[str] = []
     dead: dict = {}
     acquisition: list[str] = []
+    leaking: list[tuple[Dof, Dof]] = []  # (response, reference) of the records still ringing at their end
     for k, rec in enumerate(records):
         force_window_error(rec, o)
         rec, offset = remove_force_offset(rec, o)
@@ -322,7 +328,9 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
         band = (float(hz[sel][0]), float(hz[sel][-1]))
         accepted = dataclasses.replace(rec, force=rec.force[keep], responses=rec.responses[keep])
         acquisition.extend(x for x in (force_noise_note(accepted, o, band, n_fft),) if x)
-        acquisition.extend(leakage_notes(rec, y, o.exp_tau_s is not None))
+        leak_lines, rings = leaking_responses(rec, y, o.exp_tau_s is not None)
+        acquisition.extend(leak_lines)
+        leaking.extend((dof, rec.reference) for dof in rings)
         bias = share[sel]
         above = bias > FORCE_NOISE_BIAS
         if np.any(above):
@@ -394,6 +402,7 @@ def estimate_frfs(records: Sequence[ImpactRecord], options: ImpactOptions | None
         exp_tau_s=o.exp_tau_s,
         window_modes=modes,
         notes=tuple(checks) + tuple(acquisition) + notes,
+        leaking=tuple(leaking),
     )
 
 

@@ -45,6 +45,7 @@ __all__ = [
     "pretrigger_note",
     "force_noise_note",
     "leakage_notes",
+    "leaking_responses",
     "noise_channel_notes",
 ]
 
@@ -251,7 +252,12 @@ def force_noise_note(record: ImpactRecord, o: ImpactOptions, band_hz: tuple[floa
 
 
 def leakage_notes(record: ImpactRecord, responses: np.ndarray, windowed: bool) -> list[str]:
-    """Lines for the responses still ringing at the record's end (leakage), as processed.
+    """Lines for the responses still ringing at the record's end (leakage), as processed (:func:`leaking_responses`)."""
+    return leaking_responses(record, responses, windowed)[0]
+
+
+def leaking_responses(record: ImpactRecord, responses: np.ndarray, windowed: bool) -> tuple[list[str], tuple[Dof, ...]]:
+    """The lines of :func:`leakage_notes` and the response DOFs still ringing at the record's end (leakage).
 
     Over the last :data:`LEAKAGE_TAIL` of the record, the noise variance is ``mean(dy^2) / 2`` (a white noise's first
     difference has twice its variance; a decaying mode far below the Nyquist frequency hardly any) and the signal's
@@ -269,8 +275,10 @@ def leakage_notes(record: ImpactRecord, responses: np.ndarray, windowed: bool) -
 
     Returns
     -------
-    list of str
+    lines : list of str
         One line for the excited node, naming the channels, or empty.
+    leaking : tuple of Dof
+        Those channels' response DOFs (empty when none leaks).
     """
     n = responses.shape[-1]
     m = max(int(LEAKAGE_TAIL * n), 16)
@@ -284,7 +292,7 @@ def leakage_notes(record: ImpactRecord, responses: np.ndarray, windowed: bool) -
         frac = np.sqrt(np.maximum(signal, 0.0)) / peak
     bad = np.flatnonzero((frac > LEAKAGE_FRACTION) & (signal > 5.0 * se))
     if not bad.size:
-        return []
+        return [], ()
     k = int(bad[np.argmax(frac[bad])])
     T = n / record.sample_rate_hz
     chans = ", ".join(str(record.response_dofs[c]) for c in bad)
@@ -292,7 +300,8 @@ def leakage_notes(record: ImpactRecord, responses: np.ndarray, windowed: bool) -
            f"use a longer record or an exponential window (--exp-tau-ms, e.g. {1e3 * T / 5:.3g} ms for this {T:g} s record)")
     return [f"excited node {record.reference}: response(s) {chans} still ring at the record's end (last {1e3 * m / record.sample_rate_hz:.3g} ms "
             f"hold up to {100 * frac[k]:.2g} % of the peak, at {record.response_dofs[k]}; above "
-            f"{100 * LEAKAGE_FRACTION:g} %): leakage biases the FRFs near the lightly damped modes; {fix}"]
+            f"{100 * LEAKAGE_FRACTION:g} %): leakage biases the FRFs near the lightly damped modes; {fix}"], \
+        tuple(record.response_dofs[c] for c in bad)
 
 
 def noise_channel_notes(coherence: np.ndarray, n_averages: Sequence[int], responses: Sequence[Dof],
