@@ -5,7 +5,8 @@ figure twice -- once without rendering, to lay it out, then again -- and each dr
 engine, which measures every tick label of every axes (twice per run). :func:`figure_png` runs
 the engine once, at the dpi of the PNG, detaches it for the one drawing ``savefig`` then does,
 and attaches it again: the same positions, so the same pixels (measured on the model-error
-study's figures: identical), in about 0.6 of the time with the change below.
+study's figures: identical). With the change below, ``jointid reproduce --only
+conditioning,model-error`` took 0.91 of the time (4 interleaved runs).
 
 An axes title's automatic height (matplotlib moves a title above top tick labels or a top
 axis) asks every axes of the row for its tick labels' extents at each draw. jointid's figures
