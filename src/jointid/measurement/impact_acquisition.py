@@ -14,7 +14,7 @@ follows from the noise statistics stated with it:
   no pre-trigger, the pulse's start is cut.
 * :func:`force_noise_note` -- no force window, and the force channel's noise outside the pulse
   scatters H1 by more than :data:`FORCE_NOISE_SCATTER` per line.
-* :func:`leakage_notes` -- a response whose last samples still hold signal above its noise and
+* :func:`leaking_responses` -- a response whose last samples still hold signal above its noise and
   above :data:`LEAKAGE_FRACTION` of its peak (as processed, exponential window included).
 * :func:`noise_channel_notes` -- a response whose coherence is no higher than that of noise
   uncorrelated with the force.
@@ -44,7 +44,6 @@ __all__ = [
     "remove_force_offset",
     "pretrigger_note",
     "force_noise_note",
-    "leakage_notes",
     "leaking_responses",
     "noise_channel_notes",
 ]
@@ -251,13 +250,8 @@ def force_noise_note(record: ImpactRecord, o: ImpactOptions, band_hz: tuple[floa
             f"--force-window-ms {win_ms:g} --pretrigger-ms {pre_ms:g})")
 
 
-def leakage_notes(record: ImpactRecord, responses: np.ndarray, windowed: bool) -> list[str]:
-    """Lines for the responses still ringing at the record's end (leakage), as processed (:func:`leaking_responses`)."""
-    return leaking_responses(record, responses, windowed)[0]
-
-
 def leaking_responses(record: ImpactRecord, responses: np.ndarray, windowed: bool) -> tuple[list[str], tuple[Dof, ...]]:
-    """The lines of :func:`leakage_notes` and the response DOFs still ringing at the record's end (leakage).
+    """Lines for the responses still ringing at the record's end (leakage), as processed, and their DOFs.
 
     Over the last :data:`LEAKAGE_TAIL` of the record, the noise variance is ``mean(dy^2) / 2`` (a white noise's first
     difference has twice its variance; a decaying mode far below the Nyquist frequency hardly any) and the signal's

@@ -55,7 +55,7 @@ from ...dofs import parse_dofs
 from ...parallel import single_threaded_blas
 from .block_refit import left_out_rss, replaced_rss
 from .coupling_lines import symmetric_parametrization, whitened_line_design
-from .model_check import MIN_REDUNDANCY, design_residual
+from .model_check import MIN_REDUNDANCY, design_residual, whitened_residuals
 from .units_check import UNIT_FACTORS
 
 __all__ = ["GrossError", "gross_error", "GROSS_LINES", "GROSS_RATIO", "GROSS_TIE", "GROSS_COLUMN_ERROR", "RECORD_FACTORS",
@@ -138,15 +138,13 @@ def gross_error(Ymn: np.ndarray, Yne: np.ndarray, Yme: np.ndarray, H: np.ndarray
     with single_threaded_blas():
         sw, _, Q, _ = whitened_line_design(Ymn, Yne, V, symmetric, keep=False)
 
-    QH = np.conj(np.swapaxes(Q, 1, 2))
-
     def same_design(hypotheses: list) -> list[float]:
         """The score of each ``(H_true, u)`` (weights ``u sw``: ``V / u^2``) on the one design, in blocks of
         :data:`HYPOTHESES_AT_ONCE` as the columns of one product (not one matrix-vector product each)."""
         out = []
         for s in range(0, len(hypotheses), HYPOTHESES_AT_ONCE):
             D = np.stack([(Yme - Ht).reshape(-1, N) * (u * sw) for Ht, u in hypotheses[s:s + HYPOTHESES_AT_ONCE]], axis=2)
-            R = D - Q @ (QH @ D)  # (I - Q Q^H) d_w, (F, m e, h)
+            R = whitened_residuals(D, Q)  # (F, m e, h)
             out += [float(v) for v in np.median(np.sum(R.real ** 2 + R.imag ** 2, axis=1) / dof, axis=0)]
         return out
 

@@ -73,7 +73,7 @@ import numpy as np
 from ...parallel import map_lines, single_threaded_blas
 from .coupling_lines import DESIGN_VARIANCE_RTOL, same_inputs, symmetric_parametrization, whitened_line_design
 
-__all__ = ["ResidualStatistics", "residual_statistics", "line_residuals", "design_residual", "ModelCheck", "check_model", "octave_bands", "MODEL_RESIDUAL_RATIO", "MODEL_ERROR_PROVEN_RATIO",
+__all__ = ["ResidualStatistics", "residual_statistics", "line_residuals", "design_residual", "whitened_residuals", "ModelCheck", "check_model", "octave_bands", "MODEL_RESIDUAL_RATIO", "MODEL_ERROR_PROVEN_RATIO",
            "SMOOTH_LAGS", "SMOOTH_EXCESS_LIMIT", "SMOOTH_EXCESS_WITH_FAILED_BAND",
            "BAND_MIN_LINES", "MIN_NOISE_LEVEL",
            "CORRELATED_RESIDUAL_Z"]
@@ -240,9 +240,16 @@ def design_residual(change, sw, Q):
     ``sw``, ``Q``: the design of :func:`~.coupling_lines.whitened_line_design` (shapes (F, m e), (F, m e, p));
     ``change``: ``Y[m,e] - H``, shape (F, m, e)."""
     F, m, e = change.shape
-    dw = change.reshape(F, m * e) * sw
-    c = np.conj(np.conj(dw)[:, None, :] @ Q)  # (Q^H d_w)^T, (F, 1, p): no conjugated copy of Q
-    return dw - (Q @ np.swapaxes(c, 1, 2))[:, :, 0]
+    return whitened_residuals((change.reshape(F, m * e) * sw)[:, :, None], Q)[:, :, 0]
+
+
+def whitened_residuals(dw, Q):
+    """``(I - Q Q^H) d_w`` for ``h`` whitened data vectors per line at once: ``dw`` (F, m e, h) -> (F, m e, h), complex.
+
+    One product per line for all ``h`` (the hypotheses of :mod:`.gross_errors` share one design);
+    ``Q^H d_w`` is formed as ``conj(d_w^H Q)``: no conjugated copy of ``Q``."""
+    c = np.conj(np.conj(np.swapaxes(dw, 1, 2)) @ Q)  # (Q^H d_w)^T, (F, h, p)
+    return dw - Q @ np.swapaxes(c, 1, 2)
 
 
 def _lag_correlation(r: np.ndarray, dof: int, lag: int = 1) -> tuple[float, float]:
