@@ -26,8 +26,8 @@ variance; printed as the median over lines of ``0.83 sqrt(E|dK|^2) / |K|`` (the 
 of a circular Gaussian error's modulus), comparable to the median errors.
 
 Then the spline fit's diagonal coverage split by the band's branch (:mod:`jointid.methods.receptance.spline_bands`):
-seeds where per-term orders were chosen (their bias measured against the uniform 4) and seeds with one uniform
-order (measured against the order above it, where ``rho`` is largest for the rotations).
+seeds where per-term orders were chosen (the bias of each term left short measured against it given the missing
+coefficients, one term at a time) and seeds with one uniform order (each term in turn given the order above it).
 
 Also per off-diagonal term of the spline fit: the median error relative to ``sqrt(|K_aa K_bb|)``
 and the coverage of its bands.
@@ -199,8 +199,8 @@ def main(argv=None):
         print(f"{names[t]:10s} " + " ".join(f"{s:>22s}" for s in cells) + f" {100 * crb_med[i]:16.3g} %")
     per_term = np.array(per_term)
     print("\nspline fit, coverage of the diagonal terms' 90 % bands by the band's branch (spline_bands): per-term orders"
-          f" (bias against the uniform {args.max_basis}) / one uniform order, any (bias against the order above it; "
-          "n_basis per seed above)")
+          f" (bias: each short term in turn given {args.max_basis} coefficients) / one uniform order, any (bias: each term in"
+          " turn given the order above it; n_basis per seed above)")
     for label, group in (("per-term", per_term), ("uniform", ~per_term)):
         if group.any():
             c = [np.mean([out["spline"][1][s][:, t] for s in np.flatnonzero(group)]) for t in diag]

@@ -39,12 +39,13 @@ Procedure (:func:`fit_joint_spline`):
    coefficients; the noise scale is estimated, so only the weights' shape must be right);
 4. covariance ``cov(c) = s^2 (J^H J)^-1`` with ``s^2 = chi^2 / (N - P)``, errors circular
    (half the variance in each part), propagated to ``std_real``/``std_imag`` per term and line;
-   each part's variance is ``var + max(0, q d^2 - c tau^2)``, ``d`` the difference from a richer fit, ``tau^2`` its noise
-   (``max(var, var_rich / 2 + d^2)`` where the richer class does not hold the chosen one)
-   (the bias of the chosen class, :mod:`.spline_bands`): with per-term orders the richest uniform
-   fit; else the smallest richer order that holds the AIC's best (:func:`richer_nested_order`: the next
-   one up to 4, ``2 nb - 3`` above; fitted for the band alone when the search did not reach it)
-   against the best order, that bias term added to the Akaike average's ``var``.
+   each part's variance is ``var + max_j max(0, q d_j^2 - c tau_j^2)`` (the bias of the chosen class,
+   :func:`~.spline_bands.one_term_bias_variance`), ``d_j`` the difference from the fit with term ``j`` alone in
+   its richer class (one Gauss-Newton step), ``tau_j^2`` its noise: with per-term orders a term's missing
+   coefficients up to the richest order; else the smallest richer order that holds the AIC's best
+   (:func:`richer_nested_order`: the next one up to 4, ``2 nb - 3`` above), that bias term added to the Akaike
+   average's ``var``. Where the line count leaves no room for ``2 nb - 3``, the next order fitted uniformly, its
+   whole variance counted (``max(var, var_rich / 2 + d^2)``).
 
 Units: ``frequency_hz`` in Hz; receptances in m/N, rad/N, m/(N*m), rad/(N*m); ``K`` in
 N/m, N/rad, N*m/m, N*m/rad; ``variance`` in the squared units of ``H``.
@@ -60,7 +61,7 @@ from __future__ import annotations
 import numpy as np
 
 from .smoothing import bspline_basis
-from .spline_bands import richer_fit_band
+from .spline_bands import nested_extension, normal_inverse, one_term_bias_variance, richer_fit_band
 from .spline_result import JointSplineFit
 
 __all__ = ["JointSplineFit", "fit_joint_spline", "log_frequency_basis", "legendre_log_basis", "richer_nested_order", "spline_covariance",
@@ -74,7 +75,7 @@ MAX_EXTENDED_BASIS = 12
 #: Levenberg-Marquardt iterations per order (at most).
 MAX_ITERATIONS = 200
 #: Iterations of an order past the cap before its AIC is compared (then to convergence only if the best: a rejected
-#: order sets the bias band by its well-determined directions; the others crawl, 49 iterations on mount_6dof.py).
+#: one's AIC is an upper bound; its weakly seen directions crawl, 49 iterations on mount_6dof.py).
 EXTENSION_ITERATIONS = 20
 #: Perturbed starts of the constant fit, besides the per-line median itself.
 STARTS = 8
@@ -301,7 +302,7 @@ def _per_term_orders(problem: _Problem, coef: np.ndarray, basis_from: np.ndarray
         cand = np.flatnonzero(~active & (col == orders[term]))
         if cand.size == 0:
             break
-        inv = _inverse(N[np.ix_(a, a)])
+        inv = normal_inverse(N[np.ix_(a, a)])
         Nja = N[np.ix_(cand, a)]
         g = grad[cand] - Nja @ (inv @ grad[a])
         schur = np.real(N[cand, cand] - np.einsum("ja,ab,jb->j", Nja, inv, Nja.conj()))
@@ -353,14 +354,6 @@ def richer_nested_order(n_basis: int) -> int:
     return n_basis + 1 if n_basis <= 4 else 2 * n_basis - 3
 
 
-def _refined(problem: _Problem, fit: tuple, basis: np.ndarray, iterations: int) -> tuple:
-    """A fit on a richer ``basis`` whose space holds ``fit``'s, started from ``fit`` itself (its exact projection):
-    ``(coef, cost, converged, basis)``."""
-    c = _project(fit[0], fit[3], basis)
-    c, cost, converged = _levenberg_marquardt(problem, c, basis, iterations)
-    return c, cost, converged, basis
-
-
 def _project(coef: np.ndarray, basis_from: np.ndarray, basis_to: np.ndarray) -> np.ndarray:
     """Coefficients on ``basis_to`` of the series ``basis_from @ coef.T`` (least squares over the lines)."""
     values = basis_from @ coef.T  # (F, p)
@@ -379,7 +372,7 @@ def spline_covariance(problem_or_data, K: np.ndarray, basis: np.ndarray) -> np.n
     weight = _weights(variance)
     problem = _Problem(Ymn, Ynn, Yne, np.zeros_like(variance, complex), weight, symmetric)
     _, N, _, _ = problem.normal(K, basis)
-    return _inverse(N)
+    return normal_inverse(N)
 
 
 def term_variance(covariance: np.ndarray, basis: np.ndarray, n: int, symmetric: bool = True) -> np.ndarray:
@@ -394,18 +387,6 @@ def term_variance(covariance: np.ndarray, basis: np.ndarray, n: int, symmetric: 
         out[:, ib, ia] = v
     out[:, ia, ib] = v
     return np.maximum(out, 0.0)
-
-
-def _inverse(N: np.ndarray) -> np.ndarray:
-    """Inverse of a Hermitian positive (semi)definite normal matrix, diagonally equilibrated (pseudo-inverse if singular)."""
-    d = np.sqrt(np.maximum(np.real(np.diagonal(N)), 1e-300))
-    Ns = N / d[:, None] / d[None, :]
-    Ns = 0.5 * (Ns + Ns.conj().T)
-    try:
-        inv = np.linalg.inv(Ns)
-    except np.linalg.LinAlgError:
-        inv = np.linalg.pinv(Ns, hermitian=True)
-    return inv / d[:, None] / d[None, :]
 
 
 def _weights(variance: np.ndarray) -> np.ndarray:
@@ -431,7 +412,7 @@ def _estimate_and_variance(problem: _Problem, fit: tuple, count: int, n: int) ->
     coef, cost, _, basis = fit
     s2 = _aic_and_scale(cost, count, coef.size)[1]
     K = _stiffness(coef, basis, problem.pairs, n, problem.symmetric)
-    cov = s2 * _inverse(problem.normal(K, basis)[1])
+    cov = s2 * normal_inverse(problem.normal(K, basis)[1])
     return K, term_variance(cov, basis, n, problem.symmetric), cov, s2
 
 
@@ -559,13 +540,14 @@ def fit_joint_spline(
         criterion["per-term"] = _aic_and_scale(cost, count, int(active.sum()))
         s2 = criterion["per-term"][1]
         K = _stiffness(coef, basis, problem.pairs, n, problem.symmetric)
-        N = problem.normal(K, basis)[1]
+        _, N, grad, _ = problem.normal(K, basis)
         a = np.flatnonzero(active)
         cov = np.zeros(N.shape, complex)
-        cov[np.ix_(a, a)] = s2 * _inverse(N[np.ix_(a, a)])
+        cov[np.ix_(a, a)] = s2 * normal_inverse(N[np.ix_(a, a)])
         var_sel = term_variance(cov, basis, n, symmetric) / 2.0  # circular errors: half in each part
-        # the bias of the terms left with fewer coefficients, measured against the richest (uniform) fit
-        std, std_im = richer_fit_band(K, var_sel, var_sel, *_estimate_and_variance(problem, fits[max_basis], count, n)[:2])
+        # the bias of the terms left with fewer coefficients: each one in turn given its missing ones (:mod:`.spline_bands`)
+        b_re, b_im = one_term_bias_variance(N, grad, basis, active, s2, problem.pairs)
+        std, std_im = np.sqrt(var_sel + b_re), np.sqrt(var_sel + b_im)
         bias_basis = max_basis
         best = int(orders.max())
         term_orders = orders
@@ -578,17 +560,21 @@ def fit_joint_spline(
         P = len(problem.pairs[0])
         if n_basis is None and not (rich * P < count and rich <= F // 4):
             rich = best + 1  # no room for the nested refinement: the next order, its whole variance counted
-        if n_basis is None and rich * P < count:
-            # the band also holds the bias measured against a richer class holding the best one (richer_nested_order,
-            # :mod:`.spline_bands`; the next order above 4, biased alike where the shape is hard to follow, saw half of
-            # a 6-coefficient class's bias: K_x_x bands covering 0.82 on a 3-D frame, benchmarks/README.md)
-            above = fits[rich] if rich in fits else (order(rich, EXTENSION_ITERATIONS) if rich == best + 1 else
-                                                     _refined(problem, fits[best], log_frequency_basis(f, rich), EXTENSION_ITERATIONS))
-            # the bias term is the best order's against the richer one (the average holds other orders with their
-            # Akaike weights: its difference from the richer one is not the nested d), added to the average's variance
+        if n_basis is None and rich * P < count and rich == richer_nested_order(best):
+            # the bias measured against the fits with one term at a time in the richer class (:mod:`.spline_bands`)
+            Bb = log_frequency_basis(f, best)
+            Bx = np.hstack([Bb, nested_extension(Bb, log_frequency_basis(f, rich))])
+            cx = np.zeros((P, rich), complex)
+            cx[:, :best] = fits[best][0]
+            _, Nx, gx, _ = problem.normal(_stiffness(cx, Bx, problem.pairs, n, symmetric), Bx)
+            active = np.tile(np.arange(rich) < best, P)
+            b_re, b_im = one_term_bias_variance(Nx, gx, Bx, active, _aic_and_scale(fits[best][1], count, fits[best][0].size)[1], problem.pairs)
+            std, std_im = np.sqrt(std ** 2 + b_re), np.sqrt(std_im ** 2 + b_im)
+            bias_basis = rich
+        elif n_basis is None and rich * P < count:  # no room for the nested class: the next order, its whole variance counted
+            above = fits[rich] if rich in fits else order(rich, EXTENSION_ITERATIONS)
             K_b, V_b = _estimate_and_variance(problem, fits[best], count, n)[:2]
-            b_re, b_im = richer_fit_band(K_b, V_b / 2.0, V_b / 2.0, *_estimate_and_variance(problem, above, count, n)[:2],
-                                         nested=rich == richer_nested_order(best))
+            b_re, b_im = richer_fit_band(K_b, V_b / 2.0, V_b / 2.0, *_estimate_and_variance(problem, above, count, n)[:2], nested=False)
             std = np.sqrt(std ** 2 + np.maximum(b_re ** 2 - V_b / 2.0, 0.0))
             std_im = np.sqrt(std_im ** 2 + np.maximum(b_im ** 2 - V_b / 2.0, 0.0))
             bias_basis = rich

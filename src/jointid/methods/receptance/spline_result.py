@@ -41,7 +41,8 @@ class JointSplineFit:
     term_basis : ndarray of int, shape (p,)
         Coefficients per term (per-term orders: Legendre polynomials in ``log f``; else all ``n_basis``).
     bias_basis : int or None
-        Coefficients per term of the richer fit whose difference is in the bands (:mod:`.spline_bands`); None: none.
+        Coefficients per term of the richer class against which the bias in the bands is measured, one term at a time
+        (:mod:`.spline_bands`); None: none.
     """
 
     frequency_hz: np.ndarray
@@ -67,6 +68,6 @@ class JointSplineFit:
             what = f"{tb.min()}-{tb.max()} coefficients per term (Legendre in log f, per-term orders by score test)"
         else:
             what = f"{self.n_basis} B-spline(s) in log f (order by AIC)"
-        bias = "" if self.bias_basis is None else f"; bands hold the difference from the {self.bias_basis}-coefficient fit"
+        bias = "" if self.bias_basis is None else f"; bands hold the bias measured against {self.bias_basis} coefficients, one term at a time"
         return (f"every term {what}, fitted to all lines jointly; chi^2/dof per order {orders}{bias}"
                 + ("" if self.converged else "; not converged"))
