@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -195,8 +197,15 @@ def test_record_marks_are_written_to_id_line_4_and_only_the_leakage_mark_becomes
         "model; process the hits again with longer records or an exponential window (--exp-tau-ms) before updating the model",)
     np.testing.assert_array_equal(frf.data, read_uff_frf(_written(tmp_path / "plain.uff"), kind="receptance").data)
     assert read_uff_frf(tmp_path / "plain.uff", kind="receptance").notes == ()
+    # the FRF keeps the mark on its pair (what the model check names), through select and band
+    assert [(str(r), str(c), t) for r, c, t in frf.marks] == [("7w", "2w", LEAKAGE_MARK)]
+    assert frf.select(["7w"], ["2w"]).band(stop_hz=frf.frequency.hz[3]).marks == frf.marks
+    assert frf.select(["7w"], [str(c) for c in frf.references if str(c) != "2w"]).marks == ()
+    with pytest.raises(DataError, match="^FRF marks name a pair that is not among its responses and references$"):
+        dataclasses.replace(frf, marks=(("5theta", "2w", LEAKAGE_MARK),))
     write_uff_frf(tmp_path / "other.uff", _frf(), binary=True, marks={("7w", "2w"): "measured on a Monday"})
-    assert read_uff_frf(tmp_path / "other.uff", kind="receptance").notes == ()  # not jointid's mark: nothing said
+    other = read_uff_frf(tmp_path / "other.uff", kind="receptance")
+    assert other.notes == () and other.marks == ()  # not jointid's mark: nothing said, nothing kept
     with pytest.raises(DataError, match="^UFF ID lines hold at most 80 characters; shorten the record marks$"):
         write_uff_frf(tmp_path / "long.uff", _frf(), marks={("7w", "2w"): "x" * 81})
 

@@ -63,6 +63,22 @@ def test_a_wrong_free_model_is_named_and_flagged(fine_data):
     assert r.reliable_terms.mean(axis=0).max() <= 0.05
 
 
+def test_records_marked_leaking_are_named_in_the_finding_before_the_update(fine_data):
+    # the same wrong model, the FRF file marking one record as leaking (jointid frf's mark): the finding names it and
+    # says to process those hits again before the free model is updated
+    from jointid.frf import LEAKAGE_MARK
+
+    b = _study().structure
+    wrong = _study(elastic_modulus=b.elastic_modulus * 1.02, density=b.density * 0.99)
+    r0, c0 = fine_data.responses[0], fine_data.references[0]
+    marked = dataclasses.replace(fine_data, marks=((r0, c0, LEAKAGE_MARK), (r0, c0, "jointid frf: another mark")))
+    found = [f for f in identify(wrong, marked).findings() if f.startswith("the free model does not explain these FRFs in ")]
+    assert len(found) == 1 and found[0].endswith(
+        f"the noise), or 1 record(s) marked leaking by jointid frf ({r0}/{c0}) are biased near the lightly damped modes: "
+        "process those hits again (longer records or an exponential window) before you update the free model from a "
+        "free-free test (`jointid update`) or correct the structure's model; every term flagged unreliable there"), found
+
+
 def test_the_right_free_model_passes(fine_data):
     r = identify(_study(), fine_data)  # the study's own mesh is converged for the receptance method
     assert not any("free model does not explain" in f for f in r.findings()), r.findings()

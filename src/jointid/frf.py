@@ -26,7 +26,7 @@ from .dofs import Dof, dof_indices, parse_dof, parse_dofs
 from .errors import DataError, FrequencyError
 from .frequency import Frequency
 
-__all__ = ["FRF", "KINDS", "kind_factor"]
+__all__ = ["FRF", "KINDS", "kind_factor", "LEAKAGE_MARK", "MARK_PREFIX"]
 
 KINDS: tuple[str, ...] = ("receptance", "mobility", "accelerance")
 _POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
@@ -44,6 +44,12 @@ def kind_factor(omega: np.ndarray, from_kind: str, to_kind: str) -> np.ndarray:
             f"cannot convert {from_kind} to {to_kind} at 0 Hz (division by zero); drop the 0 Hz line first"
         )
     return jw ** float(p) if p else np.ones_like(jw)
+
+
+#: ID line 4 of the records that ``jointid frf`` marks (every mark starts with :data:`MARK_PREFIX`).
+MARK_PREFIX = "jointid frf:"
+#: The mark of a record whose response still rang at the record's end when ``jointid frf`` estimated it (leakage).
+LEAKAGE_MARK = "jointid frf: leakage (the response still rings at the record's end)"
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +74,10 @@ class FRF:
     notes : tuple of str
         How the data were read, one line each (unit conversions, skipped
         records); empty when there is nothing to say.
+    marks : tuple of (Dof, Dof, str)
+        Processing marks the file carried per record, ``(response, reference, text)``
+        (e.g. ``jointid frf``'s leakage mark, :data:`LEAKAGE_MARK`); only
+        pairs of this FRF; kept by :meth:`to`, :meth:`select` and :meth:`band`.
     """
 
     frequency: Frequency
@@ -77,6 +87,7 @@ class FRF:
     kind: str = "receptance"
     coherence: np.ndarray | None = None
     notes: tuple[str, ...] = ()
+    marks: tuple[tuple[Dof, Dof, str], ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.frequency, Frequency):
@@ -104,6 +115,10 @@ class FRF:
             coh.setflags(write=False)
             object.__setattr__(self, "coherence", coh)
         object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
+        marks = tuple((parse_dof(r), parse_dof(c), str(t)) for r, c, t in self.marks)
+        if any(r not in self.responses or c not in self.references for r, c, _ in marks):
+            raise DataError("FRF marks name a pair that is not among its responses and references")
+        object.__setattr__(self, "marks", marks)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -121,6 +136,7 @@ class FRF:
         """Sub-matrix by DOF labels (``None`` keeps all), in the order asked."""
         ri = list(range(len(self.responses))) if responses is None else dof_indices(self.responses, responses, "FRF responses")
         ci = list(range(len(self.references))) if references is None else dof_indices(self.references, references, "FRF references")
+        kept_r, kept_c = {self.responses[i] for i in ri}, {self.references[i] for i in ci}
         return FRF(
             self.frequency,
             self.data[:, ri][:, :, ci],
@@ -129,6 +145,7 @@ class FRF:
             self.kind,
             None if self.coherence is None else self.coherence[:, ri][:, :, ci],
             self.notes,
+            tuple((r, c, t) for r, c, t in self.marks if r in kept_r and c in kept_c),
         )
 
     def band(self, start_hz: float | None = None, stop_hz: float | None = None) -> "FRF":

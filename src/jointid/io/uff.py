@@ -197,7 +197,8 @@ def read_uff_frf(
     elif coh_records:
         sel.skipped["coherence"] += len(coh_records)
     notes = tuple(n for n in (units_line(frf_records), kind_note, sel.skipped_line(), coh_note, marks_line(frf_records)) if n)
-    frf = FRF(frequency, data, resp, refs, base, coh if attach else None, notes)
+    frf = FRF(frequency, data, resp, refs, base, coh if attach else None, notes,
+              tuple((r.response, r.reference, r.mark) for r in frf_records if r.mark))
     if kind is not None:
         try:
             frf = frf.to(kind)

@@ -28,6 +28,7 @@ import numpy as np
 from ..dofs import Dof
 from ..errors import DataError, FrequencyError
 from ..frequency import Frequency
+from ..frf import LEAKAGE_MARK, MARK_PREFIX
 from .uff_units import SI, UnitSystem, abscissa_factor, ordinate_units, units_from_164
 
 __all__ = ["AXES", "FUNC_FRF", "FUNC_COHERENCE", "Record", "Selection", "read_records", "assemble", "axis_text", "coherence_matrix", "units_line", "marks_line", "MARK_PREFIX", "LEAKAGE_MARK", "map_record", "map_signal", "truncated_message", "unreadable_message"]
@@ -365,12 +366,6 @@ def assemble(records: list[Record], path: Path, what: str) -> tuple[Frequency, n
     for r in records:
         data[:, ri[r.response], ci[r.reference]] = r.data
     return frequency, data, responses, references
-
-
-#: ID line 4 of the records that ``jointid frf`` marks (every mark starts with :data:`MARK_PREFIX`).
-MARK_PREFIX = "jointid frf:"
-#: The mark of a record whose response still rang at the record's end when ``jointid frf`` estimated it (leakage).
-LEAKAGE_MARK = "jointid frf: leakage (the response still rings at the record's end)"
 
 
 def marks_line(records: list[Record], shown: int = 6) -> str | None:

@@ -76,7 +76,7 @@ import numpy as np
 from ...dofs import Dof, parse_dofs
 from ...errors import DataError, IdentificationError
 from ...frequency import Frequency
-from ...frf import FRF
+from ...frf import FRF, LEAKAGE_MARK
 from ...physics.free_model import UncertainFreeModel, as_free_model
 from .column_calibration import estimate_column_calibration, residual_variance
 from .coupling_result import CouplingResult
@@ -300,7 +300,7 @@ def identify_joint_coupling(free, measured: FRF, joint_dofs: Sequence, options: 
         if force_note is not None and (not check.fits or shared):
             notes[force_note] = force.finding_text(model_fits=False)
         if not check.fits:
-            notes.append(check.finding(freq.hz))
+            notes.append(check.finding(freq.hz, [f"{r}/{c}" for r, c, mark in measured.marks if mark == LEAKAGE_MARK]))
             checked = check.failed_lines if checked is None else checked | check.failed_lines
     spline = None
     if options.over_frequency(nn) == "spline" and not _exact(lines):  # exact data: the per-line estimates are the answer

@@ -67,6 +67,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
 
@@ -320,12 +321,22 @@ class ModelCheck:
         band fails (module docstring)."""
         return bool(np.any(self.ratio > MODEL_ERROR_PROVEN_RATIO)) or np.isfinite(self.smooth_excess)
 
-    def finding(self, hz: np.ndarray) -> str:
-        """One line naming the failing bands, the residual and the fix ("" when every band passes)."""
+    def finding(self, hz: np.ndarray, leaking: Sequence[str] = ()) -> str:
+        """One line naming the failing bands, the residual and the fix ("" when every band passes).
+
+        ``leaking``: the records the FRF file marks as leaking (``"response/reference"``, :attr:`jointid.frf.FRF.marks`):
+        a response still ringing at the record's end biases the FRFs near the lightly damped modes as a model error
+        does, so the fix named first is to process those hits again.
+        """
         if self.fits:
             return ""
         bad = self.ratio > MODEL_RESIDUAL_RATIO
         fix = ": update it from a free-free test (`jointid update`) or correct the structure's model"
+        if leaking:
+            names = ", ".join(leaking[:6]) + (", ..." if len(leaking) > 6 else "")
+            fix = (f", or {len(leaking)} record(s) marked leaking by jointid frf ({names}) are biased near the lightly damped "
+                   "modes: process those hits again (longer records or an exponential window) before you update the free "
+                   "model from a free-free test (`jointid update`) or correct the structure's model")
         if not bad.any():  # proven by the smooth residual alone
             return (f"the free model does not explain these FRFs: its residual is near the noise ({self._size(~bad)}) but "
                     f"smooth over frequency (correlation {self.smooth_excess:.2f} at {SMOOTH_LAGS[0]}-{SMOOTH_LAGS[-1]} lines "
