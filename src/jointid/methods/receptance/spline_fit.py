@@ -39,7 +39,7 @@ Procedure (:func:`fit_joint_spline`):
    coefficients; the noise scale is estimated, so only the weights' shape must be right);
 4. covariance ``cov(c) = s^2 (J^H J)^-1`` with ``s^2 = chi^2 / (N - P)``, errors circular
    (half the variance in each part), propagated to ``std_real``/``std_imag`` per term and line;
-   each part's variance is ``var + max_j max(0, q d_j^2 - c tau_j^2)`` (the bias of the chosen class,
+   each part's variance is ``var + sum_j max(0, q d_j^2 - c tau_j^2)`` (the bias of the chosen class,
    :func:`~.spline_bands.one_term_bias_variance`), ``d_j`` the difference from the fit with term ``j`` alone in
    its richer class (one Gauss-Newton step), ``tau_j^2`` its noise: with per-term orders a term's missing
    coefficients up to the richest order; else the smallest richer order that holds the AIC's best
@@ -562,7 +562,7 @@ def fit_joint_spline(
             rich = best + 1  # no room for the nested refinement: the next order, its whole variance counted
         if n_basis is None and rich * P < count and rich == richer_nested_order(best):
             # the bias measured against the fits with one term at a time in the richer class (:mod:`.spline_bands`)
-            Bb = log_frequency_basis(f, best)
+            Bb = fits[best][3]
             Bx = np.hstack([Bb, nested_extension(Bb, log_frequency_basis(f, rich))])
             cx = np.zeros((P, rich), complex)
             cx[:, :best] = fits[best][0]
