@@ -240,8 +240,10 @@ def one_term_bias_variance(N: np.ndarray, grad: np.ndarray, basis: np.ndarray, a
         full[A] = v
         return np.einsum("fb,tb...->ft...", basis, full.reshape((p, nb) + v.shape[1:]))
 
-    own = term[A][None, :] == np.arange(p)[:, None]  # (p, |A|): coefficient of term t
-    var = 0.5 * s2 * np.einsum("ftc,fc,tc->ft", on_terms(C), basis[:, func[A]], own).real  # b_A,t C b_A,t^H / 2
+    full = np.zeros((P, P), complex)
+    full[np.ix_(A, A)] = C
+    blocks = full.reshape(p, nb, p, nb)[np.arange(p), :, np.arange(p), :]  # (p, nb, nb): each term's own block
+    var = 0.5 * s2 * np.einsum("fk,tkl,fl->ft", basis, blocks, basis).real  # b_A,t C b_A,t^H / 2, O(F p) memory
     extra = [np.zeros((F, p)), np.zeros((F, p))]
     for j in range(p):
         E = np.flatnonzero(~active & (term == j))
