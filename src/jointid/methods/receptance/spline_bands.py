@@ -240,9 +240,9 @@ def one_term_bias_variance(N: np.ndarray, grad: np.ndarray, basis: np.ndarray, a
         full[A] = v
         return np.einsum("fb,tb...->ft...", basis, full.reshape((p, nb) + v.shape[1:]))
 
-    full = np.zeros((P, P), complex)
-    full[np.ix_(A, A)] = C
-    blocks = full.reshape(p, nb, p, nb)[np.arange(p), :, np.arange(p), :]  # (p, nb, nb): each term's own block
+    C_all = np.zeros((P, P), complex)  # C on every coefficient (0 for the inactive ones)
+    C_all[np.ix_(A, A)] = C
+    blocks = C_all.reshape(p, nb, p, nb)[np.arange(p), :, np.arange(p), :]  # (p, nb, nb): each term's own block
     var = 0.5 * s2 * np.einsum("fk,tkl,fl->ft", basis, blocks, basis).real  # b_A,t C b_A,t^H / 2, O(F p) memory
     extra = [np.zeros((F, p)), np.zeros((F, p))]
     for j in range(p):
