@@ -50,8 +50,11 @@ def _errors(K, truth):
 
 @pytest.mark.parametrize("material", ["A", "B"])
 def test_data_from_a_finer_mesh_converge_with_the_automatic_refinement(material):
-    """Exact FRFs of the beam meshed 16x: the 19-node model leaves tens of % in K_theta_theta, the automatic mesh < 1 %."""
+    """Exact FRFs of the beam meshed 16x: the 19-node model leaves tens of % in K_theta_theta, the automatic mesh < 1 %.
+
+    On 5 Hz lines (181): each median error within 4 % of itself on the 2 Hz grid (451 lines), A and B."""
     fine = _study(material, elements_per_segment=16)
+    fine = dataclasses.replace(fine, frequency=dataclasses.replace(fine.frequency, step=5.0))
     test = simulate(fine)
     errors = {}
     for r in (1, None):

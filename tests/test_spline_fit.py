@@ -95,7 +95,6 @@ def test_noisy_mount_bands_hold_the_truth_and_beat_the_per_line_estimate(case):
     free, freq, (Ymn, Ynn, Yne, Yme) = case
     H0, truth = _data(case, power_law)
     H = _noisy(H0, 0.01, 3)
-    lines = identify_joint_coupling(free, FRF(freq, H, MEASURED, MEASURED), JOINT, CouplingOptions(smoothing="none"))
     # through the estimator: smoothing = "spline" makes the result of the joint spline fit, its bands the fit's
     r = identify_joint_coupling(free, FRF(freq, H, MEASURED, MEASURED), JOINT, CouplingOptions(smoothing="spline"))
     fit = r.spline
@@ -113,7 +112,7 @@ def test_noisy_mount_bands_hold_the_truth_and_beat_the_per_line_estimate(case):
     d = np.arange(6)
     dK = fit.stiffness[:, d, d] - truth[:, d, d]
     err = np.median(np.abs(dK) / np.abs(truth[:, d, d]), axis=0)
-    err_lines = np.median(np.abs(lines.per_line[:, d, d] - truth[:, d, d]) / np.abs(truth[:, d, d]), axis=0)
+    err_lines = np.median(np.abs(r.per_line[:, d, d] - truth[:, d, d]) / np.abs(truth[:, d, d]), axis=0)  # the per-line estimates
     assert np.all(err < 0.2 * err_lines), (err, err_lines)
     assert np.all(err[:3] < 0.005) and np.all(err[3:] < 0.05), err
     inside = np.r_[np.abs(dK.real) <= Z90 * fit.std_real[:, d, d], np.abs(dK.imag) <= Z90 * fit.std_imag[:, d, d]]
@@ -124,9 +123,10 @@ def test_the_bias_band_keeps_the_nominal_level_for_any_bias_and_is_narrower_than
     # K_sel - K_true = b + e, e ~ N(0, 1) independent of the measured bias d ~ N(b, rho) (nested fits); band
     # 1.645 sqrt(1 + max(0, q d^2 - c rho)), (q, c) the module's table at rho. Coverage over b by band_coverage
     # (exact over e, trapezoid over d: within 1.3e-6 of a rule of step 5e-4), b on a grid of step 0.01 near 0 (the
-    # coverage's curvature in b is O(1): between grid points it dips by < 1e-4); rho between and beyond the
-    # table's nodes and its limit rho -> inf (b in units of tau there)
-    for rho in (*np.logspace(-4.0, 4.0, 41), np.inf):
+    # coverage's curvature in b is O(1): between grid points it dips by < 1e-4); rho on and between the table's
+    # quarter-decade nodes (every 0.2 decade over its 1e-3..1e2), beyond the table on either side, where it is
+    # clamped (1e-4, 10^-3.5; 10^2.5, 1e3, 1e4), and its limit rho -> inf (b in units of tau there)
+    for rho in (1e-4, 10 ** -3.5, *np.logspace(-3.0, 2.0, 26), 10 ** 2.5, 1e3, 1e4, np.inf):
         q, c = (float(v) for v in bias_band_table(rho))
         b = np.linspace(0.0, 10.0, 1001) if np.isinf(rho) else np.r_[np.linspace(0.0, 4.0, 401), np.linspace(4.02, 10.0 + 8.0 * np.sqrt(rho), 400)]
         cover = band_coverage(q, c, rho, b)
