@@ -120,34 +120,29 @@ def _hammer_at_the_beam_end(seed):
 
 
 def test_virtual_hammer_with_force_noise_at_the_beam_end():
-    """The issue's hardest case: Material B, joint at node 1, 1 % response and force noise, 5 averages, seed 0."""
-    r, truth = _hammer_at_the_beam_end(seed=0)
-    e = _errors(r.stiffness, truth)
-    # measured: 0.12 / 1.9 / 6.5 % (50 tests: medians 0.10 / 1.3 / 5.2 %; the P-spline per term: 1.7 / 16 / 36 %)
-    assert r.estimator == "structured" and r.calibration_applied
-    assert np.all(e < [0.01, 0.05, 0.10]), e
-    rel = np.abs(r.stiffness - truth) / np.abs(truth)
-    for i, j in TERMS:
-        ok = r.reliable_terms[:, i, j]
-        if ok.any() and (~ok).any():
-            assert np.median(rel[ok, i, j]) < np.median(rel[~ok, i, j])
+    """The issue's hardest case: Material B, joint at node 1, 1 % response and force noise, 5 averages.
 
-
-def test_force_noise_left_after_the_column_calibration_is_not_weighted_as_if_it_were_still_there():
-    """Material B at node 1, 1 % force + response noise, seed 1: the seed that missed with total-variance weights.
-
-    With the coherence's column-common part kept in the weights after the calibration had
-    removed it, this seed gave K_theta_theta 19 % with bands holding the truth on 0.71-0.75
-    of the lines; with the split (frf_variance.column_noise_fraction) 2.5 % and 1.0.
+    Seed 1, the seed that missed with total-variance weights: force noise left after the column calibration must
+    not be weighted as if it were still there. With the coherence's column-common part kept in the weights after
+    the calibration had removed it, this seed gave K_theta_theta 19 % with bands holding the truth on 0.71-0.75
+    of the lines; with the split (frf_variance.column_noise_fraction) now 0.08 / 1.0 / 4.4 % and 1.0.
+    One noise realization for both claims (seed 0 also ran here: 0.12 / 1.9 / 6.5 %; 50 tests: medians
+    0.10 / 1.3 / 5.2 %; the P-spline per term: 1.7 / 16 / 36 %); the lines marked reliable are better than the
+    rest on seeds 0-4 (K_theta_theta, seed 1: median 1.1 % against 10 %).
     """
     r, truth = _hammer_at_the_beam_end(seed=1)
     e = _errors(r.stiffness, truth)
     assert r.estimator == "structured" and r.calibration_applied
     assert np.all(e < [0.01, 0.05, 0.05]), e
+    rel = np.abs(r.stiffness - truth) / np.abs(truth)
     for i, j in TERMS:
+        ok = r.reliable_terms[:, i, j]
+        if ok.any() and (~ok).any():
+            assert np.median(rel[ok, i, j]) < np.median(rel[~ok, i, j])
         z_re = np.abs(r.stiffness[:, i, j].real - truth[:, i, j].real) / r.std_real[:, i, j]
         z_im = np.abs(r.stiffness[:, i, j].imag - truth[:, i, j].imag) / r.std_imag[:, i, j]
         assert np.mean(z_re < 1.645) > 0.85 and np.mean(z_im < 1.645) > 0.85, (i, j)
+    assert not r.reliable_terms[:, 1, 1].all() and r.reliable_terms[:, 1, 1].any()  # the comparison above is not empty
 
 
 def test_k_ww_bands_at_mid_span_hold_with_force_noise():
@@ -169,8 +164,12 @@ def test_k_ww_bands_at_mid_span_hold_with_force_noise():
 
 
 def test_a_joint_outside_the_class_falls_back_to_per_term_smoothing():
-    """A power-law joint (k ~ f^0.5 growth) with 0.01 % noise: the structured model's misfit is far above the noise."""
+    """A power-law joint (k ~ f^0.5 growth) with 0.01 % noise: the structured model's misfit is far above the noise.
+
+    On a 5 Hz grid (181 lines; the 1 Hz grid's 901 lines took 2.5x as long): chi^2/dof 150 (1 Hz: 135), errors
+    0.2-0.4 % of the targets below (1 Hz: 0.1-0.2 %), over seeds 2-4."""
     st = _study("A")
+    st = dataclasses.replace(st, frequency=dataclasses.replace(st.frequency, step=5.0))
     beam = free_model(st)
     joint = parametric_joint(10, 2e5, 60.0, 1.5e3, 0.12, growth=0.5, reference_frequency=100, exponent=0.5)
     frf = synthesize_frf(beam.with_joint(joint), st.frequency.frequency(), [f"{n}w" for n in (1, 3, 6, 9, 12, 15, 19)],

@@ -46,17 +46,6 @@ def test_conditioning_model_2_far_better_than_model_1(coarse):
     assert noisy["Model 1"] > noisy["Model 2"]  # more observed and excited points: a better-conditioned result
 
 
-def test_model_error_hits_rotational_term_hardest(coarse):
-    out = model_error.run(coarse)
-    table = out.tables[0]
-    row = _row(table, "E x 1.01")  # columns: translational med, p90, coupling med, p90, rotational med, p90
-    trans, rot = float(row[1].rstrip(" %")), float(row[5].rstrip(" %"))
-    assert rot > 5 * trans
-    nominal = _row(table, "E x 1")
-    assert float(nominal[1].rstrip(" %")) < 1e-6
-    assert len(table.rows) == 15
-
-
 def test_direct_and_inverse_agree_for_material_a(coarse):
     out = verification.run(coarse)
     (label, mag, eta), (label2, mag2, _) = out.summary
@@ -89,19 +78,32 @@ def test_virtual_experiment_study(coarse):
     assert abs(f_mode / 950 - 1) < 0.05
 
 
-def test_reproduce_cli_subset_is_deterministic(tmp_path):
+def test_model_error_hits_rotational_term_hardest_and_the_reproduce_cli_is_deterministic(tmp_path):
+    """The model-error study run twice with one seed -- here, then through ``jointid reproduce`` -- gives the same
+    numbers, bit for bit, in the CLI's CSVs; and its physics: a 1 % error in E costs the rotational term most."""
+    from jointid.io.tables import format_csv
+    from jointid.parallel import single_threaded_blas
+
     cfg = tmp_path / "c.toml"
     cfg.write_text("[frequency]\nstart = 5.0\nstop = 1000.0\nstep = 10.0\n")
+    with single_threaded_blas():  # as the CLI runs a study that is one task (jointid.parallel.map_processes)
+        out = model_error.run(load_config(cfg, seed=7))
+    table = out.tables[0]
+    row = _row(table, "E x 1.01")  # columns: translational med, p90, coupling med, p90, rotational med, p90
+    trans, rot = float(row[1].rstrip(" %")), float(row[5].rstrip(" %"))
+    assert rot > 5 * trans  # measured 702 % / 30.1 % = 23 on this 10 Hz grid (23 on a 5 Hz grid too)
+    nominal = _row(table, "E x 1")
+    assert float(nominal[1].rstrip(" %")) < 1e-6
+    assert len(table.rows) == 15
     # one study with noise (its seed drawn from --seed); the conditioning study, without noise, added 40 % to the time
     args = ["reproduce", "--only", "model-error", "--config", str(cfg), "--quiet", "--seed", "7"]
     assert main(args + ["--out", str(tmp_path / "a")]) == 0
-    assert main(args + ["--out", str(tmp_path / "b")]) == 0
     html = (tmp_path / "a" / "report.html").read_text()
     assert html.count("data:image/png;base64,") == 3 and "Summary" in html and "http" not in html.split("<body>")[1]
     csvs = sorted((tmp_path / "a" / "data").iterdir())
-    assert csvs
+    assert csvs and sorted(c.name for c in csvs) == sorted(f"{name}.csv" for name in out.data)
     for csv_file in csvs:
-        assert csv_file.read_text() == (tmp_path / "b" / "data" / csv_file.name).read_text()
+        assert csv_file.read_text() == format_csv(out.data[csv_file.stem])
     assert sorted(p.name for p in (tmp_path / "a" / "figures").iterdir()) == [
         "model_error_density.png", "model_error_elastic_modulus.png", "model_error_loss_factor.png",
     ]
