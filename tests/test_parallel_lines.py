@@ -160,3 +160,38 @@ def test_worker_processes_use_one_thread_each():
     """Inside the processes of ``map_processes`` (their siblings have the other cores) line chunks stay in one thread."""
     assert _threads_here() == min(len(os.sched_getaffinity(0)), 4)
     assert parallel.map_processes([(_threads_here, ())] * 2, workers=2) == [1, 1]
+
+
+class _Finalized:
+    """Garbage in a reference cycle whose finalizer records the process that ran it."""
+
+    def __init__(self, path):
+        self.path, self.me = path, self
+
+    def __del__(self):
+        with open(self.path, "a") as f:
+            f.write(f"{os.getpid()}\n")
+
+
+def _collect_and_report() -> int:
+    import gc
+
+    gc.collect()
+    return os.getpid()
+
+
+def test_pool_workers_do_not_finalize_the_parents_garbage(tmp_path):
+    """A forked worker's collection ran the finalizer of an unclosed dask Client inherited from the parent, which
+    waited 40 s for an event-loop thread the worker does not have: the workers leave the parent's garbage alone."""
+    import gc
+
+    path = tmp_path / "finalized.txt"
+    gc.disable()  # the cycle stays uncollected in this process until the workers have run
+    try:
+        _Finalized(path)
+        workers = parallel.map_processes([(_collect_and_report, ())] * 4, 2)
+    finally:
+        gc.enable()
+    assert not path.exists() or not set(path.read_text().split()) & {str(p) for p in workers}
+    gc.collect()  # here it is collected, once
+    assert path.read_text().split() == [str(os.getpid())]

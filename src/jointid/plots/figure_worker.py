@@ -24,6 +24,7 @@ an interrupt) and exits when the parent closes the pipe or dies.
 
 from __future__ import annotations
 
+import gc
 import os
 import pickle
 import select
@@ -288,6 +289,7 @@ class FigureWorker:
         if pid == 0:  # the child: never returns into the caller's code
             code = 1
             try:
+                gc.freeze()  # the parent's garbage is not collected (nor finalized) here (jointid.parallel._start_worker)
                 try:
                     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles an interrupt
                     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # close() ends a worker nobody waits for
