@@ -206,11 +206,11 @@ def forked_pool(processes: int, initializer: Callable[[], None] | None = None):
     """
     got: list[int] = []
     main = threading.current_thread() is threading.main_thread()
-    gc.freeze()  # the workers never collect (nor finalize) this process's objects (:func:`_start_worker`)
     saved = {s: signal.signal(s, lambda signum, frame: got.append(signum)) for s in _STOP_SIGNALS} if main else {}
     old = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
     pool = None
     try:
+        gc.freeze()  # the workers never collect (nor finalize) this process's objects (:func:`_start_worker`)
         pool = multiprocessing.get_context("fork").Pool(processes, initializer=_start_worker,
                                                         initargs=(initializer, os.getpid()))
     finally:
