@@ -5,9 +5,11 @@ field, about 0.1 s per 20 000-line complex record; a 7 x 3 test at 20 000 lines
 took longer to read than to identify. This module reads a record's header with
 pyuff (``read_sets(i, header_only=True)``: ids, nodes, directions, units,
 abscissa) and its values with numpy: the data lines are cut into the same
-fixed-width fields pyuff cuts them into and converted by numpy's ``bytes ->
-float64`` cast, which is correctly rounded like ``float()``, so the values are
-bit-identical to pyuff's (``tests/test_io_uff.py`` compares them on every layout).
+fixed-width fields pyuff cuts them into and converted exactly, as ``float()`` converts
+them (correctly rounded), so the values are bit-identical to pyuff's
+(``tests/test_io_uff_ascii58.py`` compares them on every layout): a column of ``E``
+fields in one layout digit by digit (:func:`_fixed_width_floats`), anything else by
+numpy's ``bytes -> float64`` cast.
 
 pyuff's layouts (``ord_data_type``, ``abscissa_spacing``; a line's length
 counts its terminator, as pyuff's does):
@@ -294,6 +296,85 @@ def _fields(odt: int, spacing: int, length: int) -> list[tuple[int, int]]:
     raise _Irregular
 
 
+#: Powers of ten exact in float64 (10^22 is the largest): a decimal of at most 15 digits scaled by one of them
+#: is rounded once, as ``strtod`` rounds it.
+_EXACT_TENS = 10.0 ** np.arange(23)
+
+
+def _fixed_width_floats(chars: np.ndarray) -> np.ndarray:
+    """The numbers of one fixed-width column of ASCII characters, shape (lines, width) uint8, as float64.
+
+    A column of Fortran ``E`` fields -- right-aligned ``[-]d.ddd...E+dd`` with one layout on every line, as
+    UFF writers (and jointid) write them -- is read digit by digit: the mantissa's ``p <= 15`` digits form an
+    integer ``m`` (exact in float64) and the value is ``m * 10^k`` or ``m / 10^-k`` with ``|k| <= 22``, one
+    correctly rounded operation on two exact numbers (Clinger's fast path): the float ``strtod`` gives, bit for
+    bit (tested against numpy's parser). Measured on 800 000 values: 1.6x (E20.12) to 3x (E13.5) faster than
+    numpy's ``astype`` from bytes; the benchmark's 17 MB UFF is read in 0.24-0.30 s instead of 0.36-0.41 s.
+    Anything else (other layouts, longer mantissas, values whose scale is beyond ``10^+-22``) is parsed by
+    numpy's ``astype``.
+
+    Raises
+    ------
+    _Irregular
+        A field that is not a number.
+    """
+    lines, width = chars.shape
+    fast = _e_format_floats(chars) if lines else None
+    if fast is not None:
+        values, parsed = fast
+        if parsed.all():
+            return values
+        rest = ~parsed
+        values[rest] = _numpy_floats(chars[rest])
+        return values
+    return _numpy_floats(chars)
+
+
+def _numpy_floats(chars: np.ndarray) -> np.ndarray:
+    width = chars.shape[1]
+    text = np.ascontiguousarray(chars).view(f"S{width}")[:, 0]
+    try:
+        return text.astype(np.float64)
+    except ValueError:
+        raise _Irregular from None
+
+
+def _e_format_floats(chars: np.ndarray, block: int = 1 << 15):
+    """``(values, parsed)`` of a column in one ``[-]d.ddd...E+dd`` layout (:func:`_fixed_width_floats`), else None.
+
+    The mantissa is a product of its digits with the powers of ten, in float64: every partial sum is an integer
+    below ``10^15 < 2^53``, so exact in any order. Done by blocks of ``block`` lines (kept in cache).
+    """
+    width = chars.shape[1]
+    dot = bytes(chars[0]).find(b".")
+    decimals = width - 5 - dot
+    if dot < 1 or decimals < 0 or decimals > 14:
+        return None
+    digit_cols = np.r_[dot - 1, dot + 1:width - 4]
+    tens = 10.0 ** np.arange(decimals, -1, -1)
+    lines = chars.shape[0]
+    values, parsed = np.empty(lines), np.empty(lines, bool)
+    for a in range(0, lines, block):
+        c = chars[a:a + block]
+        digits = c[:, digit_cols] - np.uint8(48)  # wraps below '0': one test for both ends
+        e_digits = c[:, width - 2:] - np.uint8(48)
+        sign, e_sign = c[:, dot - 1 - 1] if dot > 1 else None, c[:, width - 3]
+        ok = ((c[:, dot] == 46) & ((c[:, width - 4] | 32) == 101) & ((e_sign == 43) | (e_sign == 45))
+              & np.all(digits <= 9, axis=1) & np.all(e_digits <= 9, axis=1))
+        if dot > 1:  # blanks, then at most one minus sign just before the first digit
+            ok &= ((sign == 32) | (sign == 45)) & np.all(c[:, :dot - 2] == 32, axis=1)
+        if not ok.all():
+            return None
+        exponent = e_digits[:, 0].astype(np.int64) * 10 + e_digits[:, 1]
+        k = np.where(e_sign == 45, -exponent, exponent) - decimals
+        scale = _EXACT_TENS[np.minimum(np.abs(k), 22)]
+        m = digits @ tens
+        v = np.where(k >= 0, m * scale, m / scale)
+        values[a:a + block] = np.where(sign == 45, -v, v) if dot > 1 else v
+        parsed[a:a + block] = np.abs(k) <= 22
+    return values, parsed
+
+
 def _ascii_values(block: bytes, odt: int, spacing: int) -> np.ndarray:
     """Every value of an ASCII 58 block, in file order (float64).
 
@@ -330,11 +411,7 @@ def _ascii_values(block: bytes, odt: int, spacing: int) -> np.ndarray:
             raise _Irregular
         columns = []
         for start, width in fields:
-            text = np.ascontiguousarray(body[:, start:start + width]).view(f"S{width}")[:, 0]
-            try:
-                columns.append(text.astype(np.float64))
-            except ValueError:
-                raise _Irregular from None
+            columns.append(_fixed_width_floats(body[:, start:start + width]))
         parts.append(np.stack(columns, axis=1).reshape(-1))
     text = last.decode("ascii")
     skip_blank = odt in (2, 5)
