@@ -77,3 +77,27 @@ def test_a_jacobian_that_is_not_finite_stops_the_fit_where_it_is():
     sol = levenberg_marquardt(_residual, normal, np.array([1.0, 1.0, 1.0, 1.0, 2.5]), ftol=1e-12, xtol=1e-12)
     assert sol.status == 9 and sol.njev == 3 and np.array_equal(sol.x, calls[-1])
     assert sol.cost == pytest.approx(0.5 * np.sum(_residual(sol.x) ** 2), rel=1e-15)
+
+
+def test_a_search_that_creeps_is_ended_when_k_steps_lower_the_sum_of_squares_by_less_than_the_stall():
+    """``||r||^2 = (1 + 1 / x)^2`` falls towards 1 for ever, ever more slowly (a valley to infinity): with MINPACK's tests off, only
+    ``max_nfev`` ends it; ``stall = (k, fall)`` ends it (status 10) at the first successful step where the last k
+    steps lowered ``||r||^2`` by less than ``fall``, and not one step before."""
+    def residual(x):
+        return np.array([1.0 + 1.0 / x[0]])
+
+    points = []
+
+    def normal(x):  # asked at the start and after every successful step
+        points.append(x.copy())
+        J = np.array([[-1.0 / x[0] ** 2]])
+        return J.T @ J, J.T @ residual(x)
+
+    plain = levenberg_marquardt(residual, normal, np.array([1.0]), ftol=0.0, xtol=0.0, max_nfev=60)
+    assert plain.status == 5
+    points.clear()
+    k, fall = 3, 1e-3
+    sol = levenberg_marquardt(residual, normal, np.array([1.0]), ftol=0.0, xtol=0.0, max_nfev=60, stall=(k, fall))
+    cost = [float(residual(p)[0] ** 2) for p in points] + [2.0 * sol.cost]  # ||r||^2 at each successful point
+    assert sol.status == 10 and sol.nfev < 60
+    assert cost[-1 - k] - cost[-1] < fall <= cost[-2 - k] - cost[-2]

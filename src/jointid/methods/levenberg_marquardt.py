@@ -53,7 +53,7 @@ class LeastSquaresSolution:
         Residual and normal-equation evaluations.
     status : int
         MINPACK's ``info``: 1 ``ftol``, 2 ``xtol``, 3 both, 4 ``gtol``, 5 ``max_nfev`` reached, 6-8 the
-        tolerances below round-off; and 9: the normal equations at ``x`` are not finite (stopped there).
+        tolerances below round-off; 9: the normal equations at ``x`` are not finite (stopped there); 10: ``stall``.
     """
 
     x: np.ndarray
@@ -127,7 +127,7 @@ def _lmpar(S: _Scaled, delta: float, par: float) -> tuple[np.ndarray, float]:
 def levenberg_marquardt(residual: Callable[[np.ndarray], np.ndarray],
                         normal: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], x0: np.ndarray, *,
                         ftol: float = 1e-8, xtol: float = 1e-8, gtol: float = 0.0, max_nfev: int = 200,
-                        factor: float = 100.0) -> LeastSquaresSolution:
+                        factor: float = 100.0, stall: tuple[int, float] | None = None) -> LeastSquaresSolution:
     """Minimize ``||r(x)||^2`` by MINPACK's Levenberg-Marquardt with the normal equations (module docstring).
 
     Parameters
@@ -146,6 +146,10 @@ def levenberg_marquardt(residual: Callable[[np.ndarray], np.ndarray],
         Largest number of ``residual`` calls.
     factor : float
         The initial trust radius in units of the scaled start's norm (MINPACK's ``factor``).
+    stall : (int, float), optional
+        ``(k, fall)``: stop (status 10) when the last ``k`` successful steps lowered ``||r||^2`` by less than
+        ``fall`` in all (not MINPACK's: a test in the units of the sum of squares, e.g. chi^2, for a search that
+        creeps along a flat valley, where ``ftol``'s relative test per step never ends it).
 
     Returns
     -------
@@ -157,6 +161,7 @@ def levenberg_marquardt(residual: Callable[[np.ndarray], np.ndarray],
     fnorm = float(np.linalg.norm(fvec))
     par, it, status = 0.0, 1, 0
     diag = delta = xnorm = None
+    history = [fnorm ** 2]  # ||r||^2 after each successful step (for ``stall``)
     while status == 0:
         N, g = normal(x)
         njev += 1
@@ -206,6 +211,10 @@ def levenberg_marquardt(residual: Callable[[np.ndarray], np.ndarray],
                 x, fvec, fnorm = x_new, f_new, fnorm1
                 xnorm = float(np.linalg.norm(diag * x))
                 it += 1
+                history.append(fnorm ** 2)
+                if stall is not None and len(history) > stall[0] and history[-1 - stall[0]] - history[-1] < stall[1]:
+                    status = 10
+                    break
             reduced = abs(actred) <= ftol and prered <= ftol and 0.5 * ratio <= 1.0
             if reduced:
                 status = 1
