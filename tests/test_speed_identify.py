@@ -85,6 +85,23 @@ def test_an_unused_worker_is_ended_at_once():
         os.waitpid(pid, 0)  # reaped
 
 
+@posix_only
+def test_the_worker_yields_the_cores_once_its_first_task_is_done():
+    """After the first task (the FRF file), the worker lowers its priority by WORKER_NICE: its imports and drawing
+    give way to this process's threads."""
+    import time
+
+    from jointid.plots.figure_worker import WORKER_NICE, FigureWorker
+
+    own = os.getpriority(os.PRIO_PROCESS, 0)
+    with FigureWorker.start(first=lambda: 42) as worker:
+        assert worker.first() == 42  # sent before the worker lowers its priority
+        deadline = time.monotonic() + 10.0
+        while os.getpriority(os.PRIO_PROCESS, worker.pid) == own and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert os.getpriority(os.PRIO_PROCESS, worker.pid) == min(own + WORKER_NICE, 19)
+
+
 def test_no_worker_when_switched_off(monkeypatch):
     from jointid.plots.figure_worker import FigureWorker
 
