@@ -39,18 +39,36 @@ def case():
 
 
 @posix_only
-def test_the_worker_draws_the_png_this_process_draws(case):
+@pytest.mark.parametrize("prepare", [None, ("joint_stiffness", (2,)), ("joint_stiffness", (3,))])
+def test_the_worker_draws_the_png_this_process_draws(case, prepare):
+    """Also with the figure made ahead (``prepare``: the joint's 2 DOFs), and with one of another size (3 DOFs: not used)."""
     from jointid.plots.figure_worker import FigureWorker
     from jointid.plots.stiffness_data import JointStiffnessData
     from jointid.io.png import figure_png
 
     _, _, result = case
     here = figure_png(result.plot())
-    with FigureWorker.start() as worker:
+    with FigureWorker.start(prepare=prepare) as worker:
         pending = worker.submit("joint_stiffness", JointStiffnessData.of(result))
         assert pending.result() == here
         assert pending.result() == here  # kept
     assert worker.pid == -1  # reaped
+
+
+def test_a_figure_made_ahead_is_drawn_into_and_gives_the_same_png(case):
+    """The joint stiffness figure drawn into the empty figure made ahead is that figure, with the PNG of the figure
+    made at once; an empty figure of another size is not used."""
+    from jointid.io.png import figure_png
+    from jointid.plots.joint_stiffness import joint_stiffness_figure, plot_joint_stiffness
+
+    _, _, result = case
+    here = figure_png(plot_joint_stiffness(result))
+    ahead = joint_stiffness_figure(2)
+    fig = plot_joint_stiffness(result, prepared=ahead)
+    assert fig is ahead[0] and figure_png(fig) == here
+    other = joint_stiffness_figure(3)
+    fig = plot_joint_stiffness(result, prepared=other)
+    assert fig is not other[0] and figure_png(fig) == here
 
 
 @posix_only

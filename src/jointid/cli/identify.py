@@ -319,8 +319,10 @@ def run(args: argparse.Namespace) -> int:
 
     study = study_from_args(args)
     # the figure's process starts first: it reads the FRF file while this one imports the estimators, then imports
-    # matplotlib while this one identifies
-    worker = None if args.no_plots else FigureWorker.start(first=functools.partial(read_study_frf, study, args.frf))
+    # matplotlib and makes the joint stiffness figure's axes while this one identifies
+    n = len(study.joints[0].joint_dofs) if len(study.joints) == 1 else 0
+    worker = None if args.no_plots else FigureWorker.start(first=functools.partial(read_study_frf, study, args.frf),
+                                                           prepare=("joint_stiffness", (n,)) if 0 < n <= 3 else None)
     with contextlib.ExitStack() as stack:
         if worker is not None:
             stack.enter_context(worker)

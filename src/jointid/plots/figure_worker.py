@@ -41,11 +41,17 @@ import traceback
 import warnings
 from typing import Any, Callable
 
-__all__ = ["FigureWorker", "PendingFigure", "WorkerLost", "render", "FIGURES"]
+__all__ = ["FigureWorker", "PendingFigure", "WorkerLost", "render", "FIGURES", "PREPARE", "WORKER_NICE"]
 
 #: Figure name -> (module, function) of the drawing functions the worker runs: ``f(data, **kwargs) -> Figure``.
 FIGURES = {
     "joint_stiffness": ("jointid.plots.joint_stiffness", "plot_joint_stiffness"),
+}
+
+#: Figure name -> (module, function) making the empty figure ahead (``f(*args) -> (fig, axes)``), drawn into later
+#: with ``prepared=(fig, axes)`` (:meth:`FigureWorker.start`'s ``prepare``).
+PREPARE = {
+    "joint_stiffness": ("jointid.plots.joint_stiffness", "joint_stiffness_figure"),
 }
 
 _HEADER = struct.Struct("<Q")
@@ -145,9 +151,9 @@ def _run_first(first: Callable[[], Any]) -> tuple:
     return ("failed",) if caught else ("ok", value)
 
 
-def _child(requests: int, replies: int, first: Callable[[], Any] | None = None) -> None:
-    """The worker's loop: run ``first`` and send its result (if given), import the figure modules, then draw each
-    request until end of file."""
+def _child(requests: int, replies: int, first: Callable[[], Any] | None = None, prepare: tuple | None = None) -> None:
+    """The worker's loop: run ``first`` and send its result (if given), import the figure modules, make the
+    ``prepare`` figure ahead (if given), then draw each request until end of file."""
     if first is not None:
         reply = _run_first(first)
         try:
@@ -168,11 +174,20 @@ def _child(requests: int, replies: int, first: Callable[[], Any] | None = None) 
             import_module(module)
     except Exception:  # pragma: no cover - the request below reports it
         pass
+    ready = {}  # figure name -> the empty figure made ahead, used by the first request of that figure
+    if prepare is not None:
+        try:
+            module, name = PREPARE[prepare[0]]
+            ready[prepare[0]] = getattr(import_module(module), name)(*prepare[1])
+        except Exception:  # noqa: BLE001 - nothing made ahead: the request makes its figure
+            pass
     while True:
         request = _recv(requests)
         if request is None:
             return
         kind, data, kwargs = request
+        if kind in ready:
+            kwargs = {**kwargs, "prepared": ready.pop(kind)}
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
@@ -274,12 +289,14 @@ class FigureWorker:
             pass
 
     @classmethod
-    def start(cls, first: Callable[[], Any] | None = None) -> "FigureWorker | None":
+    def start(cls, first: Callable[[], Any] | None = None, prepare: tuple | None = None) -> "FigureWorker | None":
         """Fork the worker (it starts importing matplotlib); None without ``os.fork`` or when the fork fails.
 
         ``first``: a task the worker runs before its imports (e.g. reading a file); :meth:`first` gives its result.
         It runs in the forked copy of this process: it may use anything this process holds, and what it returns must
-        pickle.
+        pickle. ``prepare``: ``(figure name, args)`` of :data:`PREPARE`: that empty figure is made after the imports,
+        while this process computes, and the first request of that figure draws into it (the same PNG bytes; one
+        that does not fit the request, e.g. another number of terms, is not used).
         """
         if not hasattr(os, "fork") or os.environ.get("JOINTID_FIGURE_WORKER", "1") == "0":
             return None
@@ -312,7 +329,7 @@ class FigureWorker:
                 signal.pthread_sigmask(signal.SIG_SETMASK, old - mask)
                 os.close(req_w)
                 os.close(rep_r)
-                _child(req_r, rep_w, first)
+                _child(req_r, rep_w, first, prepare)
                 code = 0
             finally:
                 os._exit(code)

@@ -11,7 +11,7 @@ from .fast_axes import fixed_margins, place_legend, plain_log_ticks
 from .stiffness_data import JointStiffnessData
 from .style import new_figure
 
-__all__ = ["plot_joint_stiffness", "draw_term_magnitude", "draw_loss_or_phase", "JointStiffnessData"]
+__all__ = ["plot_joint_stiffness", "joint_stiffness_figure", "draw_term_magnitude", "draw_loss_or_phase", "JointStiffnessData"]
 
 _UNRELIABLE = dict(color="0.88", lw=0, step="mid", zorder=0)
 
@@ -77,7 +77,17 @@ def draw_loss_or_phase(ax, f, k, std_real=None, std_imag=None, truth=None, bad=N
     return kind
 
 
-def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
+def joint_stiffness_figure(n_dofs: int):
+    """The empty figure :func:`plot_joint_stiffness` draws a joint of ``n_dofs`` (<= 3) DOFs into: ``(fig, axes)``,
+    axes shape (2, independent terms), fixed margins (no layout engine: the figure of 20 000 lines draws in a
+    fraction of the time). Made ahead by the figure worker while the identification runs."""
+    terms = n_dofs * (n_dofs + 1) // 2
+    fig, axes = new_figure(2, terms, figsize=(4.6 * terms + 0.6, 7.0), height_ratios=[1.6, 1], sharex=False, layout=None)
+    fixed_margins(fig, left=0.8, right=0.15, bottom=0.55, top=0.6, wspace=0.9, hspace=0.45)
+    return fig, axes
+
+
+def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None, prepared=None):
     """Plot a :class:`~jointid.methods.receptance.coupling.CouplingResult` as an NVH engineer reads it.
 
     A joint of more than 3 DOFs (a 3-D mount) gets the compact figure of
@@ -99,6 +109,9 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
     result : JointEstimate or JointStiffnessData
     truth : ndarray, shape (F, n, n), optional
     axes : array of Axes, shape (2, n_terms), optional
+    prepared : tuple, optional
+        ``(fig, axes)`` of :func:`joint_stiffness_figure`, unused, made ahead: drawn into as into the figure made
+        here (the same figure); one of another size is not used.
 
     Returns
     -------
@@ -114,9 +127,9 @@ def plot_joint_stiffness(result, truth: np.ndarray | None = None, axes=None):
     lines = result.line_estimates()  # the per-line estimates behind a smoothed result (None: it is per line)
     terms = [(i, j) for i in range(len(dofs)) for j in range(i, len(dofs))]
     own = axes is None
-    if own:  # fixed margins, no layout engine: the figure of 20 000 lines draws in a fraction of the time
-        fig, axes = new_figure(2, len(terms), figsize=(4.6 * len(terms) + 0.6, 7.0), height_ratios=[1.6, 1], sharex=False, layout=None)
-        fixed_margins(fig, left=0.8, right=0.15, bottom=0.55, top=0.6, wspace=0.9, hspace=0.45)
+    if own:
+        ready = prepared is not None and np.size(prepared[1]) == 2 * len(terms)
+        fig, axes = prepared if ready else joint_stiffness_figure(len(dofs))
     else:
         fig = np.asarray(axes).flat[0].figure
     axes = np.asarray(axes).reshape(2, len(terms))
