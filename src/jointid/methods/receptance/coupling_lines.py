@@ -227,30 +227,47 @@ def coupling_per_line(
     P = symmetric_parametrization(n, symmetric)
     p = P.shape[1]
     sw, cs, Q, R = whitened_line_design(Ymn, Yne, variance, symmetric)
-    dw = change.reshape(F, m * e) * sw
+    # independent lines: on the cores (jointid.parallel.map_lines); the residual scale pools lines, so it comes between
+    xs, rss, cond, Ri = map_lines(_solve_lines, change.reshape(F, m * e) * sw, Q, R)
+    dof = m * e - p
+    scale = _pooled_scale(rss, dof, pool_lines)
+    x = xs / cs
+    C = (Ri @ np.conj(np.swapaxes(Ri, 1, 2))) / (cs[:, :, None] * cs[:, None, :])  # cov(x) / s^2
+    if common_x_covariance is None:
+        Du, V = map_lines(lambda x_, C_, Y_: _stiffness_lines(x_, C_, Y_, P, n), x, C, Ynn)
+        common = np.zeros_like(V)
+    else:
+        Du, V, common = map_lines(lambda x_, C_, Y_, G_: _stiffness_lines(x_, C_, Y_, P, n, G_), x, C, Ynn, common_x_covariance)
+    V = V * scale[:, None, None]
+    return LineEstimates(Du, V, scale, cond, dof, common, x, C * scale[:, None, None], common_x_covariance, Ynn, symmetric)
+
+
+def _solve_lines(dw: np.ndarray, Q: np.ndarray, R: np.ndarray):
+    """:func:`coupling_per_line`'s least squares on some lines: ``(R^-1 Q^H dw, |(I - Q Q^H) dw|^2, cond R, R^-1)``."""
+    F, p = R.shape[0], R.shape[2]
     qd = np.conj(np.einsum("fji,fj->fi", Q, np.conj(dw)))  # Q^H dw without a conjugated copy of Q
-    eye = np.broadcast_to(np.eye(p), (F, p, p))
-    Ri = np.linalg.solve(R, eye)  # R^-1: p x p per line
+    Ri = np.linalg.solve(R, np.broadcast_to(np.eye(p), (F, p, p)))  # R^-1: p x p per line
     xs = np.einsum("fij,fj->fi", Ri, qd)
     resid = dw - np.einsum("fij,fj->fi", Q, qd)  # (I - Q Q^H) dw
-    dof = m * e - p
     sv = np.linalg.svd(R, compute_uv=False)
     with np.errstate(divide="ignore", invalid="ignore"):
         cond = sv[:, 0] / sv[:, -1]
-    scale = _pooled_scale(np.sum(np.abs(resid) ** 2, axis=1), dof, pool_lines)
-    x = xs / cs
-    C = (Ri @ np.conj(np.swapaxes(Ri, 1, 2))) / (cs[:, :, None] * cs[:, None, :])  # cov(x) / s^2
+    return xs, np.sum(np.abs(resid) ** 2, axis=1), cond, Ri
+
+
+def _stiffness_lines(x: np.ndarray, C: np.ndarray, Ynn: np.ndarray, P: np.ndarray, n: int, common_x_covariance=None):
+    """``Du = (X^-1 - Ynn)^-1`` on some lines and the variance of each term (unit scale; with the common error's)."""
+    F = x.shape[0]
     X = (x @ P.T).reshape(F, n, n)
     I = np.eye(n)
     Du = np.linalg.solve(I[None] - X @ Ynn, X)  # (X^-1 - Ynn)^-1
     L = I[None] + Du @ Ynn
     Rr = I[None] + Ynn @ Du
     J = np.einsum("fik,flj->fijkl", L, Rr).reshape(F, n * n, n * n) @ P  # d vec(Du) / d x
-    V = np.real(np.einsum("fab,fbc,fac->fa", J, C, J.conj())).reshape(F, n, n) * scale[:, None, None]
-    common = np.zeros_like(V)
-    if common_x_covariance is not None:
-        common = np.real(np.einsum("fab,fbc,fac->fa", J, common_x_covariance, J.conj())).reshape(F, n, n)
-    return LineEstimates(Du, V, scale, cond, dof, common, x, C * scale[:, None, None], common_x_covariance, Ynn, symmetric)
+    V = np.real(np.einsum("fab,fbc,fac->fa", J, C, J.conj())).reshape(F, n, n)
+    if common_x_covariance is None:
+        return Du, V
+    return Du, V, np.real(np.einsum("fab,fbc,fac->fa", J, common_x_covariance, J.conj())).reshape(F, n, n)
 
 
 def whitened_line_design(Ymn: np.ndarray, Yne: np.ndarray, variance: np.ndarray, symmetric: bool = True, keep: bool = True):
