@@ -50,6 +50,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ...parallel import map_lines
 from ..levenberg_marquardt import levenberg_marquardt
 from .structured_bands import covariance_factor, structured_bands, terms_moving_along
 from .structured_model import (
@@ -128,9 +129,10 @@ class StructuredFit:
         return self.chi2 / max(self.dof, 1)
 
     def at(self, hz) -> "StructuredFit":
-        """The same fit evaluated on other frequencies (Hz, shape (F',)): stiffness and bands there."""
+        """The same fit evaluated on other frequencies (Hz, shape (F',)): stiffness and bands there (each line on its
+        own: on the cores, :func:`~jointid.parallel.map_lines`)."""
         hz = np.asarray(hz, float)
-        K, sr, si = structured_bands(self.theta, self.theta_covariance_factor, hz, self.model, self.undetermined)
+        K, sr, si = map_lines(lambda h: structured_bands(self.theta, self.theta_covariance_factor, h, self.model, self.undetermined), hz)
         return replace(self, stiffness=K, std_real=sr, std_imag=si)
 
     def poles_hz(self) -> np.ndarray:
