@@ -58,3 +58,31 @@ def test_interrupt_while_the_parser_is_built_is_one_line_exit_130(monkeypatch, c
     assert cli_main.main(argv) == 130
     cap = capsys.readouterr()
     assert (cap.out, cap.err) == ("", line)
+
+
+#: The console script with ``main`` replaced by a probe of what it runs under.
+_PROBE = """
+import os, sys
+import jointid.cli.main as m
+
+def probe(argv=None):
+    print(os.environ.get("OPENBLAS_THREAD_TIMEOUT"), "numpy" in sys.modules, flush=True)
+    return 0
+
+m.main = probe
+sys.argv = ["jointid", "--version"]
+m.entry_point()
+"""
+
+
+@pytest.mark.parametrize("preset, seen", [(None, "20"), ("7", "7")])
+def test_the_command_has_openblas_threads_sleep_after_2_to_the_20_cycles_unless_the_environment_says(preset, seen):
+    """Set before numpy loads (OpenBLAS reads it once, then); a value of the user's is kept."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_THREAD_TIMEOUT"}
+    if preset is not None:
+        env["OPENBLAS_THREAD_TIMEOUT"] = preset
+    r = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, env=env, timeout=60)
+    assert (r.returncode, r.stdout, r.stderr) == (0, f"{seen} False\n", "")
+    assert cli_main.BLAS_THREAD_TIMEOUT == "20"
