@@ -70,7 +70,7 @@ from ..errors import JointIdError, Terminated  # noqa: E402
 if sys.excepthook is _interrupted_during_import:  # imported: entry_point handles an interrupt from here on
     sys.excepthook = _previous_excepthook
 
-__all__ = ["main", "entry_point", "build_parser", "COMMANDS"]
+__all__ = ["main", "entry_point", "build_parser", "COMMANDS", "quiet_blas_threads", "BLAS_THREAD_TIMEOUT"]
 
 
 class _Parser(argparse.ArgumentParser):
