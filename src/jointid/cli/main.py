@@ -269,9 +269,10 @@ def quiet_blas_threads(environ=os.environ) -> None:
 
     After each threaded BLAS call (and once at numpy's import), OpenBLAS's worker threads busy-wait for the next
     one for ``2^OPENBLAS_THREAD_TIMEOUT`` cycles, 2^28 by default: about 0.1 s of a core each time. On a 2-core
-    machine that core is the one the line threads (:func:`jointid.parallel.map_lines`) and the figure worker of
-    ``identify`` need. Measured on the benchmark's 19 901-line ``jointid identify`` (14 interleaved pairs): the
-    whole process 0.94 of the time; ``import numpy`` alone used 0.28 s of CPU instead of 0.12 s. 2^20 cycles
+    machine that core may be one the line threads (:func:`jointid.parallel.map_lines`), the figure worker of
+    ``identify`` or another program need. Measured: ``import numpy`` alone used 0.28 s of CPU instead of 0.12 s; the benchmark's
+    19 901-line ``jointid identify`` used 4.06 s of CPU instead of 4.17 s (median of 14 interleaved pairs), in the
+    same wall time (ratio 1.01: the spinning thread mostly took a core nothing else wanted). 2^20 cycles
     keep the threads awake between BLAS calls in a row (120 x 120 and 300 x 300 matrix products back to back take as long as
     with the default; 2^4 made small ones 30 % slower). OpenBLAS reads the variable once, when numpy loads it:
     set later, or in a process that imported numpy already, it changes nothing. A value the environment sets
