@@ -1,6 +1,7 @@
 """Force-calibration error per excitation column: detected, estimated, corrected, and its uncertainty carried."""
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
@@ -206,6 +207,42 @@ def test_the_batched_estimate_equals_the_sums_written_out(case):
     assert abs(cal.f_statistic - f_ref) <= bound * amplification * f_ref
     assert np.max(np.abs(cal.x_covariance - Cx_ref)) <= bound * amplification * np.max(np.abs(Cx_ref))
     assert cal.p_value == pytest.approx(p_ref, rel=1e-6, abs=1e-300)
+
+
+def test_a_residual_below_the_round_off_of_its_difference_is_held_at_that_floor():
+    """``rss0 - reduction`` of sums of n real squares is exact to ~n eps rss0: below that, the floor (no overflow,
+    no basis chosen by round-off); above it, the difference as computed."""
+    from jointid.methods.receptance.column_calibration import _resolved_rss
+
+    rss0, n = 3.07e32, 2 * 451 * 7 * 3
+    floor = n * np.finfo(float).eps * rss0
+    assert _resolved_rss(rss0, rss0 - 1.08e17, n) == floor  # the residual one OpenBLAS kernel left of an exact fit
+    assert _resolved_rss(rss0, rss0, n) == floor  # another kernel's: 0
+    assert _resolved_rss(rss0, 0.5 * rss0, n) == 0.5 * rss0
+    assert _resolved_rss(0.0, 0.0, n) == np.finfo(float).tiny
+
+
+@pytest.mark.numerics
+def test_an_exact_column_error_keeps_the_coarsest_basis_and_a_finite_f(case):
+    """Noise-free FRFs scaled alike in every column (g/N read as m/s^2/N): every basis fits exactly, so none earns more
+    functions than the first; the F statistic is finite (was inf, an overflow warning, and a finer basis chosen on
+    OpenBLAS's Nehalem kernel with 2 threads, where round-off left 1e-15 of the residual for 16 functions)."""
+    st, test, model = case
+    frf, n_dofs = test.frf, st.joint.joint_dofs
+    hz = frf.frequency.hz
+    H = frf.to("receptance").data / 9.80665
+    Y = as_free_model(model).receptance(frf.frequency, tuple(frf.responses) + tuple(n_dofs), tuple(n_dofs) + tuple(frf.references))
+    Ymn, Yme, Yne = Y[:, :7, :2], Y[:, :7, 2:], Y[:, 7:, 2:]
+    var = (1e-3 * np.abs(H)) ** 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cal = estimate_column_calibration(hz, Ymn, Yne, Yme - H, H, var, n_basis=(16, 32, 64))
+    assert cal.n_basis == 16 and np.isfinite(cal.f_statistic) and cal.p_value == 0.0
+    sixteen = estimate_column_calibration(hz, Ymn, Yne, Yme - H, H, var, n_basis=16)
+    assert np.array_equal(cal.delta, sixteen.delta)  # the first basis' fit itself, kept
+    # it is the scale (H = H_true (1 + error)): a fit of round-off would be O(1) off; 1e-6 says which, not how exactly
+    # (2e-10 here; the sums' own round-off is bounded in test_the_batched_estimate_equals_the_sums_written_out)
+    assert np.max(np.abs(cal.error - (1 / 9.80665 - 1.0))) < 1e-6
 
 
 def _fast_error(hz, seed, level=0.01, scale_hz=15.0):

@@ -326,7 +326,7 @@ def _estimate(hz, Ymn, Yne, change, H, variance, symmetric, n_basis) -> ColumnCa
     ref_rss, ref_k = float(np.sum(parts[3])), 0  # the reference a finer basis must beat: no calibration at first
     for nb in usable:  # coarse to fine: a finer basis must earn its functions (module docstring)
         dof = F * (m * e - p) - e * nb
-        fit = _fit_basis(np.asarray(hz, float), parts, R, cs, dof, nb)
+        fit = _fit_basis(np.asarray(hz, float), parts, R, cs, dof, nb, 2 * F * m * e)
         if fit is None:  # singular, or not determined by these FRFs (noise_shares): a finer basis is not either
             break
         cal, rss = fit
@@ -349,8 +349,23 @@ def usable_bases(lines: int, m: int, e: int, p: int, n_basis: int | Sequence[int
             if nb >= 4 and lines >= 2 * nb and lines * (m * e - p) - e * nb > 0]
 
 
-def _fit_basis(hz, parts, R, cs, dof, nb) -> tuple | None:
+def _resolved_rss(rss0: float, reduction: float, n_terms: int) -> float:
+    """The residual sum of squares ``rss0 - reduction`` a fit leaves, floored at the round-off of that difference.
+
+    ``rss0`` sums ``n_terms`` real squares; the computed difference is exact only to about ``n_terms eps rss0`` (the
+    bound for a sum of ``n_terms`` positive terms). An exact fit (the FRFs' column error and nothing else, noise-free)
+    leaves a difference of that size whose bits depend on the BLAS kernel (seen: 1.08e17 of an ``rss0`` 3.07e32 on
+    one kernel, 0 on another). Below the floor the residual is not resolved: the floor is returned, so F statistics
+    stay finite and a finer basis cannot beat a coarser one by round-off alone.
+    """
+    return max(rss0 - reduction, n_terms * np.finfo(float).eps * rss0, np.finfo(float).tiny)
+
+
+def _fit_basis(hz, parts, R, cs, dof, nb, n_terms) -> tuple | None:
     """``(ColumnCalibration, rss)`` with ``nb`` B-splines per column from the per-line parts, or None (singular).
+
+    ``n_terms``: the real squares the per-line residuals ``|r0|^2`` sum (``2 F m e``), for the round-off floor of the
+    residual (:func:`_resolved_rss`).
 
     ``G_w`` (column j of the weighted ``H`` in the rows ``(r, j)``) is diagonal in the column:
     only its nonzeros ``h_w`` (F, m, e) are held. The sums over the lines use the banded basis
@@ -370,7 +385,7 @@ def _fit_basis(hz, parts, R, cs, dof, nb) -> tuple | None:
         return None
     rss0 = float(np.sum(rr0))
     c = Ninv @ rhs
-    s2 = max(rss0 - float(np.real(np.vdot(c, N @ c))), np.finfo(float).tiny) / dof
+    s2 = _resolved_rss(rss0, float(np.real(np.vdot(c, N @ c))), n_terms) / dof
     # errors in variables: H is in the regressor G and in the data d, so E[G^H P d] carries -s^2 sum_r (1 - h_rj)
     # per line and column (h: leverage of the per-line fit, summed in d), E[G^H P G] +s^2 the same; removed
     # (bias-compensated LS)
@@ -393,7 +408,7 @@ def _fit_basis(hz, parts, R, cs, dof, nb) -> tuple | None:
     # degrees of freedom with no column error); the uncompensated residual reduction carries the errors-in-variables
     # bias (F 12-22 with no column error on a 6-DOF mount's 9 x 9 FRFs, where it is as large as the information)
     reduction = float(np.sum(np.abs(u[keep]) ** 2))
-    rss1 = max(rss0 - reduction, np.finfo(float).tiny)
+    rss1 = _resolved_rss(rss0, reduction, n_terms)
     s2 = rss1 / dof
     k = 2 * int(keep.sum())
     with np.errstate(over="ignore"):  # an exact fit (rss1 at round-off): F = inf, p = 0
