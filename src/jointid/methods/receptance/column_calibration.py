@@ -411,7 +411,7 @@ def _fit_basis(hz, parts, R, cs, dof, nb, n_terms) -> tuple | None:
     rss1 = _resolved_rss(rss0, reduction, n_terms)
     s2 = rss1 / dof
     k = 2 * int(keep.sum())
-    with np.errstate(over="ignore"):  # an exact fit (rss1 at round-off): F = inf, p = 0
+    with np.errstate(over="ignore"):  # rss0 = 0 (no residual at all): rss1 is the smallest float, F may be inf, p = 0
         f_stat = (reduction / k) / (rss1 / (2 * dof))
     # F(k, 2 dof) survival function (scipy.stats.f.sf, which is 1 for F <= 0, without importing scipy.stats)
     p_value = float(fdtrc(k, 2 * dof, max(f_stat, 0.0)))
